@@ -1,0 +1,224 @@
+"""The ``ndbg`` command line: a thin layer over the library (:mod:`ndbg_cli.analysis`).
+
+Exit codes (see :mod:`ndbg_cli.errors`): 0 ok, 1 a violation a gate asked about, 2 usage or
+input error, 3 internal error. Errors print one line on stderr, never a traceback unless
+``--debug`` is given.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+import traceback
+from pathlib import Path
+
+import click
+
+from . import __version__
+from .analysis import MOTIONS, Options, analyze_path, error_record
+from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, InputError, NdbgError
+from .loaders import discover
+from .progress import progress
+from .report import BATCH_SCHEMA, dumps, report_schema, write_atomic
+from .text import render
+
+CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+class _State:
+    debug = False
+    quiet = False
+
+
+STATE = _State()
+
+
+def fail(message: str, code: int) -> None:
+    click.echo(f"ndbg: error: {message}", err=True)
+    sys.exit(code)
+
+
+@click.group(context_settings=CONTEXT)
+@click.version_option(__version__, "-V", "--version", prog_name="ndbg")
+@click.option("--debug", is_flag=True, help="Show tracebacks of internal errors.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar or notes on stderr.")
+def cli(debug: bool, quiet: bool) -> None:
+    """Assembly sequencing and complexity analysis with non-directional blocking graphs.
+
+    \b
+    Example:
+      ndbg analyze assemblies/bell.yaml
+      ndbg analyze assemblies/ --format json > reports.json
+    """
+    STATE.debug = debug
+    STATE.quiet = quiet
+
+
+def _common_load_options(f):
+    f = click.option("--units", help="Unit of the input (mm, cm, m, in): converts files that "
+                     "record theirs (manifest, STEP), declares it for those that don't.")(f)
+    f = click.option("--tolerance", type=float,
+                     help="Length tolerance in the assembly unit (default: 1e-4 x diagonal).")(f)
+    f = click.option("--allow-outside-paths", is_flag=True,
+                     help="Let manifests name mesh files outside their folder.")(f)
+    return f
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("paths", nargs=-1, required=True, type=click.Path())
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True, help="Report format on stdout.")
+@click.option("--out", type=click.Path(), help="Write reports here instead of stdout: a file "
+              "for one assembly, a directory (one NAME.json each) for several.")
+@click.option("--motion", type=click.Choice(MOTIONS), default="all", show_default=True,
+              help="Motion family of the blocking graphs.")
+@click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
+              show_default=True, help="What interpenetrating parts are.")
+@click.option("--timings", is_flag=True, help="Record wall-clock timings in the report "
+              "(makes it differ from run to run).")
+@_common_load_options
+def analyze(paths, fmt, out, motion, interference, timings, units, tolerance,
+            allow_outside_paths) -> None:
+    """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
+
+    A folder holding manifests is a batch (one report each); a folder holding only meshes is
+    one assembly. One bad assembly in a batch gives an error record; the others complete.
+
+    \b
+    Example:
+      ndbg analyze assemblies/bell.yaml --format json
+    """
+    options = Options(motion=motion, units=units, tolerance=tolerance,
+                      allow_outside_paths=allow_outside_paths, interference=interference,
+                      timings=timings)
+    targets: list[Path] = []
+    for p in paths:
+        if not Path(p).exists():
+            fail(f"{p}: no such file or directory", EXIT_INPUT)
+        targets.extend(discover(p))
+    batch = len(targets) > 1 or any(Path(p).is_dir() and discover(p) != [Path(p)] for p in paths)
+    reports = []
+    for target in progress(targets, len(targets), "analyzing", quiet=STATE.quiet):
+        reports.append(_analyze_one(target, options))
+    code = max([_exit_code(r) for r in reports] + [EXIT_OK])
+    for r in reports:
+        if "error" in r:
+            click.echo(f"ndbg: error: {r['error']['message']}", err=True)
+    if out:
+        _write_reports(Path(out), reports, batch)
+    elif fmt == "json":
+        doc = _batch_doc(reports) if batch else reports[0]
+        click.echo(dumps(doc), nl=False)
+    else:
+        click.echo("\n".join(render(r) for r in reports), nl=False)
+    sys.exit(code)
+
+
+def _analyze_one(target: Path, options: Options) -> dict:
+    try:
+        return analyze_path(target, options)
+    except Exception as exc:  # a bug: record it and go on with the batch
+        if STATE.debug:
+            traceback.print_exc()
+        err = NdbgError(f"internal error: {exc.__class__.__name__}: {exc} "
+                        "(run with --debug for a traceback)", file=str(target))
+        return error_record(target, err)
+
+
+def _exit_code(report: dict) -> int:
+    if "error" in report:
+        return int(report["error"]["code"])
+    return int(report.get("exit_code", EXIT_OK))
+
+
+def _batch_doc(reports: list[dict]) -> dict:
+    failed = sum(1 for r in reports if "error" in r)
+    return {"schema": BATCH_SCHEMA, "tool": {"name": "ndbg", "version": __version__},
+            "summary": {"assemblies": len(reports), "ok": len(reports) - failed,
+                        "errors": failed},
+            "reports": reports}
+
+
+def _write_reports(out: Path, reports: list[dict], batch: bool) -> None:
+    if not batch:
+        write_atomic(out, dumps(reports[0]))
+        return
+    names: set[str] = set()
+    for r in reports:
+        stem = r["assembly"]["name"] if "assembly" in r else Path(r["source"]).stem
+        stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "assembly"
+        name, k = stem, 1
+        while name in names:
+            k += 1
+            name = f"{stem}-{k}"
+        names.add(name)
+        write_atomic(out / f"{name}.json", dumps(r))
+    write_atomic(out / "index.json", dumps(_batch_doc(
+        [{k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
+         | ({"assembly": {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}}
+            if "assembly" in r else {}) for r in reports])))
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("model", type=click.Path())
+@click.option("--out", required=True, type=click.Path(), help="Folder to write into.")
+@click.option("--force", is_flag=True, help="Overwrite an existing manifest.")
+@_common_load_options
+def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
+    """Write a model's parts as meshes plus a manifest (an editable project).
+
+    \b
+    Example:
+      ndbg convert ../shared/data/as1/as1-oc-214.stp --out as1/
+    """
+    from .convert import convert_assembly
+    from .loaders import load
+
+    asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths)
+    manifest = convert_assembly(asm, Path(out), force=force)
+    if not STATE.quiet:
+        click.echo(f"wrote {manifest} ({len(asm)} parts, units {asm.units})", err=True)
+    click.echo(str(manifest))
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("which", type=click.Choice(["report", "manifest"]), default="report")
+def schema(which) -> None:
+    """Print the JSON Schema of the report (default) or of the manifest.
+
+    \b
+    Example:
+      ndbg schema report > report.schema.json
+    """
+    from .manifest import manifest_schema
+
+    doc = report_schema() if which == "report" else manifest_schema()
+    click.echo(json.dumps(doc, indent=2, sort_keys=True))
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Entry point: run the CLI, mapping exceptions to exit codes and one-line messages."""
+    try:
+        cli.main(args=argv, prog_name="ndbg", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        sys.exit(exc.exit_code)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(EXIT_INPUT)
+    except click.exceptions.Abort:
+        click.echo("ndbg: aborted", err=True)
+        sys.exit(130)
+    except InputError as exc:
+        fail(exc.message, exc.exit_code)
+    except NdbgError as exc:
+        fail(exc.message, exc.exit_code)
+    except SystemExit:
+        raise
+    except BrokenPipeError:
+        sys.exit(EXIT_OK)
+    except Exception as exc:
+        if STATE.debug:
+            traceback.print_exc()
+        fail(f"internal error: {exc.__class__.__name__}: {exc} "
+             "(run with --debug for a traceback)", EXIT_INTERNAL)

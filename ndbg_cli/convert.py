@@ -1,0 +1,57 @@
+"""``ndbg convert``: an assembly (e.g. a STEP file) to per-part meshes plus a manifest."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import yaml
+
+from .assembly import Assembly
+from .errors import InputError
+from .report import write_atomic
+
+
+def safe_name(part_id: str) -> str:
+    """A file-name-safe version of a part id."""
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", part_id).strip("._") or "part"
+
+
+def convert_assembly(asm: Assembly, out: Path, *, force: bool = False) -> Path:
+    """Write ``out/meshes/<id>.stl`` (binary, in the assembly frame and unit) for every part
+    and ``out/<name>.yaml``; return the manifest's path. Refuses to overwrite an existing
+    manifest unless ``force``."""
+    if asm.dimension != 3:
+        raise InputError("convert writes meshes: 2D assemblies are manifests already",
+                         file=asm.source)
+    out = Path(out)
+    manifest = out / f"{safe_name(asm.name)}.yaml"
+    if manifest.exists() and not force:
+        raise InputError("manifest exists (use --force to overwrite)", file=str(manifest))
+    (out / "meshes").mkdir(parents=True, exist_ok=True)
+    used: set[str] = set()
+    parts = []
+    for p in asm.parts:
+        name, k = safe_name(p.id), 1
+        while name.lower() in used:
+            k += 1
+            name = f"{safe_name(p.id)}-{k}"
+        used.add(name.lower())
+        rel = f"meshes/{name}.stl"
+        data = p.mesh.export(file_type="stl")
+        tmp = out / (rel + ".tmp")
+        tmp.write_bytes(data)
+        tmp.replace(out / rel)
+        entry = {"id": p.id, "mesh": rel}
+        if p.fixed:
+            entry["fixed"] = True
+        parts.append(entry)
+    doc = {"name": asm.name, "units": asm.units, "parts": parts}
+    if asm.tolerance is not None:
+        doc["tolerance"] = asm.tolerance
+    if asm.joints:
+        doc["joints"] = [{"type": j.type, "parts": list(j.parts), "axis": list(j.axis),
+                          "point": list(j.point), "pitch": j.pitch} for j in asm.joints]
+    header = f"# converted by ndbg from {asm.source}\n"
+    write_atomic(manifest, header + yaml.safe_dump(doc, sort_keys=False))
+    return manifest

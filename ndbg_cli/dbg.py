@@ -1,0 +1,233 @@
+"""Directional blocking graphs (DBGs) as bitsets.
+
+A DBG on ``n`` parts is stored as one successor bitmask per part (a Python ``int``, so any
+``n`` works): bit ``j`` of ``succ[i]`` is set iff part ``j`` blocks the motion of part ``i``
+(arc ``i -> j``, paper section 4.1). Subassemblies are bitmasks over the same part indices, and
+the DBG of a subassembly ``S`` is the subgraph induced by ``S``: every function here takes an
+optional ``mask`` and never needs a new graph, so planning never recomputes geometry.
+
+A subassembly ``S`` is *free* in a DBG iff no arc leaves it (``succ[i] & ~S == 0`` for ``i``
+in ``S``): with translations, ``S`` can move along ``d`` while the rest stays. The free
+subassemblies are exactly the successor-closed sets, i.e. the down-closed sets of the
+condensation DAG; :func:`free_subsets` enumerates them with polynomial delay.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Iterator, Sequence
+
+
+def bits(mask: int) -> Iterator[int]:
+    """Indices of the set bits of ``mask``, ascending."""
+    while mask:
+        low = mask & -mask
+        yield low.bit_length() - 1
+        mask ^= low
+
+
+def mask_of(indices: Iterable[int]) -> int:
+    m = 0
+    for i in indices:
+        m |= 1 << i
+    return m
+
+
+def popcount(mask: int) -> int:
+    return mask.bit_count()
+
+
+@dataclass(frozen=True)
+class DBG:
+    """A directional blocking graph: ``succ[i]`` is the bitmask of parts blocking part ``i``."""
+
+    succ: tuple[int, ...]
+
+    @property
+    def n(self) -> int:
+        return len(self.succ)
+
+    @classmethod
+    def empty(cls, n: int) -> "DBG":
+        return cls((0,) * n)
+
+    @classmethod
+    def from_arcs(cls, n: int, arcs: Iterable[tuple[int, int]]) -> "DBG":
+        succ = [0] * n
+        for i, j in arcs:
+            if i != j:
+                succ[i] |= 1 << j
+        return cls(tuple(succ))
+
+    @classmethod
+    def from_matrix(cls, matrix: Sequence[Sequence[bool]]) -> "DBG":
+        return cls.from_arcs(len(matrix), ((i, j) for i, row in enumerate(matrix)
+                                           for j, b in enumerate(row) if b))
+
+    def arcs(self, mask: int | None = None) -> list[tuple[int, int]]:
+        """Arcs ``(i, j)`` of the subgraph induced by ``mask`` (all parts if ``None``)."""
+        m = self.full if mask is None else mask
+        return [(i, j) for i in bits(m) for j in bits(self.succ[i] & m)]
+
+    @property
+    def full(self) -> int:
+        return (1 << self.n) - 1
+
+    def reversed(self) -> "DBG":
+        """The DBG with every arc reversed (for infinitesimal translations: ``G(-d)``)."""
+        pred = [0] * self.n
+        for i, j in self.arcs():
+            pred[j] |= 1 << i
+        return DBG(tuple(pred))
+
+    def union(self, other: "DBG") -> "DBG":
+        return DBG(tuple(a | b for a, b in zip(self.succ, other.succ)))
+
+    def is_free(self, subset: int, mask: int | None = None) -> bool:
+        """Whether no arc leaves ``subset`` inside the subassembly ``mask``."""
+        m = self.full if mask is None else mask
+        outside = m & ~subset
+        return all(self.succ[i] & outside == 0 for i in bits(subset & m))
+
+    def blockers(self, subset: int, mask: int | None = None) -> int:
+        """Bitmask of the parts of ``mask`` outside ``subset`` that block some part of it."""
+        m = self.full if mask is None else mask
+        out = 0
+        for i in bits(subset & m):
+            out |= self.succ[i]
+        return out & m & ~subset
+
+    def closure(self, subset: int, mask: int | None = None) -> int:
+        """Smallest free set containing ``subset``: everything ``subset`` drags along."""
+        m = self.full if mask is None else mask
+        closed = subset & m
+        frontier = closed
+        while frontier:
+            new = 0
+            for i in bits(frontier):
+                new |= self.succ[i]
+            new &= m & ~closed
+            closed |= new
+            frontier = new
+        return closed
+
+    def is_acyclic(self, mask: int | None = None) -> bool:
+        comps = strong_components(self, mask)
+        return all(c & (c - 1) == 0 for c in comps)
+
+
+def strong_components(g: DBG, mask: int | None = None) -> list[int]:
+    """Strong components of the subgraph induced by ``mask``, as bitmasks, in reverse
+    topological order (a component's successors come before it: sinks first).
+
+    Iterative Tarjan, ``O(n + arcs)`` on the induced subgraph.
+    """
+    m = g.full if mask is None else mask
+    index: dict[int, int] = {}
+    low: dict[int, int] = {}
+    on_stack: set[int] = set()
+    stack: list[int] = []
+    comps: list[int] = []
+    counter = 0
+    for root in bits(m):
+        if root in index:
+            continue
+        work = [(root, iter(list(bits(g.succ[root] & m))))]
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        on_stack.add(root)
+        while work:
+            v, it = work[-1]
+            advanced = False
+            for w in it:
+                if w not in index:
+                    index[w] = low[w] = counter
+                    counter += 1
+                    stack.append(w)
+                    on_stack.add(w)
+                    work.append((w, iter(list(bits(g.succ[w] & m)))))
+                    advanced = True
+                    break
+                if w in on_stack:
+                    low[v] = min(low[v], index[w])
+            if advanced:
+                continue
+            work.pop()
+            if work:
+                u = work[-1][0]
+                low[u] = min(low[u], low[v])
+            if low[v] == index[v]:
+                comp = 0
+                while True:
+                    w = stack.pop()
+                    on_stack.discard(w)
+                    comp |= 1 << w
+                    if w == v:
+                        break
+                comps.append(comp)
+    return comps
+
+
+def condensation(g: DBG, mask: int | None = None) -> tuple[list[int], list[int]]:
+    """The condensation DAG of the subgraph induced by ``mask``.
+
+    Returns ``(components, comp_succ)``: component bitmasks in reverse topological order and,
+    for each, the bitmask (over component indices) of the components it has arcs to; every
+    successor index is smaller than its predecessor's.
+    """
+    m = g.full if mask is None else mask
+    comps = strong_components(g, m)
+    where = {}
+    for k, c in enumerate(comps):
+        for i in bits(c):
+            where[i] = k
+    comp_succ = []
+    for k, c in enumerate(comps):
+        out = 0
+        reach = 0
+        for i in bits(c):
+            reach |= g.succ[i]
+        for j in bits(reach & m & ~c):
+            out |= 1 << where[j]
+        comp_succ.append(out)
+    return comps, comp_succ
+
+
+def free_subsets(g: DBG, mask: int | None = None, *, limit: int | None = None,
+                 proper: bool = True) -> Iterator[int]:
+    """Enumerate the free subassemblies (successor-closed subsets) of the subgraph ``mask``.
+
+    Output-sensitive: backtracking over the condensation DAG in reverse topological order,
+    where a component may be taken only once all its successors are; every leaf of the search
+    is a distinct free set, so the delay between two outputs is ``O(components)``. With
+    ``proper`` the empty set and ``mask`` itself are skipped. Stops after ``limit`` outputs.
+    """
+    m = g.full if mask is None else mask
+    comps, comp_succ = condensation(g, m)
+    k = len(comps)
+    count = 0
+    # Iterative DFS over decisions; state: (position, chosen component bitmask, part mask).
+    stack = [(0, 0, 0)]
+    while stack:
+        pos, chosen, parts = stack.pop()
+        if pos == k:
+            if proper and (parts == 0 or parts == m):
+                continue
+            yield parts
+            count += 1
+            if limit is not None and count >= limit:
+                return
+            continue
+        # Push "exclude" first so that "include" is explored first (larger sets earlier).
+        stack.append((pos + 1, chosen, parts))
+        if comp_succ[pos] & ~chosen == 0:
+            stack.append((pos + 1, chosen | (1 << pos), parts | comps[pos]))
+
+
+def minimal_free_subsets(g: DBG, mask: int | None = None) -> list[int]:
+    """The free sets that are single sink components of the condensation (the minimal ones
+    containing a given part are the successor closures; these are the minimal overall)."""
+    m = g.full if mask is None else mask
+    comps, comp_succ = condensation(g, m)
+    return [c for c, s in zip(comps, comp_succ) if s == 0 and c != m]

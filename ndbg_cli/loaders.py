@@ -1,0 +1,336 @@
+"""Loading assemblies from every input format ndbg accepts.
+
+* a YAML manifest (``.yaml``/``.yml``): parts are mesh files or 2D polygons (see
+  :mod:`ndbg_cli.manifest`);
+* one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
+  ``cascadio``), GLB/GLTF, 3DXML, 3MF, OBJ with objects or groups, or a single mesh file (STL,
+  PLY, OFF). Every scene-graph instance becomes one part, placed by its world transform; ids
+  come from node names, made unique by suffixes ``-2``, ``-3``... in file order;
+* a directory holding only mesh files: one part per file, already in the assembly frame,
+  id = file stem, files in name order.
+
+A directory holding manifests is a *batch* (one assembly per manifest); see :func:`discover`.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from .assembly import Assembly, Diagnostic, Joint, Part
+from .errors import InputError
+from .manifest import _Located, format_path, placement, read_manifest
+from .units import canonical_unit, scale
+from .validate import make_part, make_polygon_part
+
+MANIFEST_SUFFIXES = {".yaml", ".yml"}
+CAD_SUFFIXES = {".step", ".stp", ".iges", ".igs"}
+SCENE_SUFFIXES = {".glb", ".gltf", ".3dxml", ".3mf", ".obj"}
+MESH_SUFFIXES = {".stl", ".ply", ".off", ".obj", ".glb"}
+MODEL_SUFFIXES = CAD_SUFFIXES | SCENE_SUFFIXES | MESH_SUFFIXES
+
+
+def load(path: str | Path, *, units: str | None = None, tolerance: float | None = None,
+         allow_outside_paths: bool = False) -> Assembly:
+    """Load one assembly from a manifest, a model file, or a directory of mesh files.
+
+    ``units`` overrides the unit the input's lengths are in (for files whose unit is not
+    recorded, e.g. STL); ``tolerance`` overrides the length tolerance (in the assembly unit).
+    ``allow_outside_paths`` lets a manifest name mesh files outside its own folder.
+    Raises :class:`InputError` with a one-line message for any bad input.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputError("no such file or directory", file=str(path))
+    if tolerance is not None and not tolerance > 0:
+        raise InputError(f"tolerance must be positive, got {tolerance}", file=str(path))
+    if p.is_dir():
+        manifests = sorted(q for q in p.iterdir() if q.suffix.lower() in MANIFEST_SUFFIXES)
+        if manifests:
+            raise InputError("directory holds manifests: it is a batch, analyse it as such "
+                             "(ndbg analyze DIR) or name one manifest", file=str(path))
+        asm = load_mesh_directory(p, units=units)
+    elif p.suffix.lower() in MANIFEST_SUFFIXES:
+        asm = load_manifest(p, units=units, allow_outside_paths=allow_outside_paths)
+    elif p.suffix.lower() in MODEL_SUFFIXES:
+        asm = load_model(p, units=units)
+    else:
+        known = " ".join(sorted(MANIFEST_SUFFIXES | MODEL_SUFFIXES))
+        raise InputError(f"unknown file type '{p.suffix}' (known: {known})", file=str(path))
+    if tolerance is not None:
+        asm = asm.replace(tolerance=float(tolerance))
+    return asm
+
+
+def discover(path: str | Path) -> list[Path]:
+    """The assemblies a path names: a directory of manifests is a batch (one per manifest,
+    recursing into sub-directories that hold manifests); anything else is one assembly."""
+    p = Path(path)
+    if not p.is_dir():
+        return [p]
+    manifests = sorted(q for q in p.rglob("*") if q.suffix.lower() in MANIFEST_SUFFIXES
+                       and q.is_file())
+    return manifests if manifests else [p]
+
+
+# -- manifests ----------------------------------------------------------------------------
+
+def load_manifest(path: Path, *, units: str | None = None,
+                  allow_outside_paths: bool = False) -> Assembly:
+    """Load a YAML manifest (3D meshes or 2D polygons)."""
+    doc = read_manifest(path)
+    data = doc.data
+    file = str(path)
+    # The manifest records its unit, so a --units override converts rather than relabels.
+    doc_units = _unit(data.get("units", "mm"), doc, ("units",))
+    asm_units = canonical_unit(units, file=file) if units else doc_units
+    dimension = int(data.get("dimension", 3))
+    folder = path.parent.resolve()
+    parts: list[Part] = []
+    diags: list[Diagnostic] = []
+    seen: dict[str, int] = {}
+    for k, entry in enumerate(data["parts"]):
+        where = ("parts", k)
+        pid = entry["id"]
+        if pid in seen:
+            raise doc.error(where + ("id",), f"duplicate part id '{pid}' (also parts[{seen[pid]}])",
+                            part=pid)
+        seen[pid] = k
+        part_units = _unit(entry.get("units", doc_units), doc, where + ("units",))
+        s = scale(part_units, asm_units)
+        T = placement(entry, dimension=dimension, doc=doc, path=where, scale=s)
+        fixed = bool(entry.get("fixed", False)) or data.get("base") == pid
+        if dimension == 2:
+            if "mesh" in entry or "polygon" not in entry:
+                raise doc.error(where, "a 2D part needs 'polygon' (and no 'mesh')", part=pid)
+            part, d = make_polygon_part(pid, entry["polygon"], entry.get("holes", ()),
+                                        transform=T, scale=s, source=file, fixed=fixed)
+        else:
+            if "polygon" in entry or "mesh" not in entry:
+                raise doc.error(where, "a 3D part needs 'mesh' (polygons need dimension: 2)",
+                                part=pid)
+            mesh_path = _resolve(entry["mesh"], folder, doc, where + ("mesh",), pid,
+                                 allow_outside_paths)
+            v, f = _read_single_mesh(mesh_path, part=pid)
+            part, d = make_part(pid, v, f, transform=T, scale=s, source=str(mesh_path),
+                                fixed=fixed)
+        parts.append(part)
+        diags.extend(d)
+    ids = set(seen)
+    base = data.get("base")
+    if base is not None and base not in ids:
+        raise doc.error(("base",), f"base part '{base}' is not a part id")
+    s_doc = scale(doc_units, asm_units)
+    joints = tuple(_joint(j, doc, ("joints", k), ids, s_doc)
+                   for k, j in enumerate(data.get("joints", [])))
+    if base is None:
+        fixed_ids = [p.id for p in parts if p.fixed]
+        if len(fixed_ids) > 1:
+            raise doc.error(("parts",), f"more than one fixed part: {', '.join(fixed_ids)}")
+        base = fixed_ids[0] if fixed_ids else None
+    return Assembly(name=str(data.get("name", path.stem)), parts=tuple(parts), units=asm_units,
+                    dimension=dimension, source=file,
+                    tolerance=data["tolerance"] * s_doc if "tolerance" in data else None,
+                    base=base, joints=joints, expect=dict(data.get("expect", {}) or {}),
+                    diagnostics=tuple(diags), metadata=dict(data.get("metadata", {}) or {}))
+
+
+def _unit(name: Any, doc: _Located, path: tuple) -> str:
+    try:
+        return canonical_unit(name)
+    except InputError as exc:
+        raise doc.error(path, exc.problem) from None
+
+
+def _resolve(rel: str, folder: Path, doc: _Located, path: tuple, pid: str,
+             allow_outside: bool) -> Path:
+    target = (folder / rel).resolve()
+    if not allow_outside and not target.is_relative_to(folder):
+        raise doc.error(path, f"mesh path '{rel}' leaves the manifest's folder "
+                              "(use --allow-outside-paths to permit it)", part=pid)
+    if not target.is_file():
+        raise doc.error(path, f"mesh file '{rel}' not found", part=pid)
+    return target
+
+
+def _joint(entry: dict, doc: _Located, path: tuple, ids: set, s: float) -> Joint:
+    a, b = entry["parts"]
+    for k, pid in enumerate((a, b)):
+        if pid not in ids:
+            raise doc.error(path + ("parts", k), f"joint names unknown part '{pid}'")
+    if a == b:
+        raise doc.error(path + ("parts",), "a joint needs two different parts")
+    axis = np.asarray(entry["axis"], dtype=float)
+    if np.linalg.norm(axis) < 1e-12:
+        raise doc.error(path + ("axis",), "joint axis has zero length")
+    axis = axis / np.linalg.norm(axis)
+    pitch = float(entry.get("pitch", 0.0)) * s
+    if entry["type"] == "screw" and pitch == 0.0:
+        raise doc.error(path, "a screw joint needs a non-zero pitch")
+    point = tuple(float(c) * s for c in entry.get("point", (0.0, 0.0, 0.0)))
+    return Joint(type=entry["type"], parts=(a, b), axis=tuple(map(float, axis)), point=point,
+                 pitch=pitch)
+
+
+# -- meshes and scenes --------------------------------------------------------------------
+
+def _read_single_mesh(path: Path, *, part: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and faces of a mesh file, all bodies of a scene file merged into one."""
+    scene = _read_scene(path, part=part)
+    meshes = _scene_instances(scene)
+    if not meshes:
+        raise InputError("file holds no triangle mesh", file=str(path), part=part)
+    if len(meshes) == 1:
+        _, v, f = meshes[0]
+        return v, f
+    offsets = np.cumsum([0] + [len(v) for _, v, _ in meshes[:-1]])
+    v = np.vstack([v for _, v, _ in meshes])
+    f = np.vstack([f + o for (_, _, f), o in zip(meshes, offsets)])
+    return v, f
+
+
+def _read_scene(path: Path, *, part: str | None = None) -> trimesh.Scene:
+    suffix = path.suffix.lower()
+    try:
+        if suffix in CAD_SUFFIXES:
+            return _read_cad(path)
+        kwargs: dict[str, Any] = {}
+        if suffix == ".obj":
+            kwargs = {"split_objects": True, "split_groups": True, "group_material": False}
+        loaded = trimesh.load(str(path), force="scene", process=False, **kwargs)
+    except InputError:
+        raise
+    except Exception as exc:  # trimesh raises many kinds for unreadable files
+        raise InputError(f"cannot read {suffix[1:].upper()} file: {_short(exc)}",
+                         file=str(path), part=part) from None
+    return loaded
+
+
+def _short(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{exc.__class__.__name__}: {text[0] if text else ''}".strip(": ")
+
+
+_STEP_UNIT = re.compile(r"LENGTH_UNIT\s*\(\s*\)\s*NAMED_UNIT\s*\(\s*\*\s*\)\s*SI_UNIT\s*\(\s*"
+                        r"(\.\w+\.|\$)\s*,\s*\.METRE\.\s*\)", re.I)
+_STEP_CONV = re.compile(r"CONVERSION_BASED_UNIT\s*\(\s*'(\w+)'", re.I)
+
+
+def step_length_unit(text: str) -> str:
+    """The length unit a STEP file declares (``mm`` when it declares none we know)."""
+    m = _STEP_UNIT.search(text)
+    if m:
+        prefix = m.group(1).strip(".").upper()
+        return {"MILLI": "mm", "CENTI": "cm", "$": "m"}.get(prefix, "mm")
+    m = _STEP_CONV.search(text)
+    if m and m.group(1).upper() in {"INCH", "INCHES"}:
+        return "in"
+    return "mm"
+
+
+def _read_cad(path: Path) -> trimesh.Scene:
+    """Tessellate a STEP or IGES file with OpenCASCADE (cascadio) into a scene.
+
+    cascadio writes GLB in metres whatever the file's unit; the scene is tagged ``m`` and the
+    caller converts it to the file's declared unit.
+    """
+    import cascadio
+
+    data = path.read_bytes()
+    kind = "iges" if path.suffix.lower() in {".iges", ".igs"} else "step"
+    glb = cascadio.load(data, file_type=kind, tol_linear=0.01, tol_angular=0.5,
+                        use_parallel=False)
+    if not glb:
+        raise InputError(f"cannot read {kind.upper()} file: OpenCASCADE found no shape in it",
+                         file=str(path))
+    scene = trimesh.load(io.BytesIO(glb), file_type="glb", force="scene", process=False)
+    text = data[:200000].decode("latin-1") if kind == "step" else ""
+    scene.metadata["ndbg_units"] = step_length_unit(text) if kind == "step" else "mm"
+    scene.metadata["ndbg_scene_units"] = "m"
+    return scene
+
+
+def _scene_instances(scene: trimesh.Scene) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """``(node name, world-frame vertices, faces)`` for every mesh instance, in file order."""
+    out = []
+    for node in scene.graph.nodes_geometry:
+        T, geom_name = scene.graph[node]
+        geom = scene.geometry.get(geom_name)
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        v = np.asarray(geom.vertices, dtype=float) @ T[:3, :3].T + T[:3, 3]
+        out.append((str(node), v, np.asarray(geom.faces)))
+    return out
+
+
+def unique_ids(names: list[str]) -> list[str]:
+    """Make names unique and stable: later repeats get ``-2``, ``-3``..., in order."""
+    out, used = [], set()
+    for name in names:
+        base = name.strip() or "part"
+        cand, k = base, 1
+        while cand in used:
+            k += 1
+            cand = f"{base}-{k}"
+        used.add(cand)
+        out.append(cand)
+    return out
+
+
+def load_model(path: Path, *, units: str | None = None) -> Assembly:
+    """Load a single model file: one part per scene-graph mesh instance."""
+    scene = _read_scene(path)
+    inst = _scene_instances(scene)
+    if not inst:
+        raise InputError("file holds no triangle mesh", file=str(path))
+    file_units = scene.metadata.get("ndbg_units")
+    if file_units is not None:  # STEP/IGES record their unit: convert cascadio's metres to it
+        asm_units = canonical_unit(units, file=str(path)) if units else file_units
+        s = scale(scene.metadata["ndbg_scene_units"], asm_units)
+    elif units is not None:  # the file records no reliable unit: the option declares it
+        asm_units, s = canonical_unit(units, file=str(path)), 1.0
+    elif path.suffix.lower() in {".glb", ".gltf"}:
+        asm_units, s = "m", 1.0  # glTF lengths are metres by specification
+    else:
+        asm_units, s = "mm", 1.0
+    ids = unique_ids([name for name, _, _ in inst])
+    parts, diags = [], []
+    for pid, (node, v, f) in zip(ids, inst):
+        part, d = make_part(pid, v, f, scale=s, source=f"{path}#{node}")
+        parts.append(part)
+        diags.extend(d)
+    return Assembly(name=path.stem, parts=tuple(parts), units=asm_units, source=str(path),
+                    diagnostics=tuple(diags))
+
+
+def load_mesh_directory(path: Path, *, units: str | None = None) -> Assembly:
+    """Load a directory of mesh files, one part per file, already in the assembly frame."""
+    files = sorted(q for q in path.iterdir() if q.is_file() and q.suffix.lower() in MESH_SUFFIXES)
+    if not files:
+        known = " ".join(sorted(MESH_SUFFIXES))
+        raise InputError(f"directory holds no manifest and no mesh file ({known})",
+                         file=str(path))
+    stems: dict[str, Path] = {}
+    for q in files:
+        if q.stem in stems:
+            raise InputError(f"two files give the same part id '{q.stem}': "
+                             f"{stems[q.stem].name} and {q.name}", file=str(path), part=q.stem)
+        stems[q.stem] = q
+    asm_units = canonical_unit(units, file=str(path)) if units else "mm"
+    parts, diags = [], []
+    for q in files:
+        v, f = _read_single_mesh(q, part=q.stem)
+        part, d = make_part(q.stem, v, f, source=str(q))
+        parts.append(part)
+        diags.extend(d)
+    return Assembly(name=path.name, parts=tuple(parts), units=asm_units, source=str(path),
+                    diagnostics=tuple(diags))
+
+
+__all__ = ["load", "discover", "load_manifest", "load_model", "load_mesh_directory",
+           "step_length_unit", "unique_ids", "format_path"]

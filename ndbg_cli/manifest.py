@@ -1,0 +1,205 @@
+"""YAML manifests: reading, schema validation with line numbers, placements, parts.
+
+A manifest describes one assembly (see ``README.md`` and ``schemas/manifest.schema.json``)::
+
+    name: bell
+    units: mm                 # mm, cm, m, in (default mm)
+    parts:
+      - id: base
+        mesh: meshes/base.stl # relative to this file
+        fixed: true
+      - id: screw
+        mesh: meshes/screw.stl
+        units: in             # per-part unit, scaled into the assembly unit
+        translation: [10, 0, 5]
+        rotation: {euler: [0, 90, 0], order: xyz}   # degrees; or {quaternion: [w,x,y,z]},
+                                                    # or {axis: [x,y,z], angle: deg}
+    joints:
+      - {type: screw, parts: [screw, base], axis: [0, 0, 1], point: [10, 0, 0], pitch: 1.25}
+
+A placement maps the part's file coordinates (after unit scaling) into the assembly frame:
+``x' = R x + t``. ``matrix`` (4x4; 3x3 in 2D) is an alternative to ``translation`` and
+``rotation``. YAML is read with the safe loader; duplicate keys are errors.
+"""
+
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from .errors import InputError
+
+_SCHEMA: dict | None = None
+
+
+def manifest_schema() -> dict:
+    """The manifest's JSON Schema (a dict), shipped in ``ndbg_cli/schemas``."""
+    global _SCHEMA
+    if _SCHEMA is None:
+        text = resources.files("ndbg_cli").joinpath("schemas/manifest.schema.json").read_text()
+        _SCHEMA = json.loads(text)
+    return _SCHEMA
+
+
+class _Located:
+    """Manifest data plus the source line of every key path (for error messages)."""
+
+    def __init__(self, data: Any, lines: dict[tuple, int], file: str):
+        self.data = data
+        self.lines = lines
+        self.file = file
+
+    def line(self, path: tuple) -> int | None:
+        path = tuple(path)
+        while path not in self.lines and path:
+            path = path[:-1]
+        return self.lines.get(path)
+
+    def error(self, path: tuple, problem: str, part: str | None = None) -> InputError:
+        return InputError(f"{format_path(path)}: {problem}" if path else problem,
+                          file=self.file, line=self.line(path), part=part)
+
+
+def format_path(path: tuple) -> str:
+    """``('parts', 3, 'mesh')`` -> ``parts[3].mesh``."""
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out
+
+
+def _line_map(node: yaml.Node, path: tuple, out: dict, file: str) -> None:
+    out.setdefault(path, node.start_mark.line + 1)
+    if isinstance(node, yaml.MappingNode):
+        seen: set = set()
+        for key, value in node.value:
+            k = key.value
+            if k in seen:
+                raise InputError(f"duplicate key '{k}'", file=file, line=key.start_mark.line + 1)
+            seen.add(k)
+            out[path + (k,)] = key.start_mark.line + 1
+            _line_map(value, path + (k,), out, file)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, value in enumerate(node.value):
+            _line_map(value, path + (i,), out, file)
+
+
+def read_manifest(path: Path) -> _Located:
+    """Read and schema-validate a manifest; ``InputError`` with a line number on failure."""
+    file = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read manifest: {exc.__class__.__name__}: {exc}", file=file) from None
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise InputError(f"malformed YAML: {problem}", file=file,
+                         line=mark.line + 1 if mark else None) from None
+    if node is None or not isinstance(data, dict):
+        raise InputError("a manifest must be a YAML mapping with a 'parts' list", file=file)
+    lines: dict[tuple, int] = {}
+    _line_map(node, (), lines, file)
+    located = _Located(data, lines, file)
+    _validate_schema(located)
+    return located
+
+
+def _validate_schema(doc: _Located) -> None:
+    import jsonschema
+
+    validator = jsonschema.Draft202012Validator(manifest_schema())
+    errors = list(validator.iter_errors(doc.data))
+    if not errors:
+        return
+    err = jsonschema.exceptions.best_match(errors)
+    path = tuple(err.absolute_path)
+    if err.validator == "additionalProperties":
+        extra = sorted(set(err.instance) - set(err.schema.get("properties", {})))
+        allowed = ", ".join(sorted(err.schema.get("properties", {})))
+        where = path + (extra[0],) if extra else path
+        raise doc.error(where, f"unknown key (allowed here: {allowed})")
+    if err.validator == "oneOf" and path and path[-1] == "rotation":
+        raise doc.error(path, "rotation must be degrees (2D), {quaternion: [w,x,y,z]}, "
+                              "{euler: [a,b,c], order: xyz}, or {axis: [x,y,z], angle: deg}")
+    raise doc.error(path, err.message)
+
+
+# -- placements ---------------------------------------------------------------------------
+
+def rotation_matrix(spec: Any, *, dimension: int, doc: _Located, path: tuple) -> np.ndarray:
+    """Rotation matrix ``(dim, dim)`` from a manifest ``rotation`` entry (degrees)."""
+    from scipy.spatial.transform import Rotation
+
+    if dimension == 2:
+        if not isinstance(spec, (int, float)):
+            raise doc.error(path, "2D rotation must be an angle in degrees")
+        a = np.radians(float(spec))
+        return np.array([[np.cos(a), -np.sin(a)], [np.sin(a), np.cos(a)]])
+    if isinstance(spec, (int, float)):
+        raise doc.error(path, "3D rotation needs {quaternion: ...}, {euler: ..., order: ...} "
+                              "or {axis: ..., angle: ...}")
+    if "quaternion" in spec:
+        q = np.asarray(spec["quaternion"], dtype=float)
+        if np.linalg.norm(q) < 1e-12:
+            raise doc.error(path + ("quaternion",), "quaternion has zero length")
+        w, x, y, z = q / np.linalg.norm(q)
+        return Rotation.from_quat([x, y, z, w]).as_matrix()
+    if "euler" in spec:
+        return Rotation.from_euler(spec["order"], spec["euler"], degrees=True).as_matrix()
+    axis = np.asarray(spec["axis"], dtype=float)
+    if np.linalg.norm(axis) < 1e-12:
+        raise doc.error(path + ("axis",), "rotation axis has zero length")
+    rotvec = axis / np.linalg.norm(axis) * np.radians(float(spec["angle"]))
+    return Rotation.from_rotvec(rotvec).as_matrix()
+
+
+def placement(entry: dict, *, dimension: int, doc: _Located, path: tuple,
+              scale: float) -> np.ndarray:
+    """Homogeneous placement ``(dim+1, dim+1)`` of a part entry; translation in assembly unit.
+
+    ``scale`` converts the part's unit to the assembly unit: a per-part ``units`` applies to
+    the part's geometry and to its translation.
+    """
+    d = dimension
+    T = np.eye(d + 1)
+    if "matrix" in entry:
+        if "translation" in entry or "rotation" in entry:
+            raise doc.error(path + ("matrix",), "give either matrix or translation/rotation, not both")
+        M = np.asarray(entry["matrix"], dtype=float) if _is_rect(entry["matrix"]) else None
+        if M is None or M.shape != (d + 1, d + 1):
+            shape = "x".join(map(str, M.shape)) if M is not None else "ragged"
+            raise doc.error(path + ("matrix",), f"matrix must be {d + 1}x{d + 1}, got {shape}")
+        if not np.all(np.isfinite(M)):
+            raise doc.error(path + ("matrix",), "matrix has NaN or infinite entries")
+        if not np.allclose(M[d], np.eye(d + 1)[d], atol=1e-9):
+            raise doc.error(path + ("matrix",), "matrix's last row must be [0, ..., 0, 1]")
+        R = M[:d, :d]
+        if not np.allclose(R.T @ R, np.eye(d), atol=1e-6) or np.linalg.det(R) < 0:
+            raise doc.error(path + ("matrix",),
+                            "matrix is not a rigid motion (its 3x3 block must be a rotation)")
+        T[:d, :d] = R
+        T[:d, d] = M[:d, d] * scale
+        return T
+    if "translation" in entry:
+        t = np.asarray(entry["translation"], dtype=float)
+        if t.shape != (d,):
+            raise doc.error(path + ("translation",), f"translation must have {d} numbers")
+        T[:d, d] = t * scale
+    if "rotation" in entry:
+        T[:d, :d] = rotation_matrix(entry["rotation"], dimension=d, doc=doc,
+                                    path=path + ("rotation",))
+    return T
+
+
+def _is_rect(rows: Any) -> bool:
+    return isinstance(rows, list) and all(isinstance(r, list) for r in rows) and \
+        len({len(r) for r in rows}) == 1

@@ -1,0 +1,160 @@
+"""The non-directional blocking graph (NDBG): regular regions of motion directions, each with
+its DBG, and the candidate partitionings they yield (paper sections 4.2 and 4.4).
+
+Every motion family produces an :class:`NDBG`:
+
+* ``infinitesimal_translation``: regions of the arrangement on S^2 (S^1 in 2D) induced by the
+  contact cones; necessary conditions (candidates);
+* ``infinite_translation``: regions of the arrangement of the blocked-direction sets B_ij;
+  sufficient conditions (a free set really comes out by one translation);
+* ``generalized``: suggested rotations and screws (one "region" per suggested motion).
+
+A region's DBG has an arc ``i -> j`` when part ``j`` blocks part ``i`` moving along the region's
+motion while ``j`` stays. Subassemblies are bitmasks over ``NDBG.ids``; nothing here touches
+geometry again.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterator
+
+from .dbg import DBG, bits, free_subsets, mask_of
+
+FAMILIES = ("infinitesimal_translation", "infinite_translation", "generalized")
+
+
+@dataclass(frozen=True)
+class Region:
+    """A regular region: its dimension (2, 1 or 0 on S^2; 1 or 0 on S^1; for suggested
+    generalized motions ``-1``), a representative motion and the DBG over it.
+
+    ``direction`` is a unit vector (length 2 or 3) for translations, ``None`` otherwise;
+    ``motion`` describes a generalized motion (``{"type": "rotation"|"screw", "axis": ...,
+    "point": ..., "pitch": ...}``) and is ``None`` for translations.
+    """
+
+    dimension: int
+    direction: tuple[float, ...] | None
+    dbg: DBG
+    motion: dict | None = None
+
+
+@dataclass(frozen=True)
+class NDBG:
+    """All regions of one motion family over parts ``ids`` (the node order of every DBG)."""
+
+    family: str
+    ids: tuple[str, ...]
+    regions: tuple[Region, ...]
+    space_dimension: int = 3
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def n(self) -> int:
+        return len(self.ids)
+
+    def distinct(self) -> list[tuple[DBG, list[int]]]:
+        """Distinct DBGs with the indices of the regions having them, in first-seen order."""
+        seen: dict[tuple[int, ...], int] = {}
+        out: list[tuple[DBG, list[int]]] = []
+        for k, r in enumerate(self.regions):
+            key = r.dbg.succ
+            if key not in seen:
+                seen[key] = len(out)
+                out.append((r.dbg, []))
+            out[seen[key]][1].append(k)
+        return out
+
+    def region_counts(self) -> dict[str, int]:
+        counts: dict[str, int] = {}
+        for r in self.regions:
+            counts[str(r.dimension)] = counts.get(str(r.dimension), 0) + 1
+        return counts
+
+    def mask(self, part_ids) -> int:
+        index = {pid: k for k, pid in enumerate(self.ids)}
+        return mask_of(index[p] for p in part_ids)
+
+    def names(self, mask: int) -> list[str]:
+        return [self.ids[i] for i in bits(mask)]
+
+
+@dataclass(frozen=True)
+class Partitioning:
+    """A candidate partitioning of a subassembly into ``moved`` and ``rest`` (bitmasks):
+    ``moved`` is free along every region listed in ``regions`` (indices into the NDBG)."""
+
+    moved: int
+    rest: int
+    family: str
+    regions: tuple[int, ...]
+
+
+def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = None,
+                  connected: "ConnectivityTest | None" = None
+                  ) -> tuple[list[Partitioning], bool]:
+    """Every candidate partitioning of the subassembly ``mask`` (default: all parts).
+
+    For each distinct DBG (induced on ``mask``), every free subset ``S`` gives the partitioning
+    ``{S, mask \\ S}`` with ``S`` moving. Partitionings are deduplicated across regions by the
+    (moved, rest) pair, collecting the regions where ``moved`` is free. With ``connected``,
+    both sides must be connected (e.g. in the contact graph). Returns ``(list, truncated)``;
+    ``truncated`` is True when ``limit`` stopped the enumeration.
+    """
+    m = (1 << ndbg.n) - 1 if mask is None else mask
+    found: dict[int, list[int]] = {}
+    order: list[int] = []
+    truncated = False
+    seen_dbgs: dict[tuple[int, ...], list[int]] = {}
+    for k, r in enumerate(ndbg.regions):
+        key = tuple(s & m for s in (r.dbg.succ[i] for i in bits(m)))
+        seen_dbgs.setdefault(key, []).append(k)
+    for key, region_ids in seen_dbgs.items():
+        dbg = ndbg.regions[region_ids[0]].dbg
+        for s in free_subsets(dbg, m):
+            if connected is not None and not (connected(s) and connected(m & ~s)):
+                continue
+            if s not in found:
+                if limit is not None and len(order) >= limit:
+                    truncated = True
+                    break
+                found[s] = []
+                order.append(s)
+            found[s].extend(region_ids)
+        if truncated:
+            break
+    out = [Partitioning(moved=s, rest=m & ~s, family=ndbg.family,
+                        regions=tuple(sorted(set(found[s])))) for s in order]
+    out.sort(key=lambda p: (p.moved.bit_count(), p.moved))
+    return out, truncated
+
+
+class ConnectivityTest:
+    """``test(mask)``: is the subassembly ``mask`` connected in an undirected graph given as
+    neighbour bitmasks (e.g. the contact graph)?"""
+
+    def __init__(self, neighbours: list[int]):
+        self.neighbours = neighbours
+
+    def __call__(self, mask: int) -> bool:
+        if mask == 0:
+            return False
+        start = mask & -mask
+        seen = start
+        frontier = start
+        while frontier:
+            new = 0
+            for i in bits(frontier):
+                new |= self.neighbours[i]
+            new &= mask & ~seen
+            seen |= new
+            frontier = new
+        return seen == mask
+
+
+def iter_free_regions(ndbg: NDBG, moved: int, mask: int | None = None) -> Iterator[int]:
+    """Indices of the regions in which ``moved`` is free inside ``mask``."""
+    for k, r in enumerate(ndbg.regions):
+        if r.dbg.is_free(moved, mask):
+            yield k
