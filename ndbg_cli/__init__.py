@@ -9,10 +9,10 @@ Library API (the CLI is a thin layer over it)::
 
 __version__ = "0.1.0"
 
+from .analysis import Options, analyze, analyze_path  # noqa: E402
 from .assembly import Assembly, Diagnostic, Joint, Part  # noqa: E402
 from .errors import InputError, NdbgError  # noqa: E402
 from .loaders import discover, load  # noqa: E402
-from .analysis import Options, analyze, analyze_path  # noqa: E402
 
 __all__ = ["__version__", "Assembly", "Part", "Joint", "Diagnostic", "InputError", "NdbgError",
            "load", "discover", "analyze", "analyze_path", "Options"]

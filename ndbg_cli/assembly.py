@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -199,7 +200,7 @@ class Assembly:
         return max(DEFAULT_RELATIVE_TOLERANCE * self.diagonal, 1e-12)
 
     # -- derived assemblies ---------------------------------------------------------------
-    def subset(self, part_ids: Iterable[str]) -> "Assembly":
+    def subset(self, part_ids: Iterable[str]) -> Assembly:
         """The subassembly made of ``part_ids`` (in this assembly's order), sharing the parts."""
         keep = set(part_ids)
         missing = keep - set(self.ids)
@@ -210,7 +211,7 @@ class Assembly:
         base = self.base if self.base in keep else None
         return dataclasses.replace(self, parts=parts, joints=joints, base=base)
 
-    def replace(self, **changes: Any) -> "Assembly":
+    def replace(self, **changes: Any) -> Assembly:
         """A copy with some fields changed (parts are shared, not copied)."""
         return dataclasses.replace(self, **changes)
 

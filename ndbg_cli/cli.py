@@ -55,7 +55,27 @@ def cli(debug: bool, quiet: bool) -> None:
     STATE.quiet = quiet
 
 
+def _set_debug(ctx, param, value):
+    if value:
+        STATE.debug = True
+
+
+def _set_quiet(ctx, param, value):
+    if value:
+        STATE.quiet = True
+
+
+def _global_options(f):
+    """``--debug`` and ``--quiet`` are accepted after the subcommand too."""
+    f = click.option("--debug", is_flag=True, expose_value=False, callback=_set_debug,
+                     is_eager=True, help="Show tracebacks of internal errors.")(f)
+    f = click.option("-q", "--quiet", is_flag=True, expose_value=False, callback=_set_quiet,
+                     is_eager=True, help="No progress bar or notes on stderr.")(f)
+    return f
+
+
 def _common_load_options(f):
+    f = _global_options(f)
     f = click.option("--units", help="Unit of the input (mm, cm, m, in): converts files that "
                      "record theirs (manifest, STEP), declares it for those that don't.")(f)
     f = click.option("--tolerance", type=float,
@@ -184,6 +204,7 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
 
 @cli.command(context_settings=CONTEXT)
 @click.argument("which", type=click.Choice(["report", "manifest"]), default="report")
+@_global_options
 def schema(which) -> None:
     """Print the JSON Schema of the report (default) or of the manifest.
 

@@ -14,8 +14,8 @@ condensation DAG; :func:`free_subsets` enumerates them with polynomial delay.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Iterator, Sequence
 
 
 def bits(mask: int) -> Iterator[int]:
@@ -48,11 +48,11 @@ class DBG:
         return len(self.succ)
 
     @classmethod
-    def empty(cls, n: int) -> "DBG":
+    def empty(cls, n: int) -> DBG:
         return cls((0,) * n)
 
     @classmethod
-    def from_arcs(cls, n: int, arcs: Iterable[tuple[int, int]]) -> "DBG":
+    def from_arcs(cls, n: int, arcs: Iterable[tuple[int, int]]) -> DBG:
         succ = [0] * n
         for i, j in arcs:
             if i != j:
@@ -60,7 +60,7 @@ class DBG:
         return cls(tuple(succ))
 
     @classmethod
-    def from_matrix(cls, matrix: Sequence[Sequence[bool]]) -> "DBG":
+    def from_matrix(cls, matrix: Sequence[Sequence[bool]]) -> DBG:
         return cls.from_arcs(len(matrix), ((i, j) for i, row in enumerate(matrix)
                                            for j, b in enumerate(row) if b))
 
@@ -73,14 +73,14 @@ class DBG:
     def full(self) -> int:
         return (1 << self.n) - 1
 
-    def reversed(self) -> "DBG":
+    def reversed(self) -> DBG:
         """The DBG with every arc reversed (for infinitesimal translations: ``G(-d)``)."""
         pred = [0] * self.n
         for i, j in self.arcs():
             pred[j] |= 1 << i
         return DBG(tuple(pred))
 
-    def union(self, other: "DBG") -> "DBG":
+    def union(self, other: DBG) -> DBG:
         return DBG(tuple(a | b for a, b in zip(self.succ, other.succ)))
 
     def is_free(self, subset: int, mask: int | None = None) -> bool:
@@ -183,7 +183,7 @@ def condensation(g: DBG, mask: int | None = None) -> tuple[list[int], list[int]]
         for i in bits(c):
             where[i] = k
     comp_succ = []
-    for k, c in enumerate(comps):
+    for c in comps:
         out = 0
         reach = 0
         for i in bits(c):

@@ -5,7 +5,7 @@
 * one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
   ``cascadio``), GLB/GLTF, 3DXML, 3MF, OBJ with objects or groups, or a single mesh file (STL,
   PLY, OFF). Every scene-graph instance becomes one part, placed by its world transform; ids
-  come from node names, made unique by suffixes ``-2``, ``-3``... in file order;
+  come from node names (unique within a scene graph), parts ordered by name;
 * a directory holding only mesh files: one part per file, already in the assembly frame,
   id = file stem, files in name order.
 
@@ -14,8 +14,11 @@ A directory holding manifests is a *batch* (one assembly per manifest); see :fun
 
 from __future__ import annotations
 
+import contextlib
 import io
+import os
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -236,29 +239,62 @@ def step_length_unit(text: str) -> str:
 def _read_cad(path: Path) -> trimesh.Scene:
     """Tessellate a STEP or IGES file with OpenCASCADE (cascadio) into a scene.
 
-    cascadio writes GLB in metres whatever the file's unit; the scene is tagged ``m`` and the
-    caller converts it to the file's declared unit.
+    cascadio writes STEP shapes in metres whatever the file's unit, and IGES shapes in
+    OpenCASCADE's internal millimetres; the scene is tagged with that unit and the caller
+    converts it to the file's declared unit. OpenCASCADE prints progress on the process's
+    standard output, which would corrupt a JSON report piped from stdout: it is silenced.
     """
     import cascadio
 
     data = path.read_bytes()
     kind = "iges" if path.suffix.lower() in {".iges", ".igs"} else "step"
-    glb = cascadio.load(data, file_type=kind, tol_linear=0.01, tol_angular=0.5,
-                        use_parallel=False)
+    with _quiet_native_output():
+        glb = cascadio.load(data, file_type=kind, tol_linear=0.01, tol_angular=0.5,
+                            use_parallel=False)
     if not glb:
         raise InputError(f"cannot read {kind.upper()} file: OpenCASCADE found no shape in it",
                          file=str(path))
     scene = trimesh.load(io.BytesIO(glb), file_type="glb", force="scene", process=False)
     text = data[:200000].decode("latin-1") if kind == "step" else ""
     scene.metadata["ndbg_units"] = step_length_unit(text) if kind == "step" else "mm"
-    scene.metadata["ndbg_scene_units"] = "m"
+    scene.metadata["ndbg_scene_units"] = "m" if kind == "step" else "mm"
     return scene
 
 
+@contextlib.contextmanager
+def _quiet_native_output():
+    """Silence C-level stdout and stderr for the duration: OpenCASCADE prints progress and
+    parse errors there, around the one-line error ndbg gives. ``NDBG_DEBUG_NATIVE=1`` keeps
+    them."""
+    if os.environ.get("NDBG_DEBUG_NATIVE"):
+        yield
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)
+
+
+def natural_key(name: str) -> tuple:
+    """Sort key that orders ``nut_2`` before ``nut_10``."""
+    return tuple((0, int(t), "") if t.isdigit() else (1, 0, t.lower())
+                 for t in re.split(r"(\d+)", name) if t)
+
+
 def _scene_instances(scene: trimesh.Scene) -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """``(node name, world-frame vertices, faces)`` for every mesh instance, in file order."""
+    """``(node name, world-frame vertices, faces)`` for every mesh instance, ordered by node
+    name (natural order), which is stable whatever order the file's scene graph has."""
     out = []
-    for node in scene.graph.nodes_geometry:
+    for node in sorted(scene.graph.nodes_geometry, key=lambda n: (natural_key(str(n)), str(n))):
         T, geom_name = scene.graph[node]
         geom = scene.geometry.get(geom_name)
         if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:

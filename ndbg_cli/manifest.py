@@ -95,7 +95,8 @@ def read_manifest(path: Path) -> _Located:
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read manifest: {exc.__class__.__name__}: {exc}", file=file) from None
+        raise InputError(f"cannot read manifest: {exc.__class__.__name__}: {exc}",
+                         file=file) from None
     try:
         node = yaml.compose(text, Loader=yaml.SafeLoader)
         data = yaml.safe_load(text)
@@ -173,7 +174,8 @@ def placement(entry: dict, *, dimension: int, doc: _Located, path: tuple,
     T = np.eye(d + 1)
     if "matrix" in entry:
         if "translation" in entry or "rotation" in entry:
-            raise doc.error(path + ("matrix",), "give either matrix or translation/rotation, not both")
+            raise doc.error(path + ("matrix",),
+                            "give either matrix or translation/rotation, not both")
         M = np.asarray(entry["matrix"], dtype=float) if _is_rect(entry["matrix"]) else None
         if M is None or M.shape != (d + 1, d + 1):
             shape = "x".join(map(str, M.shape)) if M is not None else "ragged"

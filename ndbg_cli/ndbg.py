@@ -16,8 +16,8 @@ geometry again.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Iterator
 
 from .dbg import DBG, bits, free_subsets, mask_of
 
@@ -92,7 +92,7 @@ class Partitioning:
 
 
 def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = None,
-                  connected: "ConnectivityTest | None" = None
+                  connected: ConnectivityTest | None = None
                   ) -> tuple[list[Partitioning], bool]:
     """Every candidate partitioning of the subassembly ``mask`` (default: all parts).
 
@@ -110,7 +110,7 @@ def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = No
     for k, r in enumerate(ndbg.regions):
         key = tuple(s & m for s in (r.dbg.succ[i] for i in bits(m)))
         seen_dbgs.setdefault(key, []).append(k)
-    for key, region_ids in seen_dbgs.items():
+    for region_ids in seen_dbgs.values():
         dbg = ndbg.regions[region_ids[0]].dbg
         for s in free_subsets(dbg, m):
             if connected is not None and not (connected(s) and connected(m & ~s)):

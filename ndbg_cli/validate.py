@@ -20,6 +20,7 @@ import numpy as np
 import shapely
 import trimesh
 from shapely.geometry import Polygon
+from shapely.validation import explain_validity
 
 from .assembly import Diagnostic, Part, PartCheck, content_hash
 from .errors import InputError
@@ -136,7 +137,7 @@ def make_polygon_part(part_id: str, exterior, holes=(), *, transform: np.ndarray
     placed = [(a * scale) @ T[:2, :2].T + T[:2, 2] for a in arrays]
     poly = Polygon(placed[0], placed[1:])
     if not poly.is_valid:
-        reason = shapely.validation.explain_validity(poly)
+        reason = explain_validity(poly)
         raise InputError(f"invalid polygon: {reason}", **where)
     if poly.area <= 0:
         raise InputError("degenerate polygon: zero area", **where)

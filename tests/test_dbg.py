@@ -20,7 +20,8 @@ def brute_free(g: DBG, mask: int) -> set[int]:
 
 
 def test_chain_has_prefix_free_sets():
-    # 0 -> 1 -> 2 -> 3 (each part blocked by the next): free sets are the suffixes {3}, {2,3}, {1,2,3}
+    # 0 -> 1 -> 2 -> 3 (each part blocked by the next): the free sets are the suffixes
+    # {3}, {2,3}, {1,2,3}
     g = DBG.from_arcs(4, [(0, 1), (1, 2), (2, 3)])
     assert set(free_subsets(g)) == {0b1000, 0b1100, 0b1110}
 

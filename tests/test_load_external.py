@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 import ndbg_cli
+
 from conftest import shared
 
 pytestmark = pytest.mark.external
