@@ -32,6 +32,33 @@ class Options:
     timings: bool = False
 
 
+def read_config(path: str | Path) -> dict:
+    """Settings from a YAML config file (see ``configs/default.yaml``): a mapping whose keys
+    are :class:`Options` fields. Unknown keys and bad values are input errors."""
+    import dataclasses
+
+    import yaml
+
+    from .errors import InputError
+
+    try:
+        data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise InputError(f"cannot read config: {exc}".splitlines()[0], file=str(path)) from None
+    if not isinstance(data, dict):
+        raise InputError("a config must be a YAML mapping", file=str(path))
+    fields = {f.name for f in dataclasses.fields(Options)}
+    unknown = sorted(set(data) - fields)
+    if unknown:
+        raise InputError(f"unknown setting '{unknown[0]}' (known: {', '.join(sorted(fields))})",
+                         file=str(path))
+    if data.get("motion", "all") not in MOTIONS:
+        raise InputError(f"motion must be one of {', '.join(MOTIONS)}", file=str(path))
+    if data.get("interference", "warn") not in ("error", "warn", "ignore"):
+        raise InputError("interference must be error, warn or ignore", file=str(path))
+    return data
+
+
 def assembly_section(asm: Assembly) -> dict:
     """The report's ``assembly`` section: name, source, units, tolerance, parts."""
     parts = []

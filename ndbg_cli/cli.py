@@ -16,7 +16,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .analysis import MOTIONS, Options, analyze_path, error_record
+from .analysis import MOTIONS, Options, analyze_path, error_record, read_config
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, InputError, NdbgError
 from .loaders import discover
 from .progress import progress
@@ -97,8 +97,11 @@ def _common_load_options(f):
               show_default=True, help="What interpenetrating parts are.")
 @click.option("--timings", is_flag=True, help="Record wall-clock timings in the report "
               "(makes it differ from run to run).")
+@click.option("--config", "config", type=click.Path(), help="YAML settings file (see "
+              "configs/default.yaml); options given on the command line win.")
 @_common_load_options
-def analyze(paths, fmt, out, motion, interference, timings, units, tolerance,
+@click.pass_context
+def analyze(ctx, paths, fmt, out, motion, interference, timings, config, units, tolerance,
             allow_outside_paths) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
@@ -109,9 +112,9 @@ def analyze(paths, fmt, out, motion, interference, timings, units, tolerance,
     Example:
       ndbg analyze assemblies/bell.yaml --format json
     """
-    options = Options(motion=motion, units=units, tolerance=tolerance,
-                      allow_outside_paths=allow_outside_paths, interference=interference,
-                      timings=timings)
+    options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
+                       allow_outside_paths=allow_outside_paths, interference=interference,
+                       timings=timings)
     targets: list[Path] = []
     for p in paths:
         if not Path(p).exists():
@@ -133,6 +136,16 @@ def analyze(paths, fmt, out, motion, interference, timings, units, tolerance,
     else:
         click.echo("\n".join(render(r) for r in reports), nl=False)
     sys.exit(code)
+
+
+def _options(ctx: click.Context, config: str | None, **given) -> Options:
+    """Options from the config file, overridden by the options given on the command line."""
+    settings = read_config(config) if config else {}
+    for name, value in given.items():
+        source = ctx.get_parameter_source(name)
+        if source is not None and source.name != "DEFAULT" or name not in settings:
+            settings[name] = value
+    return Options(**settings)
 
 
 def _analyze_one(target: Path, options: Options) -> dict:

@@ -74,8 +74,11 @@ def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
     if dropped:
         mesh.update_faces(keep)
         mesh.remove_unreferenced_vertices()
-    watertight = bool(mesh.is_watertight)
-    winding = bool(mesh.is_winding_consistent)
+    boundary, nonmanifold, closed = edge_stats(mesh)
+    # A closed surface whose edges pair up with their reverses bounds a well-defined volume even
+    # where four faces meet at an edge (voxel-like parts touching themselves along an edge).
+    watertight = bool(mesh.is_watertight) or closed
+    winding = bool(mesh.is_winding_consistent) or closed
     volume = float(mesh.volume) if watertight and winding else 0.0
     if watertight and winding and volume < 0:
         mesh.invert()
@@ -86,8 +89,13 @@ def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
         raise InputError("degenerate mesh: closed but encloses no volume", **where)
     if not watertight:
         diags.append(Diagnostic("warning", "not-watertight",
-                                f"mesh is not watertight ({_open_edges(mesh)} open edges): "
-                                "volumes and interference checks are approximate", **where))
+                                f"mesh is not watertight ({boundary} open, {nonmanifold} "
+                                "non-manifold edges): volumes and interference checks are "
+                                "approximate", **where))
+    elif nonmanifold:
+        diags.append(Diagnostic("warning", "non-manifold",
+                                f"closed but with {nonmanifold} non-manifold edge(s) (more than "
+                                "two faces meet)", **where))
     elif not winding:
         diags.append(Diagnostic("warning", "inconsistent-winding",
                                 "faces are not consistently wound", **where))
@@ -104,10 +112,21 @@ def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
     return part, diags
 
 
-def _open_edges(mesh: trimesh.Trimesh) -> int:
-    edges = mesh.edges_sorted
-    _, counts = np.unique(edges, axis=0, return_counts=True)
-    return int(np.count_nonzero(counts != 2))
+def edge_stats(mesh: trimesh.Trimesh) -> tuple[int, int, bool]:
+    """``(boundary edges, non-manifold edges, closed)`` of a triangle mesh.
+
+    A boundary edge has one face, a non-manifold edge more than two. The mesh is *closed* when
+    every directed edge ``(u, v)`` occurs as often as its reverse ``(v, u)``: then the
+    surface is a consistently oriented cycle and its signed volume is meaningful.
+    """
+    _, counts = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    boundary = int(np.count_nonzero(counts == 1))
+    nonmanifold = int(np.count_nonzero(counts > 2))
+    d = np.asarray(mesh.edges, dtype=np.int64)
+    n = int(d.max()) + 1 if len(d) else 1
+    fwd = np.sort(d[:, 0] * n + d[:, 1])
+    rev = np.sort(d[:, 1] * n + d[:, 0])
+    return boundary, nonmanifold, bool(len(d)) and bool(np.array_equal(fwd, rev))
 
 
 def make_polygon_part(part_id: str, exterior, holes=(), *, transform: np.ndarray | None = None,

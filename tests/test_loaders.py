@@ -258,3 +258,18 @@ def test_cli_help_version_and_module_entry():
         assert h.returncode == 0 and "Example" in h.stdout, cmd
     s = run_cli("schema")
     assert json.loads(s.stdout)["title"] == "ndbg report"
+
+
+def test_config_file_sets_defaults_and_flags_win(tmp_path):
+    path = write_two_boxes(tmp_path)
+    cfg = tmp_path / "ci.yaml"
+    cfg.write_text("tolerance: 0.5\nmotion: translation\n")
+    doc = json.loads(run_cli("analyze", path, "--format", "json", "--config", cfg).stdout)
+    assert doc["assembly"]["tolerance"] == 0.5
+    assert doc["options"]["motion"] == "translation"
+    doc = json.loads(run_cli("analyze", path, "--format", "json", "--config", cfg,
+                             "--tolerance", "0.25").stdout)
+    assert doc["assembly"]["tolerance"] == 0.25
+    cfg.write_text("tolerence: 1\n")
+    r = run_cli("analyze", path, "--config", cfg)
+    assert r.returncode == 2 and "unknown setting 'tolerence'" in r.stderr
