@@ -1,0 +1,79 @@
+"""The generalized-motion family (issue 7) on the bell and AS1: its cost next to the
+translational NDBG's.
+
+Figures per case (milliseconds unless stated; best of 3 after the contacts are computed once):
+
+* ``contacts``: the contact stage (shared input, timed once for reference);
+* ``translational``: ``infinitesimal.infinitesimal_ndbg`` from the same contacts;
+* ``generalized_ndbg``: contact rows + suggested motions and their DBGs (the family itself);
+* ``generalized_section``: the report section (needs-rotation LPs per part and candidate,
+  LP validation of the candidate partitionings);
+* ``ndbg_ratio``: generalized_ndbg / translational (target <= 1);
+* ``with_section_ratio``: (generalized_ndbg + generalized_section) / translational;
+* counts: suggested regions, contact rows, needs-rotation subassemblies, candidates.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import ROOT, SHARED, best_of  # noqa: E402
+
+import ndbg_cli  # noqa: E402
+from ndbg_cli import generalized as ge  # noqa: E402
+from ndbg_cli import twist as tw  # noqa: E402
+
+CASES = {
+    "bell": ROOT / "assemblies" / "bell.yaml",
+    "as1": SHARED / "as1" / "as1-oc-214.stp",
+}
+
+
+def _translational(asm, result):
+    try:
+        from ndbg_cli.infinitesimal import infinitesimal_ndbg
+    except ImportError:
+        return None
+    return best_of(lambda: infinitesimal_ndbg(asm, result))[0]
+
+
+def run() -> list[tuple[str, float, str]]:
+    from ndbg_cli.contacts import analyze_contacts
+
+    rows_out: list[tuple[str, float, str]] = []
+    for name, path in CASES.items():
+        if not path.exists():
+            continue
+        asm = ndbg_cli.load(path)
+        t_contacts, result = best_of(lambda a=asm: analyze_contacts(a), repeat=1)
+        cs = list(result.contacts)
+        t_trans = _translational(asm, result)
+
+        def build(a=asm, c=cs):
+            rows = tw.contact_rows(a, c)
+            return rows, ge.generalized_ndbg(a, c, rows=rows)
+
+        t_gen, (rows, g) = best_of(build)
+        t_sec, sec = best_of(lambda a=asm, n=g, r=rows: ge.generalized_section(a, n, r))
+        rows_out += [(f"{name}.contacts", t_contacts * 1000, "ms"),
+                     (f"{name}.generalized_ndbg", t_gen * 1000, "ms"),
+                     (f"{name}.generalized_section", t_sec * 1000, "ms"),
+                     (f"{name}.suggested_regions", len(g.regions), "regions"),
+                     (f"{name}.contact_rows", len(rows.a), "rows"),
+                     (f"{name}.needs_rotation", len(sec["needs_rotation"]), "subassemblies"),
+                     (f"{name}.lp_candidates", len(sec["candidates"]), "partitionings"),
+                     (f"{name}.lp_rejected", len(sec["rejected_candidates"]), "partitionings")]
+        if t_trans is not None:
+            rows_out += [(f"{name}.translational", t_trans * 1000, "ms"),
+                         (f"{name}.ndbg_ratio", t_gen / max(t_trans, 1e-9), "x"),
+                         (f"{name}.with_section_ratio", (t_gen + t_sec) / max(t_trans, 1e-9),
+                          "x")]
+    return rows_out
+
+
+if __name__ == "__main__":
+    for fig, value, unit in run():
+        print(f"{fig:<40} {value:>12.4g} {unit}")

@@ -1,0 +1,124 @@
+"""Benchmark: the NDBG for infinite translations (:func:`ndbg_cli.infinite.build_infinite`).
+
+Cases: AS1 (18 parts, 11k triangles), the beam (5 parts, 48k triangles), the engine GLB (115
+open meshes), and synthetic grids of 10 / 100 / 1000 boxes (unit cubes with 0.5 gaps). Every
+ordered pair of parts is processed (distant parts block too), so the cost grows with the
+number of part pairs times the triangle pairs that can face each other; the growth exponent
+is the log-log slope of the time over the grid sizes. A case whose estimated time exceeds
+``BUDGET_S`` is skipped with the estimate.
+
+``run()`` returns ``[(name, seconds, note)]``; ``python benchmarks/bench_infinite.py`` prints it.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+import ndbg_cli
+from ndbg_cli.assembly import Assembly
+from ndbg_cli.infinite import build_infinite, cones_to_face_geoms, pair_cones, part_triangles
+from ndbg_cli.validate import make_part
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+#: Cases estimated to take longer than this are skipped (seconds).
+BUDGET_S = 300.0
+
+
+def grid(n: int) -> Assembly:
+    """``n`` unit boxes on a cubic grid with pitch 1.5 (no contacts)."""
+    side = math.ceil(n ** (1 / 3))
+    parts = []
+    for k in range(n):
+        x, y, z = k % side, (k // side) % side, k // (side * side)
+        m = trimesh.creation.box(extents=[1, 1, 1])
+        m.apply_translation([1.5 * x, 1.5 * y, 1.5 * z])
+        parts.append(make_part(f"b{k}", m.vertices, m.faces)[0])
+    return Assembly(f"grid{n}", tuple(parts))
+
+
+def estimate_seconds(asm: Assembly, sample: int = 250) -> float:
+    """Estimated build time: the cost per triangle pair measured on the largest pair of parts
+    (each subsampled to ``sample`` triangles) times the number of triangle pairs, plus a
+    fixed cost per ordered part pair measured on two single triangles."""
+    tris = part_triangles(asm)
+    eps = asm.length_tolerance
+    sizes = np.array([len(t[0]) for t in tris])
+    i, j = np.argsort(sizes)[-2:]
+    rng = np.random.default_rng(0)
+
+    def timed(a: int, b: int, k: int) -> float:
+        ia = rng.permutation(len(tris[a][0]))[:k]
+        jb = rng.permutation(len(tris[b][0]))[:k]
+        t0 = time.perf_counter()
+        cones, _ = pair_cones(tris[a][0][ia], tris[a][1][ia], tris[b][0][jb], tris[b][1][jb],
+                              eps)
+        cones_to_face_geoms(cones)
+        return time.perf_counter() - t0
+
+    k = int(min(sample, sizes[i], sizes[j]))
+    per_pair = timed(i, j, k) / (k * k)
+    overhead = timed(i, j, 1)
+    total_pairs = float(sizes.sum() ** 2 - (sizes ** 2).sum())
+    n = len(tris)
+    return per_pair * total_pairs + overhead * n * (n - 1)
+
+
+def _time(asm: Assembly) -> tuple[float, str]:
+    t0 = time.perf_counter()
+    nd = build_infinite(asm)
+    dt = time.perf_counter() - t0
+    s = nd.stats
+    note = (f"{len(asm.parts)} parts, {sum(p.check.triangles for p in asm.parts)} tri, "
+            f"{s['pieces']} cones, regions {s['regions_by_dimension']}, "
+            f"{s['distinct_dbgs']} DBGs; cones+unions {s['time_blocked_sets_s']:.2f} s, "
+            f"arrangement {s['time_arrangement_s']:.2f} s, DBGs {s['time_dbgs_s']:.2f} s")
+    return dt, note
+
+
+def run() -> list[tuple[str, float, str]]:
+    out: list[tuple[str, float, str]] = []
+    cases = [("as1", SHARED / "as1" / "as1-oc-214.stp"),
+             ("beam", SHARED / "beam" / "assembled"),
+             ("engine", SHARED / "engine" / "2CylinderEngine.glb")]
+    for name, path in cases:
+        if not path.exists():
+            out.append((name, float("nan"), f"skipped: {path} not found"))
+            continue
+        asm = ndbg_cli.load(path)
+        est = estimate_seconds(asm)
+        if est > BUDGET_S:
+            tri = sum(p.check.triangles for p in asm.parts)
+            out.append((name, float("nan"), f"skipped: estimated {est:.0f} s ({len(asm.parts)} "
+                        f"parts, {tri} triangles; cost ~ triangle pairs)"))
+            continue
+        dt, note = _time(asm)
+        out.append((name, dt, note + f" (estimated {est:.1f} s)"))
+    sizes, times = [], []
+    for n in (10, 100, 1000):
+        if len(times) >= 2:
+            slope = math.log(times[-1] / times[-2]) / math.log(sizes[-1] / sizes[-2])
+            est = times[-1] * (n / sizes[-1]) ** slope
+            if est > BUDGET_S:
+                out.append((f"grid{n}", float("nan"),
+                            f"skipped: estimated {est:.0f} s (exponent {slope:.2f})"))
+                continue
+        dt, note = _time(grid(n))
+        sizes.append(n)
+        times.append(dt)
+        out.append((f"grid{n}", dt, note))
+    if len(times) >= 2:
+        slope = float(np.polyfit(np.log(sizes), np.log(times), 1)[0])
+        out.append(("grid growth exponent", slope, f"log-log slope over n = {sizes}"))
+    return out
+
+
+if __name__ == "__main__":
+    for name, secs, note in run():
+        print(f"{name:22s} {secs:10.3f}  {note}")
+        sys.stdout.flush()

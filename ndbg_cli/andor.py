@@ -1,0 +1,533 @@
+"""The AND/OR graph of all candidate assembly algorithms (paper section 7.2).
+
+Nodes are the distinct subassemblies (part bitmasks) reachable from the whole product by
+candidate partitionings; the hyperarcs of a node are its candidate partitionings
+``{S, M \\ S}``, each listed once however many regions (and whichever orientation) make it
+free. The graph is built lazily (depth-first from the root) with memoization and an explicit
+budget (``max_nodes`` expanded nodes, ``time_limit`` seconds, ``split_limit`` partitionings per
+node); when the budget stops the build, ``truncated`` is set and the exact measures below are
+not available (``None``): use :func:`greedy_tree` for an anytime upper bound, or
+:func:`classes.min_depth_search` for the exact minimum depth without the whole graph (the
+report section :func:`classes.andor_section` does both).
+
+What is counted (exact Python ints):
+
+* ``min_depth``: the minimum height of a candidate assembly tree (a single part has depth 0);
+* ``tree_count``: distinct binary decomposition trees whose every internal node is a candidate
+  partitioning, children unordered (which side moves and along which region are ignored);
+* ``linear_count``: orderings ``(p1, ..., pn)`` of the parts such that for every ``k >= 2``,
+  ``{{p_k}, {p1..p_k-1}}`` is a candidate partitioning of ``{p1..p_k}``. Both orders of the
+  first two parts are counted (for ``n >= 2`` the count of distinct linear instruction
+  sequences is half of it);
+* ``min_nonlinear``: the minimum number of nonlinear instructions (neither side a single part)
+  over all candidate trees; 0 iff the product is linearizable.
+
+Freeness in a DBG induced on a subset is *hereditary* (a set free in ``M`` stays free, restricted,
+in every ``M' < M``), so without a connectivity filter every subassembly of a decomposable
+subassembly is decomposable and greedy decomposition never dead-ends; :func:`greedy_tree` uses
+this (and backtracks, within the budget, when a ``connected`` filter breaks it).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from .dbg import bits
+from .ndbg import NDBG, ConnectivityTest
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Limits of a search: expanded nodes, wall-clock seconds, partitionings per node."""
+
+    max_nodes: int = 200_000
+    time_limit: float | None = 30.0
+    split_limit: int | None = 100_000
+
+
+@dataclass(frozen=True)
+class Hyperarc:
+    """A candidate partitioning of ``node`` into ``left`` (the side holding the lowest part of
+    ``node``) and ``right``; ``moves`` lists each admissible orientation as ``(moved side,
+    regions where it is free)``, sorted by moved mask."""
+
+    node: int
+    left: int
+    right: int
+    moves: tuple[tuple[int, tuple[int, ...]], ...]
+
+    @property
+    def linear(self) -> bool:
+        """Whether one side is a single part (a linear instruction)."""
+        return self.left.bit_count() == 1 or self.right.bit_count() == 1
+
+    @property
+    def balance(self) -> int:
+        """Size of the larger side (smaller is more balanced)."""
+        return max(self.left.bit_count(), self.right.bit_count())
+
+
+def strongly_connected(succ: Sequence[int], mask: int) -> bool:
+    """Whether the DBG induced on ``mask`` is strongly connected: forward and backward reach of
+    the lowest part, on bitsets (``O(n)`` word operations per sweep, cheap on dense graphs)."""
+    v = mask & -mask
+    seen = frontier = v
+    while frontier:
+        new = 0
+        for i in bits(frontier):
+            new |= succ[i]
+        new &= mask & ~seen
+        seen |= new
+        frontier = new
+    if seen != mask:
+        return False
+    seen = v
+    grew = True
+    while grew:
+        grew = False
+        for i in bits(mask & ~seen):
+            if succ[i] & seen:
+                seen |= 1 << i
+                grew = True
+    return seen == mask
+
+
+def condense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
+    """Strong components of the DBG ``succ`` induced on ``mask`` (bitmasks, any order) and, for
+    each, the bitmask over component indices of the components it has arcs to. Iterative
+    Tarjan on bitsets with list-indexed state (the hot loop of the AND/OR graph)."""
+    arcs = sum((succ[i] & mask).bit_count() for i in bits(mask))
+    if arcs > 4 * mask.bit_count():
+        return _condense_dense(succ, mask)
+    n = len(succ)
+    index = [-1] * n
+    low = [0] * n
+    comp_of = [-1] * n
+    onstack = 0
+    stack: list[int] = []
+    comps: list[int] = []
+    counter = 0
+    for root in bits(mask):
+        if index[root] >= 0:
+            continue
+        index[root] = low[root] = counter
+        counter += 1
+        stack.append(root)
+        onstack |= 1 << root
+        work = [[root, succ[root] & mask]]
+        while work:
+            top = work[-1]
+            v, rem = top
+            if rem:
+                b = rem & -rem
+                top[1] = rem ^ b
+                w = b.bit_length() - 1
+                if index[w] < 0:
+                    index[w] = low[w] = counter
+                    counter += 1
+                    stack.append(w)
+                    onstack |= b
+                    work.append([w, succ[w] & mask])
+                elif onstack & b and index[w] < low[v]:
+                    low[v] = index[w]
+                continue
+            work.pop()
+            if work:
+                u = work[-1][0]
+                if low[v] < low[u]:
+                    low[u] = low[v]
+            if low[v] == index[v]:
+                comp = 0
+                k = len(comps)
+                while True:
+                    w = stack.pop()
+                    b = 1 << w
+                    onstack ^= b
+                    comp |= b
+                    comp_of[w] = k
+                    if w == v:
+                        break
+                comps.append(comp)
+    comp_succ = []
+    for c in comps:
+        reach = 0
+        for i in bits(c):
+            reach |= succ[i]
+        out = 0
+        for j in bits(reach & mask & ~c):
+            out |= 1 << comp_of[j]
+        comp_succ.append(out)
+    return comps, comp_succ
+
+
+def _condense_dense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
+    """:func:`condense` by forward-backward reachability on bitsets: each component is the set
+    of parts reachable from a seed that also reach it. ``O(n)`` word operations per sweep
+    instead of ``O(arcs)`` per part, which wins on dense DBGs."""
+    comps: list[int] = []
+    rem = mask
+    while rem:
+        v = rem & -rem
+        fwd = frontier = v
+        while frontier:
+            new = 0
+            for i in bits(frontier):
+                new |= succ[i]
+            new &= rem & ~fwd
+            fwd |= new
+            frontier = new
+        comp = v
+        grew = True
+        while grew:
+            grew = False
+            for i in bits(fwd & ~comp):
+                if succ[i] & comp:
+                    comp |= 1 << i
+                    grew = True
+        comps.append(comp)
+        rem &= ~comp
+    reach = []
+    for c in comps:
+        r = 0
+        for i in bits(c):
+            r |= succ[i]
+        reach.append(r & mask & ~c)
+    comp_succ = [sum(1 << b for b, cb in enumerate(comps) if r & cb) for r in reach]
+    return comps, comp_succ
+
+
+def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None) -> list[int]:
+    """Every successor-closed union of components (free set), the empty set and the whole
+    included, by binary branching on the lowest *available* component (all its successors
+    already taken): both branches always lead to outputs, so the search visits fewer than two
+    nodes per output."""
+    k = len(comps)
+    comp_pred = [0] * k
+    sinks = 0
+    for a in range(k):
+        if comp_succ[a] == 0:
+            sinks |= 1 << a
+        for b in bits(comp_succ[a]):
+            comp_pred[b] |= 1 << a
+    out: list[int] = []
+    stack = [(0, 0, sinks)]
+    while stack:
+        chosen, parts, avail = stack.pop()
+        if not avail:
+            out.append(parts)
+            if limit is not None and len(out) >= limit:
+                break
+            continue
+        c = avail & -avail
+        ci = c.bit_length() - 1
+        rest = avail ^ c
+        stack.append((chosen, parts, rest))
+        taken = chosen | c
+        for p in bits(comp_pred[ci]):
+            if comp_succ[p] & ~taken == 0:
+                rest |= 1 << p
+        stack.append((taken, parts | comps[ci], rest))
+    return out
+
+
+def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
+                connected: ConnectivityTest | None = None,
+                limit: int | None = None) -> tuple[list[Hyperarc], bool]:
+    """The hyperarcs of subassembly ``mask``: candidate partitionings ``{S, mask - S}`` (``S``
+    free in the DBG of some region induced on ``mask``) merged by unordered pair, regions
+    grouped by identical induced DBG. With ``base`` (a part index) in ``mask``, only
+    orientations whose moved side leaves the base out are kept; with ``connected`` both sides
+    must pass the test. At most ``limit`` distinct moved sets are collected. Returns
+    ``(hyperarcs sorted by (balance, left), truncated)``."""
+    if mask.bit_count() < 2:
+        return [], False
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for k, r in enumerate(ndbg.regions):
+        succ = r.dbg.succ
+        groups.setdefault(tuple([succ[i] & mask for i in bits(mask)]), []).append(k)
+    base_bit = 0 if base is None else (1 << base) & mask
+    found: dict[int, list[int]] = {}
+    truncated = False
+    for regs in groups.values():
+        succ = ndbg.regions[regs[0]].dbg.succ
+        if strongly_connected(succ, mask):
+            continue
+        comps, comp_succ = condense(succ, mask)
+        if len(comps) < 2:
+            continue
+        room = None if limit is None else limit - len(found) + 2
+        sets = free_sets(comps, comp_succ, room)
+        for s in sets:
+            if s == 0 or s == mask or s & base_bit:
+                continue
+            got = found.get(s)
+            if got is None:
+                if connected is not None and not (connected(s) and connected(mask & ~s)):
+                    continue
+                if limit is not None and len(found) >= limit:
+                    truncated = True
+                    break
+                found[s] = got = []
+            got.extend(regs)
+        if room is not None and len(sets) >= room:
+            truncated = True
+        if truncated:
+            break
+    low = mask & -mask
+    merged: dict[int, dict[int, tuple[int, ...]]] = {}
+    for s, regs in found.items():
+        left = s if s & low else mask & ~s
+        merged.setdefault(left, {})[s] = tuple(sorted(set(regs)))
+    arcs = [Hyperarc(node=mask, left=left, right=mask & ~left,
+                     moves=tuple(sorted(moves.items()))) for left, moves in merged.items()]
+    arcs.sort(key=lambda h: (h.balance, h.left))
+    return arcs, truncated
+
+
+class AndOrGraph:
+    """Lazily built, memoized AND/OR graph of the candidate algorithms of ``mask`` (default: the
+    whole product). Call :meth:`build` to expand everything reachable within ``budget``."""
+
+    def __init__(self, ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
+                 connected: ConnectivityTest | None = None, budget: Budget | None = None):
+        self.ndbg = ndbg
+        self.root = (1 << ndbg.n) - 1 if mask is None else mask
+        self.base = base
+        self.connected = connected
+        self.budget = budget or Budget()
+        self.arcs: dict[int, list[Hyperarc]] = {}
+        self.truncated = False
+        self.split_truncated = False
+        self.elapsed = 0.0
+        self._built = False
+
+    def expand(self, mask: int) -> list[Hyperarc]:
+        """The hyperarcs of ``mask`` (memoized)."""
+        got = self.arcs.get(mask)
+        if got is None:
+            got, trunc = node_splits(self.ndbg, mask, base=self.base, connected=self.connected,
+                                     limit=self.budget.split_limit)
+            self.split_truncated |= trunc
+            self.truncated |= trunc
+            self.arcs[mask] = got
+        return got
+
+    def build(self) -> AndOrGraph:
+        """Expand every node reachable from the root, depth-first, within the budget."""
+        if self._built:
+            return self
+        start = time.perf_counter()
+        deadline = None if self.budget.time_limit is None else start + self.budget.time_limit
+        stack = [self.root]
+        seen = {self.root}
+        while stack:
+            if len(self.arcs) >= self.budget.max_nodes or (
+                    deadline is not None and time.perf_counter() > deadline):
+                self.truncated = True
+                break
+            m = stack.pop()
+            for h in self.expand(m):
+                for child in (h.right, h.left):
+                    if child not in seen:
+                        seen.add(child)
+                        stack.append(child)
+        self.elapsed = time.perf_counter() - start
+        self._built = True
+        self._dp: dict[str, dict[int, int | None]] = {}
+        return self
+
+    # ------------------------------------------------------------------ exact measures
+    @property
+    def complete(self) -> bool:
+        return self._built and not self.truncated
+
+    @property
+    def node_count(self) -> int:
+        """Distinct subassemblies in the graph (expanded nodes, single parts included)."""
+        return len(self.arcs)
+
+    @property
+    def hyperarc_count(self) -> int:
+        return sum(len(v) for v in self.arcs.values())
+
+    def _order(self) -> list[int]:
+        return sorted(self.arcs, key=lambda m: (m.bit_count(), m))
+
+    def _table(self, name: str, leaf: int,
+               combine: Callable[[Hyperarc, dict[int, int | None]], int | None],
+               reduce: Callable[[list[int]], int]) -> dict[int, int | None]:
+        if not self.complete:
+            raise RuntimeError("AND/OR graph is truncated or not built")
+        if name in self._dp:
+            return self._dp[name]
+        val: dict[int, int | None] = {}
+        for m in self._order():
+            if m.bit_count() == 1:
+                val[m] = leaf
+                continue
+            cands = [c for c in (combine(h, val) for h in self.arcs[m]) if c is not None]
+            val[m] = reduce(cands) if cands else None
+        self._dp[name] = val
+        return val
+
+    def depths(self) -> dict[int, int | None]:
+        """Minimum tree height of every node (``None``: no candidate algorithm)."""
+        def comb(h: Hyperarc, v: dict[int, int | None]) -> int | None:
+            a, b = v[h.left], v[h.right]
+            return None if a is None or b is None else 1 + max(a, b)
+        return self._table("depth", 0, comb, min)
+
+    def tree_counts(self) -> dict[int, int | None]:
+        def comb(h: Hyperarc, v: dict[int, int | None]) -> int | None:
+            return (v[h.left] or 0) * (v[h.right] or 0)
+        t = self._table("trees", 1, comb, sum)
+        return {m: (c or 0) for m, c in t.items()}
+
+    def linear_counts(self) -> dict[int, int | None]:
+        def comb(h: Hyperarc, v: dict[int, int | None]) -> int | None:
+            total = 0
+            if h.left.bit_count() == 1:
+                total += v[h.right] or 0
+            if h.right.bit_count() == 1:
+                total += v[h.left] or 0
+            return total
+        t = self._table("linear", 1, comb, sum)
+        return {m: (c or 0) for m, c in t.items()}
+
+    def nonlinear_counts(self) -> dict[int, int | None]:
+        """Minimum number of nonlinear instructions of a candidate tree of every node."""
+        def comb(h: Hyperarc, v: dict[int, int | None]) -> int | None:
+            a, b = v[h.left], v[h.right]
+            return None if a is None or b is None else a + b + (0 if h.linear else 1)
+        return self._table("nonlinear", 0, comb, min)
+
+    def min_depth(self) -> int | None:
+        """Exact minimum depth of the root (``None`` if it has no candidate algorithm)."""
+        return self.depths()[self.root]
+
+    def tree_count(self) -> int:
+        return self.tree_counts()[self.root] or 0
+
+    def linear_count(self) -> int:
+        return self.linear_counts()[self.root] or 0
+
+    def min_nonlinear(self) -> int | None:
+        return self.nonlinear_counts()[self.root]
+
+    def best_arc(self, mask: int, key: str) -> Hyperarc | None:
+        """The hyperarc of ``mask`` achieving the optimum of measure ``key`` ("depth" or
+        "nonlinear"), ties broken by the other measure, then balance, then ``left``."""
+        d, nl = self.depths(), self.nonlinear_counts()
+        best = None
+        best_key = None
+        for h in self.arcs[mask]:
+            da, db, na, nb = d[h.left], d[h.right], nl[h.left], nl[h.right]
+            if da is None or db is None or na is None or nb is None:
+                continue
+            depth = 1 + max(da, db)
+            nonlin = na + nb + (0 if h.linear else 1)
+            k = ((depth, nonlin) if key == "depth" else (nonlin, depth)) + (h.balance, h.left)
+            if best_key is None or k < best_key:
+                best, best_key = h, k
+        return best
+
+
+# ---------------------------------------------------------------------- greedy search
+Chooser = Callable[[list[Hyperarc]], list[Hyperarc]]
+
+
+def prefer_balanced(arcs: list[Hyperarc]) -> list[Hyperarc]:
+    """Most balanced first (``node_splits`` already sorts that way)."""
+    return arcs
+
+
+def prefer_linear(arcs: list[Hyperarc]) -> list[Hyperarc]:
+    """Linear splits (one side a single part) first, then balanced."""
+    return sorted(arcs, key=lambda h: (not h.linear, h.balance, h.left))
+
+
+@dataclass
+class GreedyResult:
+    """A decomposition found greedily: ``choice[m]`` is the hyperarc used at every internal
+    node; ``stuck`` is a subassembly with no usable partitioning when none was found."""
+
+    root: int
+    choice: dict[int, Hyperarc] = field(default_factory=dict)
+    stuck: int | None = None
+    truncated: bool = False
+
+    @property
+    def found(self) -> bool:
+        return self.stuck is None and not self.truncated
+
+    def depth(self, mask: int | None = None) -> int:
+        m = self.root if mask is None else mask
+        if m.bit_count() == 1:
+            return 0
+        h = self.choice[m]
+        return 1 + max(self.depth(h.left), self.depth(h.right))
+
+    def nonlinear(self, mask: int | None = None) -> int:
+        m = self.root if mask is None else mask
+        if m.bit_count() == 1:
+            return 0
+        h = self.choice[m]
+        return (0 if h.linear else 1) + self.nonlinear(h.left) + self.nonlinear(h.right)
+
+
+def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
+                connected: ConnectivityTest | None = None, chooser: Chooser = prefer_balanced,
+                budget: Budget | None = None,
+                arcs: Callable[[int], list[Hyperarc]] | None = None) -> GreedyResult:
+    """One candidate tree, choosing at each node the first hyperarc in ``chooser`` order whose
+    children decompose (depth-first, memoizing failed subassemblies). Without ``connected`` the
+    first choice always works (heredity), so this is polynomial in the number of partitionings
+    visited. ``arcs`` overrides how a node's hyperarcs are obtained (e.g. an AND/OR graph's)."""
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    res = GreedyResult(root=root)
+    failed: set[int] = set()
+    deadline = None if budget.time_limit is None else time.perf_counter() + budget.time_limit
+    expanded = 0
+
+    def get(m: int) -> list[Hyperarc]:
+        if arcs is not None:
+            return arcs(m)
+        got, trunc = node_splits(ndbg, m, base=base, connected=connected,
+                                 limit=budget.split_limit)
+        res.truncated |= trunc and not got
+        return got
+
+    def solve(m: int) -> bool:
+        nonlocal expanded
+        if m.bit_count() == 1 or m in res.choice:
+            return True
+        if m in failed:
+            return False
+        expanded += 1
+        if expanded > budget.max_nodes or (deadline is not None
+                                           and time.perf_counter() > deadline):
+            res.truncated = True
+            return False
+        for h in chooser(get(m)):
+            if solve(h.left) and solve(h.right):
+                res.choice[m] = h
+                return True
+            if res.truncated:
+                return False
+        failed.add(m)
+        if res.stuck is None or m.bit_count() < res.stuck.bit_count():
+            res.stuck = m
+        return False
+
+    ok = solve(root)
+    if ok:
+        res.stuck = None
+    return res
+
+
+def lower_bound_depth(mask: int) -> int:
+    """``ceil(log2 |mask|)``: no binary tree over ``|mask|`` leaves is shallower."""
+    return max(0, (mask.bit_count() - 1).bit_length())

@@ -1,0 +1,534 @@
+"""Complexity classes and measures of a product from its NDBGs (paper sections 7.1-7.2).
+
+Every measure is ``{"value": ..., "why": "..."}`` (plus ``exact``/bounds where relevant) and
+is computed per motion family from that family's NDBG:
+
+* ``one_handed_monotone``: a candidate algorithm exists. Exact and polynomial (heredity, see
+  :mod:`andor`): decompose by sink components; the witness is a tree, the failure proof a
+  subassembly whose every induced DBG is strongly connected. For infinitesimal translations a
+  candidate is only necessary (False is a guarantee); for infinite translations it is a real
+  1-handed monotone 1-prismatic algorithm;
+* ``prismatic``: 1-handed monotone 1-prismatic, decided by the infinite-translation NDBG (True
+  there is guaranteed); the infinitesimal NDBG can only refute it; ``None`` for generalized;
+* ``linearizable`` (exact, polynomial) and ``min_nonlinear`` (exact from the AND/OR graph, else
+  an upper bound): the minimum number of nonlinear instructions, ``p + 1`` assembly lines;
+* ``min_depth``: minimum candidate tree height (exact from the AND/OR graph; else bounds);
+* ``stack_product``: one DBG on the whole product is acyclic (then every subassembly splits
+  along that single region);
+* ``min_directions``: see :func:`min_directions`;
+* ``interlocked`` and ``grasp`` when their inputs are supplied (see :mod:`interlock` and
+  :mod:`grasp`).
+
+Also here: :func:`min_depth_search` (exact minimum depth by iterative deepening, no full graph),
+:func:`andor_section` (the report's AND/OR section) and :func:`sink_decompose` (the polynomial
+decomposition behind the exact yes/no classes).
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from .andor import (
+    AndOrGraph,
+    Budget,
+    Hyperarc,
+    condense,
+    greedy_tree,
+    lower_bound_depth,
+    node_splits,
+)
+from .dbg import bits
+from .ndbg import NDBG, ConnectivityTest
+
+
+# ------------------------------------------------------------- exact min depth, no full graph
+@dataclass
+class DepthResult:
+    """Outcome of :func:`min_depth_search`: ``depth`` is exact when ``exact``; otherwise
+    ``lower <= optimum <= upper`` (``upper`` from the best tree found). ``choice`` holds the
+    hyperarcs of an optimal (or best found) tree; ``expanded`` counts nodes whose splits were
+    enumerated."""
+
+    depth: int | None
+    exact: bool
+    lower: int
+    upper: int | None
+    choice: dict[int, Hyperarc]
+    expanded: int
+
+
+def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
+                     connected: ConnectivityTest | None = None, budget: Budget | None = None,
+                     arcs: Callable[[int], list[Hyperarc]] | None = None) -> DepthResult:
+    """Exact minimum tree height by iterative deepening without building the whole graph.
+
+    ``fits(M, d)``: a tree of height ``<= d`` exists iff some hyperarc has both sides of at most
+    ``2^(d-1)`` parts that fit in ``d - 1``; memoized per subassembly as the largest refuted and
+    smallest proven height. Starts at ``ceil(log2 n)`` and stops at the greedy balanced tree's
+    height (an upper bound), so a proven optimum usually costs far fewer nodes than the full
+    AND/OR graph. Anytime: when the budget runs out, returns the bounds reached.
+    """
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    memo: dict[int, list[Hyperarc]] = {}
+    trunc_splits = False
+
+    def get(m: int) -> list[Hyperarc]:
+        nonlocal trunc_splits
+        got = memo.get(m)
+        if got is None:
+            if arcs is not None:
+                got = arcs(m)
+            else:
+                got, t = node_splits(ndbg, m, base=base, connected=connected,
+                                     limit=budget.split_limit)
+                trunc_splits |= t
+            memo[m] = got
+        return got
+
+    greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
+    lower = lower_bound_depth(root)
+    if not greedy.found:
+        exact = not greedy.truncated and not trunc_splits
+        return DepthResult(None, exact, lower, None, {}, len(memo))
+    upper = greedy.depth()
+    best_choice = dict(greedy.choice)
+    proven: dict[int, int] = {}
+    refuted: dict[int, int] = {}
+    choice: dict[int, Hyperarc] = {}
+    deadline = None if budget.time_limit is None else time.perf_counter() + budget.time_limit
+
+    class _Stop(Exception):
+        pass
+
+    def fits(m: int, d: int) -> bool:
+        if m.bit_count() == 1:
+            return True
+        if d < lower_bound_depth(m) or refuted.get(m, -1) >= d:
+            return False
+        if proven.get(m, 1 << 30) <= d:
+            return True
+        if len(memo) > budget.max_nodes or (deadline is not None
+                                            and time.perf_counter() > deadline):
+            raise _Stop
+        cap = 1 << (d - 1)
+        for h in get(m):
+            if h.left.bit_count() <= cap and h.right.bit_count() <= cap and \
+                    fits(h.left, d - 1) and fits(h.right, d - 1):
+                proven[m] = d
+                choice[m] = h
+                return True
+        refuted[m] = max(d, refuted.get(m, -1))
+        return False
+
+    d = lower
+    try:
+        while d < upper:
+            if fits(root, d):
+                upper = d
+                best_choice = _tree_choice(root, choice)
+                break
+            d += 1
+    except _Stop:
+        return DepthResult(None, False, d, upper, best_choice, len(memo))
+    exact = not trunc_splits
+    return DepthResult(upper, exact, upper if exact else d, upper, best_choice, len(memo))
+
+
+def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
+    """The hyperarcs of the tree rooted at ``root`` in ``choice``."""
+    out: dict[int, Hyperarc] = {}
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        h = choice[m]
+        out[m] = h
+        stack.extend((h.left, h.right))
+    return out
+
+
+# ----------------------------------------------------------------------------- report
+def _big(value: int | None) -> dict:
+    return {} if value is None or abs(value) <= 2 ** 53 else {"as_string": str(value)}
+
+
+def andor_section(graph: AndOrGraph) -> dict:
+    """The report's ``andor`` section: graph size and exact measures (``None`` when the graph is
+    truncated, except the minimum depth, which then comes from :func:`min_depth_search` when
+    its own budget suffices, else from its bounds). Counts above 2^53 are also given as decimal
+    strings."""
+    graph.build()
+    out: dict = {
+        "nodes": graph.node_count,
+        "hyperarcs": graph.hyperarc_count,
+        "truncated": graph.truncated,
+        "split_truncated": graph.split_truncated,
+        "min_depth": None, "trees": None, "linear_sequences": None, "min_nonlinear": None,
+        "min_depth_lower_bound": lower_bound_depth(graph.root),
+        "min_depth_upper_bound": None,
+        "counted": {
+            "trees": "distinct binary decomposition trees, children unordered, every internal "
+                     "node a candidate partitioning (moving side and region ignored)",
+            "linear_sequences": "orderings (p1..pn) of the parts with {p_k} vs {p1..p_k-1} a "
+                                "candidate partitioning of {p1..p_k} for every k >= 2 (both "
+                                "orders of the first two parts counted)",
+        },
+    }
+    if graph.complete:
+        d = graph.min_depth()
+        out.update(min_depth=d, min_depth_lower_bound=d, min_depth_upper_bound=d,
+                   min_depth_exact=True, trees=graph.tree_count(),
+                   linear_sequences=graph.linear_count(), min_nonlinear=graph.min_nonlinear())
+        if _big(out["trees"]):
+            out["trees_str"] = str(out["trees"])
+        if _big(out["linear_sequences"]):
+            out["linear_sequences_str"] = str(out["linear_sequences"])
+    else:
+        r = min_depth_search(graph.ndbg, graph.root, base=graph.base, connected=graph.connected,
+                             budget=graph.budget, arcs=graph.expand)
+        out.update(min_depth=r.depth if r.exact else None, min_depth_lower_bound=r.lower,
+                   min_depth_upper_bound=r.upper, min_depth_exact=r.exact)
+    return out
+
+
+# ------------------------------------------------- polynomial decomposition by sink components
+def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
+               base: int | None = None, linear: bool = False) -> tuple[int, int] | None:
+    """A candidate partitioning of ``mask`` as ``(moved, region)``, or ``None`` if none exists
+    in ``regions`` (default: all).
+
+    Every nonempty free set contains a sink component of the condensation, so a proper free set
+    avoiding the base exists iff some sink component avoids it; with ``linear`` one side must
+    be a single part: a singleton sink component (moved), or a part with no incoming arc whose
+    complement moves (only if that part is the base or the base is absent).
+    """
+    if mask.bit_count() < 2:
+        return None
+    base_bit = 0 if base is None else (1 << base) & mask
+    order = range(len(ndbg.regions)) if regions is None else regions
+    seen: set[tuple[int, ...]] = set()
+    for r in order:
+        g = ndbg.regions[r].dbg
+        key = tuple(g.succ[i] & mask for i in bits(mask))
+        if key in seen:
+            continue
+        seen.add(key)
+        comps, comp_succ = condense(g.succ, mask)
+        if len(comps) < 2:
+            continue
+        for c, s in zip(comps, comp_succ):
+            if s == 0 and not c & base_bit and (not linear or c.bit_count() == 1):
+                return c, r
+        if linear:
+            incoming = 0
+            for i in bits(mask):
+                incoming |= g.succ[i] & mask & ~(1 << i)
+            for p in bits(mask & ~incoming):
+                if not base_bit or base_bit == 1 << p:
+                    return mask & ~(1 << p), r
+    return None
+
+
+def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] | None = None,
+                   *, base: int | None = None, linear: bool = False
+                   ) -> tuple[dict[int, tuple[int, int]], int | None]:
+    """Decompose ``mask`` by :func:`sink_split` at every node: ``(choice, stuck)`` with
+    ``choice[m] = (moved, region)``. By heredity this is exact: ``stuck`` (a subassembly with no
+    partitioning, hence a proof of failure) is ``None`` iff a candidate tree (a linear one with
+    ``linear``) exists using only ``regions``. Polynomial: ``O(n * regions * (n + arcs))``."""
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    choice: dict[int, tuple[int, int]] = {}
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        got = sink_split(ndbg, m, regions, base=base, linear=linear)
+        if got is None:
+            return choice, m
+        choice[m] = got
+        stack.extend((m & ~got[0], got[0]))
+    return choice, None
+
+
+
+def _names(ndbg: NDBG, mask: int) -> str:
+    return "{" + ", ".join(ndbg.names(mask)) + "}"
+
+
+def tree_string(ndbg: NDBG, choice: dict[int, tuple[int, int]], mask: int) -> str:
+    """Compact nested rendering ``(moved | rest)`` of a decomposition ``choice[m] = (moved,
+    region)``."""
+    if mask.bit_count() < 2:
+        return ndbg.names(mask)[0]
+    moved, _ = choice[mask]
+    return f"({tree_string(ndbg, choice, moved)} | {tree_string(ndbg, choice, mask & ~moved)})"
+
+
+def _regions_named(ndbg: NDBG, regions) -> list[dict]:
+    out = []
+    for r in regions:
+        reg = ndbg.regions[r]
+        d: dict = {"region": r}
+        if reg.direction is not None:
+            d["direction"] = [float(x) for x in reg.direction]
+        if reg.motion is not None:
+            d["motion"] = reg.motion
+        out.append(d)
+    return out
+
+
+def _dominant_regions(ndbg: NDBG, mask: int) -> list[int]:
+    """One region per distinct DBG induced on ``mask``, dropping any whose arc set contains
+    another's (its free sets are a subset of the other's, so it is never needed)."""
+    reps: dict[tuple[int, ...], int] = {}
+    for k, r in enumerate(ndbg.regions):
+        key = tuple(r.dbg.succ[i] & mask for i in bits(mask))
+        if key not in reps:
+            reps[key] = k
+    keys = list(reps)
+    keep = []
+    for a in keys:
+        dominated = any(b != a and all(x & y == y for x, y in zip(a, b)) for b in keys)
+        if not dominated:
+            keep.append(reps[a])
+    return sorted(keep)
+
+
+def min_directions(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
+                   mask: int | None = None) -> dict:
+    """Minimum number of distinct regions (translation directions, or suggested motions) a
+    candidate algorithm needs, where each instruction may use any region in which its moved
+    side is free (moving ``S`` along ``d`` and the rest along ``-d`` count as different
+    directions).
+
+    Exact by search: subsets of the non-dominated distinct DBGs are tried by increasing size,
+    each tested in polynomial time by :func:`sink_decompose` (heredity), until
+    ``budget.max_nodes`` tests or ``budget.time_limit``; beyond that the answer is an upper
+    bound from a greedy cover (``exact`` False, ``lower_bound`` the largest size fully refuted).
+    """
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    if root.bit_count() < 2:
+        return {"value": 0, "exact": True, "lower_bound": 0, "regions": [],
+                "why": "a single part needs no instruction"}
+    choice, stuck = sink_decompose(ndbg, root, base=base)
+    if stuck is not None:
+        return {"value": None, "exact": True, "lower_bound": None, "regions": None,
+                "stuck": stuck, "why": f"no candidate algorithm: {_names(ndbg, stuck)} cannot "
+                "be partitioned in any region"}
+    cands = _dominant_regions(ndbg, root)
+    deadline = None if budget.time_limit is None else time.perf_counter() + budget.time_limit
+    tests = 0
+    refuted = 0
+    for k in range(1, len(cands) + 1):
+        for combo in itertools.combinations(cands, k):
+            tests += 1
+            if tests > budget.max_nodes or (deadline is not None
+                                            and time.perf_counter() > deadline):
+                return _greedy_directions(ndbg, root, base, cands, refuted, choice)
+            ch, st = sink_decompose(ndbg, root, list(combo), base=base)
+            if st is None:
+                used = sorted({r for _, r in ch.values()})
+                return {"value": len(used), "exact": True, "lower_bound": len(used),
+                        "regions": used, "directions": _regions_named(ndbg, used),
+                        "why": ("exact: one region suffices" if k == 1 else
+                                f"exact: no set of {k - 1} region(s) suffices") +
+                        f"; regions {used} give the tree {tree_string(ndbg, ch, root)}"}
+        refuted = k
+    raise AssertionError("the full region set decomposes, so some subset must")
+
+
+def _greedy_directions(ndbg: NDBG, root: int, base: int | None, cands: list[int],
+                       refuted: int, choice: dict[int, tuple[int, int]]) -> dict:
+    """Upper bound: grow a region set greedily, adding the region that lets the decomposition
+    go furthest (fewest parts left in stuck subassemblies), until nothing is stuck."""
+    chosen: list[int] = []
+    while True:
+        best = None
+        for r in cands:
+            if r in chosen:
+                continue
+            ch, st = sink_decompose(ndbg, root, chosen + [r], base=base)
+            score = 0 if st is None else _stuck_weight(ndbg, root, chosen + [r], base)
+            if best is None or (score, r) < best[:2]:
+                best = (score, r, ch, st)
+        assert best is not None
+        chosen.append(best[1])
+        if best[3] is None:
+            used = sorted({r for _, r in best[2].values()})
+            return {"value": len(used), "exact": False, "lower_bound": refuted + 1,
+                    "regions": used, "directions": _regions_named(ndbg, used),
+                    "why": f"upper bound (search budget exhausted after all sets of "
+                    f"{refuted} region(s) failed): regions {used} give the tree "
+                    f"{tree_string(ndbg, best[2], root)}"}
+
+
+def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -> int:
+    """Parts inside stuck subassemblies when decomposing with ``regions`` as far as possible."""
+    total = 0
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        got = sink_split(ndbg, m, regions, base=base)
+        if got is None:
+            total += m.bit_count()
+            continue
+        stack.extend((got[0], m & ~got[0]))
+    return total
+
+
+def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
+             graph: AndOrGraph | None = None) -> dict:
+    """All NDBG-based measures of one motion family (see the module docstring). The default
+    budget keeps the AND/OR graph to 20,000 nodes / 10 s (bounds are reported beyond)."""
+    budget = budget or Budget(max_nodes=20_000, time_limit=10.0)
+    fam = ndbg.family
+    full = (1 << ndbg.n) - 1
+    out: dict = {}
+    choice, stuck = sink_decompose(ndbg, full, base=base)
+    ohm = stuck is None
+    if ohm:
+        why = f"candidate tree {tree_string(ndbg, choice, full)}"
+    else:
+        why = (f"subassembly {_names(ndbg, stuck)}: every one of the "
+               f"{len(_dominant_regions(ndbg, stuck))} non-dominated distinct DBGs induced on it "
+               "admits no proper free subset" + (" avoiding the base" if base is not None
+                                                  else " (all strongly connected)"))
+    if fam == "infinitesimal_translation":
+        why += ("" if not ohm else " (necessary condition only: infinitesimal translations)")
+    out["one_handed_monotone"] = {"value": ohm, "why": why}
+
+    if fam == "infinite_translation":
+        out["prismatic"] = {"value": ohm, "why": ("guaranteed 1-handed monotone 1-prismatic: "
+                                                  if ohm else "no 1-prismatic algorithm: ")
+                            + why}
+    elif fam == "infinitesimal_translation":
+        out["prismatic"] = {"value": False if not ohm else None,
+                            "why": ("not 1-handed monotone prismatic: " + why) if not ohm else
+                            "undecided by infinitesimal translations (candidates exist); see "
+                            "the infinite_translation NDBG"}
+    else:
+        out["prismatic"] = {"value": None, "why": "not decided by generalized motions"}
+
+    lin_choice, lin_stuck = sink_decompose(ndbg, full, base=base, linear=True)
+    if lin_stuck is None:
+        order = _linear_order(ndbg, lin_choice, full)
+        out["linearizable"] = {"value": True, "why": "parts added one at a time: "
+                               + ", ".join(order)}
+    else:
+        out["linearizable"] = {"value": False, "why": f"subassembly {_names(ndbg, lin_stuck)}: "
+                               "no single part can be separated from the rest in any region"}
+
+    if graph is None:
+        graph = AndOrGraph(ndbg, base=base, budget=budget).build()
+    if not ohm:
+        for k in ("min_nonlinear", "min_depth"):
+            out[k] = {"value": None, "exact": True, "why": "no candidate algorithm"}
+    elif graph.complete:
+        p = graph.min_nonlinear()
+        out["min_nonlinear"] = {"value": p, "exact": True, "assembly_lines": p + 1,
+                                "why": f"exact over {graph.node_count} AND/OR nodes"}
+        d = graph.min_depth()
+        out["min_depth"] = {"value": d, "exact": True, "lower_bound": d, "upper_bound": d,
+                            "why": f"exact over {graph.node_count} AND/OR nodes"}
+    else:
+        g_lin = greedy_tree(ndbg, full, base=base, chooser=_linear_first, budget=budget)
+        r = min_depth_search(ndbg, full, base=base, budget=budget, arcs=graph.expand)
+        ub_p = g_lin.nonlinear() if g_lin.found else None
+        out["min_nonlinear"] = {"value": ub_p, "exact": lin_stuck is None and ub_p == 0,
+                                "lower_bound": 0 if lin_stuck is None else 1,
+                                "assembly_lines": None if ub_p is None else ub_p + 1,
+                                "why": "upper bound from a greedy linear-first tree (AND/OR "
+                                "graph truncated)"}
+        out["min_depth"] = {"value": r.upper, "exact": r.exact, "lower_bound": r.lower,
+                            "upper_bound": r.upper,
+                            "why": ("exact" if r.exact else "upper bound (best tree found), "
+                                    f"lower bound {r.lower}") + " by iterative deepening over "
+                            f"{r.expanded} subassemblies (AND/OR graph truncated)"}
+
+    acyclic = [k for k, r in enumerate(ndbg.regions) if r.dbg.is_acyclic(full)]
+    if fam == "generalized":
+        out["stack_product"] = {"value": None, "why": "stack products are defined for "
+                                "translations"}
+    elif acyclic:
+        k = min(acyclic, key=lambda r: (-ndbg.regions[r].dimension, r))
+        note = "" if fam == "infinite_translation" else " (candidate: infinitesimal only)"
+        out["stack_product"] = {"value": True, "region": k,
+                                "direction": _regions_named(ndbg, [k])[0].get("direction"),
+                                "why": f"the DBG of region {k} is acyclic: every subassembly "
+                                "comes apart along that one direction" + note}
+    else:
+        out["stack_product"] = {"value": False, "why": f"all {len(ndbg.regions)} DBGs on the "
+                                "whole product contain a cycle"}
+    md = min_directions(ndbg, base=base, budget=budget)
+    out["min_directions"] = {k: v for k, v in md.items() if k != "stuck"}
+    return out
+
+
+def _linear_first(arcs):
+    from .andor import prefer_linear
+
+    return prefer_linear(arcs)
+
+
+def _linear_order(ndbg: NDBG, choice: dict[int, tuple[int, int]], mask: int) -> list[str]:
+    """Assembly order of a linear decomposition (first two parts, then one at a time)."""
+    order: list[str] = []
+    m = mask
+    while m.bit_count() >= 2:
+        moved, _ = choice[m]
+        single = moved if moved.bit_count() == 1 else m & ~moved
+        order.append(ndbg.names(single)[0])
+        m &= ~single
+    order.append(ndbg.names(m)[0])
+    return order[::-1]
+
+
+def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = None,
+                    interlock: dict | None = None, grasps: dict | None = None) -> dict:
+    """``{family: {measure: {"value", "why", ...}}}`` for every NDBG in ``ndbgs`` (a list or a
+    family-keyed mapping). ``interlock`` (an :func:`interlock.interlock` result section) is
+    added under ``infinitesimal_translation`` (created if absent); ``grasps`` maps family to a
+    :func:`grasp.grasp_section` result."""
+    items = ndbgs.values() if isinstance(ndbgs, dict) else ndbgs
+    out: dict = {}
+    for nd in sorted(items, key=lambda x: x.family):
+        out[nd.family] = classify(nd, base=base, budget=budget)
+    if interlock is not None:
+        out.setdefault("infinitesimal_translation", {})["interlocked"] = interlock
+    for fam, g in (grasps or {}).items():
+        out.setdefault(fam, {})["grasp"] = g
+    return out
+
+
+def classes_text(section: dict) -> list[str]:
+    """Designer-readable summary of :func:`classes_section`."""
+    lines = []
+    labels = {"one_handed_monotone": "1-handed monotone", "prismatic": "1-prismatic",
+              "linearizable": "linearizable", "min_nonlinear": "nonlinear steps (min)",
+              "min_depth": "minimum depth", "stack_product": "stack product",
+              "min_directions": "directions (min)", "interlocked": "interlocked",
+              "grasp": "form-closure grasp fingers"}
+    for fam in sorted(section):
+        lines.append(f"{fam.replace('_', ' ')}:")
+        for key, label in labels.items():
+            m = section[fam].get(key)
+            if m is None:
+                continue
+            v = m.get("value")
+            if isinstance(v, bool):
+                vs = "yes" if v else "no"
+            elif v is None:
+                vs = "undecided"
+            else:
+                vs = str(v) + ("" if m.get("exact", True) else " (upper bound)")
+            lines.append(f"  {label}: {vs} - {m.get('why', '')}")
+    return lines

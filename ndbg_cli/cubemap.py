@@ -1,0 +1,151 @@
+"""Direction-space machinery: the gnomonic cube map of the unit sphere S^2 and open polyhedral
+cones clipped to its six faces.
+
+A direction ``d`` (any non-zero 3-vector) is charted on the cube face whose axis ``e`` has the
+largest ``d . e``; its chart coordinates are ``(s, t) = (d . u, d . v) / (d . e)`` in
+``[-1, 1]^2``. Central projection maps great circles to straight lines, so a convex spherical
+polygon becomes a convex polygon on each face it meets, and an open half-sphere ``{d : d . m >
+0}`` becomes the open half-plane ``m.e + s m.u + t m.v > 0``.
+
+A *cone* is given in H-representation: normals ``m_k`` (``(k, 3)``), the cone being
+``{d : d . m_k > 0 for all k}``. A zero normal is no constraint, so batches of cones are padded
+with zeros. :func:`cone_normals` computes the H-representation of the conic hull of a set of
+generator vectors (pointed or not: a half-space, a wedge or a line-containing cone come out
+right, and a set whose hull contains the origin in its interior gives no facet, i.e. every
+direction).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array.
+FACES = np.array([
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
+    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
+    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
+    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+], dtype=float)
+
+#: Slight enlargement of the chart square so that directions on a cube edge are covered on
+#: both faces (chart units).
+SQUARE_MARGIN = 1e-9
+
+
+def face_of(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Chart ``(n,)`` face indices and ``(n, 2)`` chart coordinates of directions ``(n, 3)``."""
+    d = np.atleast_2d(np.asarray(d, dtype=float))
+    dots = d @ FACES[:, 0].T  # (n, 6)
+    f = np.argmax(dots, axis=1)
+    e = dots[np.arange(len(d)), f]
+    u = np.einsum("ij,ij->i", d, FACES[f, 1])
+    v = np.einsum("ij,ij->i", d, FACES[f, 2])
+    return f, np.stack([u / e, v / e], axis=1)
+
+
+def direction_of(face: int, st: np.ndarray) -> np.ndarray:
+    """Unit directions ``(n, 3)`` of chart points ``st`` ``(n, 2)`` on ``face``."""
+    st = np.atleast_2d(np.asarray(st, dtype=float))
+    e, u, v = FACES[face]
+    d = e[None, :] + st[:, :1] * u[None, :] + st[:, 1:2] * v[None, :]
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9) -> np.ndarray:
+    """H-representation of the conic hulls of generator sets.
+
+    ``gens`` is ``(p, g, 3)``: ``p`` sets of ``g`` vectors. Returns ``(p, g(g-1)/2, 3)`` unit
+    normals ``m`` (zero rows where a candidate is not a facet) with ``cone = {d : d . m >= 0}``
+    for all rows; its interior, the open cone, is ``{d : d . m > 0}``. A candidate is the plane
+    through the origin spanned by two generators, kept (with its sign) when every generator
+    lies on one side within ``rel_tol`` (relative to the generator's length). If the generators
+    all lie in one plane through the origin, both orientations survive and the open cone is
+    empty, as it should be.
+    """
+    gens = np.asarray(gens, dtype=float)
+    p, g, _ = gens.shape
+    a, b = np.triu_indices(g, k=1)
+    n = np.cross(gens[:, a], gens[:, b])  # (p, q, 3)
+    norm = np.linalg.norm(n, axis=2, keepdims=True)
+    scale = np.linalg.norm(gens, axis=2)  # (p, g)
+    big = scale.max(axis=1)[:, None, None]
+    valid = norm > 1e-12 * big * big
+    n = np.where(valid, n / np.where(valid, norm, 1.0), 0.0)
+    dots = np.einsum("pqk,pgk->pqg", n, gens)  # (p, q, g)
+    lim = rel_tol * scale[:, None, :]
+    pos = np.all(dots >= -lim, axis=2)
+    neg = np.all(dots <= lim, axis=2)
+    sign = np.where(pos, 1.0, np.where(neg, -1.0, 0.0))
+    out = n * sign[:, :, None]
+    # When both orientations are valid (all generators in the plane) keep both: +n and -n.
+    both = pos & neg & valid[:, :, 0]
+    if both.any():
+        extra = np.where(both[:, :, None], -n, 0.0)
+        out = np.concatenate([out, extra], axis=1)
+    return out
+
+
+def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Clip the chart square of ``face`` by the open cones ``normals`` ``(p, k, 3)``.
+
+    Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
+    ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face). Vectorised
+    Sutherland-Hodgman over all cones at once, one half-plane at a time.
+    """
+    e, u, v = FACES[face]
+    p = normals.shape[0]
+    r = 1.0 + SQUARE_MARGIN
+    sq = np.array([[-r, -r], [r, -r], [r, r], [-r, r]])
+    poly = np.broadcast_to(sq, (p, 4, 2)).copy()
+    count = np.full(p, 4, dtype=np.int64)
+    coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
+    for k in range(normals.shape[1]):
+        c = coef[:, k]
+        active = np.any(c != 0.0, axis=1) & (count >= 3)
+        if not active.any():
+            continue
+        idx = np.nonzero(active)[0]
+        sub, cnt = _clip_one(poly[idx], count[idx], c[idx])
+        m = sub.shape[1]
+        if m > poly.shape[1]:
+            poly = np.concatenate([poly, np.zeros((p, m - poly.shape[1], 2))], axis=1)
+        poly[idx, :m] = sub
+        poly[idx, m:] = 0.0
+        count[idx] = cnt
+        if poly.shape[1] > max_vertices:
+            poly = poly[:, :max_vertices]
+    return poly, count
+
+
+def _clip_one(poly: np.ndarray, count: np.ndarray, coef: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Clip padded convex polygons ``(p, m, 2)`` by ``a s + b t + c >= 0`` (``coef`` (p, 3))."""
+    p, m, _ = poly.shape
+    k = np.arange(m)[None, :]
+    valid = k < count[:, None]
+    nxt = np.where(k + 1 < count[:, None], k + 1, 0)
+    q = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
+    fa = poly[:, :, 0] * coef[:, :1] + poly[:, :, 1] * coef[:, 1:2] + coef[:, 2:3]
+    fb = np.take_along_axis(fa, nxt, axis=1)
+    keep_a = valid & (fa >= 0)
+    cross = valid & (((fa >= 0) & (fb < 0)) | ((fa < 0) & (fb >= 0)))
+    denom = np.where(cross, fa - fb, 1.0)
+    w = np.where(cross, fa / denom, 0.0)
+    x = poly + w[:, :, None] * (q - poly)
+    cand = np.stack([poly, x], axis=2).reshape(p, 2 * m, 2)
+    ok = np.stack([keep_a, cross], axis=2).reshape(p, 2 * m)
+    order = np.argsort(~ok, axis=1, kind="stable")
+    cand = np.take_along_axis(cand, order[:, :, None].repeat(2, axis=2), axis=1)
+    cnt = ok.sum(axis=1)
+    width = max(int(cnt.max()) if p else 0, 1)
+    return cand[:, :width], cnt
+
+
+def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
+    """``(n, dim)`` uniformly distributed unit vectors (deterministic for a seed)."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(n, dim))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)

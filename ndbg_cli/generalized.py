@@ -1,0 +1,466 @@
+"""The generalized-motion family: suggested rotations and screws (paper section 6), thread
+semantics, and exact local-freedom checks with the twist LP (:mod:`ndbg_cli.twist`,
+:mod:`ndbg_cli.motion_lp`).
+
+Suggested motions
+-----------------
+The paper's hybrid considers all pure translations plus motions *suggested* by the contacts.
+:func:`suggested_motions` lists, with both senses each:
+
+* every cylindrical contact (``surface == "cylinder"`` with an ``axis``): the rotation about
+  its axis line and the translation along it;
+* every manifest joint: ``revolute`` -> rotation about its axis line; ``screw`` -> the screw
+  ``v = -w x point + pitch / (2 pi) w`` (advance ``pitch`` per turn).
+
+Motions of the same type on the same axis line are merged (their ``source`` lists joined):
+two lines are the same when their directions differ by at most :data:`AXIS_ANGLE_TOL` radians
+(either orientation) and each one's point is within :data:`LINE_FACTOR` length tolerances of
+the other line; translations compare directions only; screws also need pitches within the
+length tolerance.
+
+Each suggested motion becomes one region ``Region(-1, None, dbg, motion)`` of an
+``NDBG(family="generalized")``; its DBG has an arc ``i -> j`` iff part ``i`` moving by the
+motion's twist (``j`` fixed) penetrates ``j`` at some contact point: ``n . u > eps`` with
+:func:`ndbg_cli.twist.block_tolerance` (``length_tol |w| + ANGLE_TOL |u|``).
+
+Threads
+-------
+A ``screw`` joint ``(a, b)`` declares a threaded pair. Unless ``threads_as_cylinders``, the
+pair may move relative to each other only by that screw (either sense): every translation
+and every other twist is blocked by the thread, so the pair gets arcs ``a -> b`` and ``b -> a``
+in every translational region (:func:`block_threads`) and in every suggested motion that is
+not the joint's screw, and the LP constrains the relative twist to the screw's line
+(:class:`ndbg_cli.motion_lp.Thread`). With ``threads_as_cylinders`` the joint is ignored as a
+thread (its screw is still suggested) and the contact is a plain cylinder.
+
+API
+---
+``rows = twist.contact_rows(asm, contacts)`` once per assembly (contacts from
+``analyze_contacts(asm).contacts``), then :func:`generalized_ndbg` (the family),
+:func:`block_threads` on the translational NDBGs with :func:`threaded_pairs`, :func:`hybrid`
+(translations + suggested motions), :class:`MotionSolver` / ``motion_lp.free_motion`` per split
+(exact local freedom, with the motion), :func:`generalized_partitionings`,
+:func:`needs_rotation`, :func:`generalized_section` and :func:`generalized_text` (report).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from .assembly import Assembly
+from .dbg import DBG
+from .motion_lp import Thread, assembly_threads, free_motion_rows, sliding_motion
+from .ndbg import NDBG, ConnectivityTest, Partitioning, Region, partitionings
+from .twist import ANGLE_TOL, ContactRows, Motion, contact_rows, group_blocks, to_scaled, twist
+
+#: Directions of two axis lines that differ by at most this angle (radians) are parallel.
+AXIS_ANGLE_TOL = 1e-3
+#: Two parallel axis lines are the same when each point is within this many length
+#: tolerances of the other line.
+LINE_FACTOR = 10.0
+#: Two twists are the same motion when their normalised scaled twists differ by at most this.
+TWIST_TOL = 1e-6
+#: Arcs and sources listed per motion in the text output.
+TEXT_ITEMS = 6
+#: Cap on the candidate partitionings checked per call (they are LPs).
+DEFAULT_CANDIDATE_LIMIT = 200
+
+
+def _canon(axis: np.ndarray) -> np.ndarray:
+    """Unit axis with its first significant component positive (a line's direction)."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    k = int(np.argmax(np.abs(a) > 1e-9))
+    return -a if a[k] < 0 else a
+
+
+def _cross_norm(a: Sequence[float], b: Sequence[float]) -> float:
+    """``|a x b|`` of two 3-vectors (scalar code: these are called per pair of lines)."""
+    x = a[1] * b[2] - a[2] * b[1]
+    y = a[2] * b[0] - a[0] * b[2]
+    z = a[0] * b[1] - a[1] * b[0]
+    return float((x * x + y * y + z * z) ** 0.5)
+
+
+def _same_line(a1: np.ndarray, p1: np.ndarray, a2: np.ndarray, p2: np.ndarray,
+               tol: float) -> bool:
+    """Whether two axis lines (unit direction, point) coincide within the tolerances."""
+    if _cross_norm(a1, a2) > np.sin(AXIS_ANGLE_TOL):
+        return False
+    d = np.asarray(p2, float) - np.asarray(p1, float)
+    return _cross_norm(d, a1) <= tol and _cross_norm(d, a2) <= tol
+
+
+def suggested_motions(asm: Assembly, contacts: Iterable[Any]) -> list[dict]:
+    """Distinct suggested motion lines (one sense each), as dicts ``{"type", "axis",
+    "point", "pitch", "sources"}`` (``point`` is ``None`` for translations, ``pitch`` 0 for
+    rotations); see the module docstring."""
+    tol = asm.length_tolerance
+    line_tol = LINE_FACTOR * tol
+    out: list[dict] = []
+
+    def add(kind: str, axis, point, pitch: float, source: str) -> None:
+        ax = _canon(np.asarray(axis, float))
+        pt = None if point is None else np.asarray(point, float)
+        if pt is not None:  # the point of the line closest to the origin
+            pt = pt - float(pt @ ax) * ax
+        for m in out:
+            if m["type"] != kind:
+                continue
+            if kind == "translation":
+                same = _cross_norm(m["axis"], ax) <= np.sin(AXIS_ANGLE_TOL)
+            else:
+                same = (_same_line(m["axis"], m["point"], ax, pt, line_tol)
+                        and abs(m["pitch"] - pitch) <= tol)
+            if same:
+                if source not in m["sources"]:
+                    m["sources"].append(source)
+                return
+        out.append({"type": kind, "axis": ax, "point": pt, "pitch": float(pitch),
+                    "sources": [source]})
+
+    for c in contacts:
+        if getattr(c, "surface", None) != "cylinder" or getattr(c, "axis", None) is None:
+            continue
+        a, b = _pid(asm, c.a), _pid(asm, c.b)
+        center = getattr(c, "center", None)
+        src = f"cylinder contact {a}-{b}"
+        if center is not None:
+            add("rotation", c.axis, center, 0.0, src)
+        add("translation", c.axis, None, 0.0, src)
+    for j in asm.joints:
+        src = f"{j.type} joint {j.parts[0]}-{j.parts[1]}"
+        if j.type == "screw":
+            add("screw", j.axis, j.point, float(j.pitch), src)
+        else:
+            add("rotation", j.axis, j.point, 0.0, src)
+    return out
+
+
+def _pid(asm: Assembly, ref: Any) -> str:
+    return asm.parts[int(ref)].id if isinstance(ref, (int, np.integer)) else str(ref)
+
+
+def motion_record(m: dict, sense: int) -> dict:
+    """The ``Region.motion`` dict of a suggested line ``m`` in one sense: ``type``,
+    ``axis`` (signed by ``sense`` for rotations/screws: right-hand rule; the direction for
+    translations), ``point``, ``pitch`` (advance per turn along ``axis``), ``sense``,
+    ``source`` (joined sources) and ``twist`` (origin twist, 6 floats)."""
+    ax = m["axis"] * sense
+    xi = twist(m["type"], m["axis"], m["point"] if m["point"] is not None else (0, 0, 0),
+               m["pitch"], sense)
+    rec = {"type": m["type"], "axis": [float(x) for x in ax],
+           "point": None if m["point"] is None else [float(x) for x in m["point"]],
+           "pitch": float(m["pitch"]) if m["type"] != "translation" else None,
+           "sense": int(sense), "source": "; ".join(m["sources"]),
+           "twist": [float(x) for x in xi]}
+    if m["type"] == "translation":
+        rec["direction"] = rec["axis"]
+    return rec
+
+
+# ----------------------------------------------------------------------------- threads
+def threaded_pairs(asm: Assembly, threads_as_cylinders: bool = False) -> set[tuple[str, str]]:
+    """``(moving, fixed)`` part ids of every declared screw joint (empty with
+    ``threads_as_cylinders``): pairs that cannot translate relative to each other."""
+    if threads_as_cylinders:
+        return set()
+    return {(j.parts[0], j.parts[1]) for j in asm.joints if j.type == "screw"}
+
+
+def threads(asm: Assembly, threads_as_cylinders: bool = False) -> list[Thread]:
+    """The LP's :class:`~ndbg_cli.motion_lp.Thread` constraints of the declared screw joints
+    (:func:`ndbg_cli.motion_lp.assembly_threads`)."""
+    return assembly_threads(asm, threads_as_cylinders)
+
+
+def block_threads(ndbg: NDBG, pairs: Iterable[tuple[str, str]]) -> NDBG:
+    """``ndbg`` (a translational family) with arcs ``a -> b`` and ``b -> a`` added in every
+    region for each threaded pair ``(a, b)`` (part ids; pairs naming absent parts are
+    skipped): a nut on a thread cannot translate in any direction, only screw."""
+    index = {pid: k for k, pid in enumerate(ndbg.ids)}
+    arcs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
+    if not arcs:
+        return ndbg
+    extra = DBG.from_arcs(ndbg.n, arcs + [(j, i) for i, j in arcs])
+    regions = tuple(dataclasses.replace(r, dbg=r.dbg.union(extra)) for r in ndbg.regions)
+    stats = dict(ndbg.stats)
+    stats["threaded_pairs"] = sorted([list(p) for p in pairs])
+    return dataclasses.replace(ndbg, regions=regions, stats=stats)
+
+
+def _same_twist(rows: ContactRows, x1: np.ndarray, x2: np.ndarray) -> bool:
+    """Whether two origin twists are the same motion up to a positive or negative factor."""
+    s1, s2 = to_scaled(rows, x1), to_scaled(rows, x2)
+    s1, s2 = s1 / np.linalg.norm(s1), s2 / np.linalg.norm(s2)
+    return min(np.linalg.norm(s1 - s2), np.linalg.norm(s1 + s2)) <= TWIST_TOL
+
+
+# ----------------------------------------------------------------------------- the family
+def motion_dbg(rows: ContactRows, xi: np.ndarray, thread_list: Sequence[Thread] = ()) -> DBG:
+    """DBG of the origin twist ``xi``: arc ``a -> b`` where ``a`` moving by ``xi`` pushes into
+    ``b`` faster than :func:`~ndbg_cli.twist.block_tolerance`, ``b -> a`` where ``b`` moving
+    does (``-n . u > eps``); threaded pairs block each other unless ``xi`` is their screw."""
+    return motion_dbgs(rows, np.asarray(xi, float)[None, :], thread_list)[0]
+
+
+def motion_dbgs(rows: ContactRows, twists: np.ndarray, thread_list: Sequence[Thread] = ()
+                ) -> list[DBG]:
+    """:func:`motion_dbg` of every origin twist in ``twists`` ``(R, 6)``, vectorised: the
+    speeds are one product ``[n, p x n] @ twists.T`` ``(K, R)``."""
+    X = np.asarray(twists, float).reshape(-1, 6)
+    out = []
+    if len(rows.a):
+        P, N = rows.points, rows.normals
+        S = np.hstack([N, np.cross(P, N)]) @ X.T
+        V, W = X[:, :3], X[:, 3:]
+        ux = V[:, 0] + np.outer(P[:, 2], W[:, 1]) - np.outer(P[:, 1], W[:, 2])
+        uy = V[:, 1] + np.outer(P[:, 0], W[:, 2]) - np.outer(P[:, 2], W[:, 0])
+        uz = V[:, 2] + np.outer(P[:, 1], W[:, 0]) - np.outer(P[:, 0], W[:, 1])
+        eps = (rows.length_tol * np.linalg.norm(W, axis=1)[None, :]
+               + ANGLE_TOL * np.sqrt(ux * ux + uy * uy + uz * uz))
+        fwd, bwd = group_blocks(rows, S - eps), group_blocks(rows, -S - eps)
+    n = rows.n
+    for r in range(len(X)):
+        arcs: set[tuple[int, int]] = set()
+        if len(rows.a):
+            f, b = fwd[:, r], bwd[:, r]
+            codes = np.unique(np.r_[rows.a[f] * n + rows.b[f], rows.b[b] * n + rows.a[b]])
+            arcs = {(int(c) // n, int(c) % n) for c in codes}
+        for t in thread_list:
+            if not _same_twist(rows, X[r], np.asarray(t.twist, float)):
+                arcs |= {(t.a, t.b), (t.b, t.a)}
+        out.append(DBG.from_arcs(n, arcs))
+    return out
+
+
+def generalized_ndbg(asm: Assembly, contacts: Sequence[Any] | None = None, *,
+                     threads_as_cylinders: bool = False, rows: ContactRows | None = None
+                     ) -> NDBG:
+    """``NDBG(family="generalized")`` with one region per suggested motion and sense (see the
+    module docstring). ``stats``: ``suggested`` (lines), ``regions``, ``contact_points``."""
+    contacts = list(contacts or [])
+    rows = rows if rows is not None else contact_rows(asm, contacts)
+    thr = threads(asm, threads_as_cylinders)
+    lines = suggested_motions(asm, contacts)
+    recs = [motion_record(m, sense) for m in lines for sense in (1, -1)]
+    dbgs = motion_dbgs(rows, np.array([r["twist"] for r in recs]).reshape(-1, 6), thr)
+    regions = [Region(-1, None, dbg, motion=rec) for rec, dbg in zip(recs, dbgs)]
+    stats = {"suggested": len(lines), "regions": len(regions),
+             "contact_points": int(len(rows.a)),
+             "threaded_pairs": sorted([list(p) for p in threaded_pairs(asm,
+                                                                       threads_as_cylinders)])}
+    return NDBG(family="generalized", ids=tuple(asm.ids), regions=tuple(regions),
+                space_dimension=asm.dimension, stats=stats)
+
+
+def hybrid(translational: NDBG, suggested: NDBG) -> NDBG:
+    """The paper's hybrid (section 6): the translational regions (with threads already
+    blocked) followed by the suggested motions, as one ``generalized`` family."""
+    if translational.ids != suggested.ids:
+        raise ValueError("the two NDBGs are over different parts")
+    stats = {"translational_regions": len(translational.regions),
+             "suggested_regions": len(suggested.regions)}
+    return NDBG(family="generalized", ids=suggested.ids,
+                regions=translational.regions + suggested.regions,
+                space_dimension=suggested.space_dimension, stats=stats)
+
+
+def contact_neighbours(rows: ContactRows) -> list[int]:
+    """Undirected contact graph as neighbour bitmasks (for :class:`ConnectivityTest`)."""
+    nb = [0] * rows.n
+    for a, b in set(zip(rows.a.tolist(), rows.b.tolist())):
+        nb[a] |= 1 << b
+        nb[b] |= 1 << a
+    return nb
+
+
+class MotionSolver:
+    """Memoised local-freedom LP over one assembly's rows and threads: the same split is
+    asked for by several checks (needs-rotation, candidate validation). ``solver(moved,
+    rest)`` is :func:`~ndbg_cli.motion_lp.free_motion_rows` with ``allow_sliding``."""
+
+    def __init__(self, rows: ContactRows, thread_list: Sequence[Thread] = ()) -> None:
+        self.rows = rows
+        self.threads = list(thread_list)
+        self._memo: dict[tuple[int, int], Motion | None] = {}
+
+    def __call__(self, moved: int, rest: int) -> Motion | None:
+        key = (moved, rest)
+        if key not in self._memo:
+            self._memo[key] = free_motion_rows(self.rows, moved, rest, threads=self.threads,
+                                               allow_sliding=True)
+        return self._memo[key]
+
+    def needs_rotation(self, moved: int, rest: int) -> Motion | None:
+        """The freeing non-translational motion when ``moved`` needs one, else ``None``:
+        some twist breaks a contact (or screws along sliding contacts) while no
+        translation breaks or slides (a pure rotation that only slides turns in place and
+        frees nothing)."""
+        mo = self(moved, rest)
+        if mo is None or mo.type == "translation":
+            return None
+        if mo.broken == 0:
+            return mo if mo.type == "screw" else None
+        # free_motion_rows tried translations first: none breaks; one may still slide
+        if sliding_motion(self.rows, moved, rest, threads=self.threads,
+                          translation_only=True) is not None:
+            return None
+        return mo
+
+
+def generalized_partitionings(asm: Assembly, contacts: Sequence[Any] | ContactRows,
+                              ndbg_gen: NDBG, mask: int | None = None, *,
+                              threads_as_cylinders: bool = False, connected: bool = True,
+                              limit: int = DEFAULT_CANDIDATE_LIMIT,
+                              solver: MotionSolver | None = None
+                              ) -> tuple[list[tuple[Partitioning, Motion]], list[Partitioning]]:
+    """Validate the candidate partitionings of ``ndbg_gen`` inside ``mask`` with the LP.
+
+    Returns ``(valid, rejected)``: ``valid`` pairs each candidate with the motion the LP found
+    for ``moved`` against ``rest`` (1-handed monotone verdict for this subassembly: a
+    candidate exists iff ``valid`` is non-empty); ``rejected`` are candidates the exact test
+    refutes. A motion along which every contact slides counts (a pin sliding out of its
+    hole, a screw turning out) unless it is a pure rotation, which keeps the parts in place.
+    With ``connected`` both sides must be connected in the contact graph.
+    """
+    rows = contacts if isinstance(contacts, ContactRows) else contact_rows(asm, contacts)
+    solver = solver or MotionSolver(rows, threads(asm, threads_as_cylinders))
+    conn = ConnectivityTest(contact_neighbours(rows)) if connected else None
+    cands, _ = partitionings(ndbg_gen, mask, limit=limit, connected=conn)
+    valid, rejected = [], []
+    for p in cands:
+        mo = solver(p.moved, p.rest)
+        if mo is None or (mo.broken == 0 and mo.type == "rotation"):
+            rejected.append(p)
+        else:
+            valid.append((p, mo))
+    return valid, rejected
+
+
+def needs_rotation(asm: Assembly, rows: ContactRows, ndbg_gen: NDBG | None = None, *,
+                   candidates: Iterable[int] = (), threads_as_cylinders: bool = False,
+                   limit: int = DEFAULT_CANDIDATE_LIMIT, solver: MotionSolver | None = None
+                   ) -> list[tuple[int, Motion]]:
+    """Subassemblies free under some twist but under no translation (the paper's Fig. 5),
+    see :meth:`MotionSolver.needs_rotation`.
+
+    Checked: each single part against the rest, the moved sides of ``ndbg_gen``'s candidate
+    partitionings of the whole assembly (up to ``limit``), and ``candidates`` (bitmasks).
+    A partition is reported once, moving the side without the base part (else the smaller
+    side). Returns ``(moved mask, motion found by the full LP)`` pairs, in order of check.
+    """
+    full = (1 << len(asm)) - 1
+    solver = solver or MotionSolver(rows, threads(asm, threads_as_cylinders))
+    todo = [1 << i for i in range(len(asm))]
+    if ndbg_gen is not None:
+        cands, _ = partitionings(ndbg_gen, full, limit=limit)
+        todo += [p.moved for p in cands]
+    todo += list(candidates)
+    seen: set[int] = set()
+    out = []
+    base = asm.index(asm.base) if asm.base is not None else None
+    for s in todo:
+        if s == 0 or s == full:
+            continue
+        s = _moved_side(s, full, base)
+        if s in seen:
+            continue
+        seen.add(s)
+        mo = solver.needs_rotation(s, full & ~s)
+        if mo is not None:
+            out.append((s, mo))
+    return out
+
+
+def _moved_side(s: int, full: int, base: int | None) -> int:
+    """The side of the partition ``{s, full \\ s}`` reported as moving: the one without the
+    base part, else the smaller one (ties: the one without the lowest part index)."""
+    c = full & ~s
+    if base is not None:
+        return c if (s >> base) & 1 else s
+    if c.bit_count() != s.bit_count():
+        return s if s.bit_count() < c.bit_count() else c
+    return s if not s & 1 else c
+
+
+# ----------------------------------------------------------------------------- report
+def generalized_section(asm: Assembly, ndbg: NDBG, contacts: Sequence[Any] | ContactRows, *,
+                        threads_as_cylinders: bool = False,
+                        limit: int = DEFAULT_CANDIDATE_LIMIT) -> dict:
+    """The report's ``generalized`` section (schema: ``schemas/fragments/generalized.json``):
+    the suggested motions with their DBG arcs (by part id), the threaded pairs, the
+    subassemblies that need a rotation (with the LP's motion), and the LP-validated candidate
+    partitionings of the whole assembly."""
+    rows = contacts if isinstance(contacts, ContactRows) else contact_rows(asm, contacts)
+    motions = []
+    for k, r in enumerate(ndbg.regions):
+        if r.motion is None:
+            continue
+        motions.append({"region": k, **{key: r.motion.get(key) for key in
+                                        ("type", "axis", "point", "pitch", "sense", "source")},
+                        "arcs": [[ndbg.ids[i], ndbg.ids[j]] for i, j in r.dbg.arcs()]})
+    solver = MotionSolver(rows, threads(asm, threads_as_cylinders))
+    valid, rejected = generalized_partitionings(asm, rows, ndbg, limit=limit, solver=solver)
+    rot = needs_rotation(asm, rows, candidates=[p.moved for p, _ in valid], solver=solver)
+    return {
+        "threads_as_cylinders": threads_as_cylinders,
+        "threaded_pairs": sorted([list(p) for p in threaded_pairs(asm, threads_as_cylinders)]),
+        "tolerances": {"length": rows.length_tol, "scale": rows.scale,
+                       "slide": rows.slide_tol, "break": rows.break_tol},
+        "suggested_motions": motions,
+        "needs_rotation": [{"parts": ndbg.names(s), "motion": mo.record()} for s, mo in rot],
+        "candidates": [{"moved": ndbg.names(p.moved), "rest": ndbg.names(p.rest),
+                        "regions": list(p.regions), "motion": mo.record()}
+                       for p, mo in valid],
+        "rejected_candidates": [{"moved": ndbg.names(p.moved), "rest": ndbg.names(p.rest)}
+                                for p in rejected],
+    }
+
+
+def _fmt(v: Sequence[float]) -> str:
+    """``(+x, +y, +z)`` with 3 significant digits; components below 1e-9 times the largest
+    (or 1e-9, whichever is larger) print as 0."""
+    big = max((abs(x) for x in v), default=0.0)
+    keep = 1e-9 * max(big, 1.0)
+    return "(" + ", ".join(f"{(x if abs(x) > keep else 0.0) + 0.0:+.3g}" for x in v) + ")"
+
+
+def describe(m: dict) -> str:
+    """One-line description of a motion record (suggested or from the LP)."""
+    if m["type"] == "translation":
+        return f"translation along {_fmt(m['axis'])}"
+    s = f"{m['type']} about {_fmt(m['axis'])} through {_fmt(m['point'])}"
+    if m["type"] == "screw":
+        s += f", pitch {m['pitch']:.4g} per turn"
+    return s
+
+
+def generalized_text(section: dict) -> list[str]:
+    """Designer-readable lines for the ``generalized`` section."""
+    threaded = ("threads read as cylinders" if section["threads_as_cylinders"]
+                else f"{len(section['threaded_pairs'])} threaded pair(s)")
+    lines = [f"Generalized motions: {len(section['suggested_motions'])} suggested, {threaded}"]
+    for m in section["suggested_motions"]:
+        arcs = ", ".join(f"{a}->{b}" for a, b in m["arcs"][:TEXT_ITEMS])
+        if len(m["arcs"]) > TEXT_ITEMS:
+            arcs += f", ... ({len(m['arcs'])} arcs)"
+        src = m["source"].split("; ")
+        more = f" (+{len(src) - 2} more)" if len(src) > 2 else ""
+        lines.append(f"  [{m['region']}] {describe(m)} from {'; '.join(src[:2])}{more}: "
+                     f"blocked {arcs or 'none'}")
+    for a, b in section["threaded_pairs"]:
+        lines.append(f"  threaded: {a} on {b} (screw only, no translation)")
+    if section["needs_rotation"]:
+        for e in section["needs_rotation"]:
+            lines.append(f"  needs rotation: {{{', '.join(e['parts'])}}} by "
+                         f"{describe(e['motion'])}")
+    else:
+        lines.append("  no subassembly needs a rotation")
+    lines.append(f"  LP-validated candidate partitionings: {len(section['candidates'])}"
+                 f" ({len(section['rejected_candidates'])} rejected)")
+    return lines

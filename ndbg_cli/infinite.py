@@ -1,0 +1,605 @@
+"""The NDBG for infinite translations (paper section 5.3).
+
+Part ``P_j`` blocks the infinite translation of ``P_i`` along ``d`` when the volume ``P_i``
+sweeps from its place to infinity along ``d`` meets the interior of ``P_j``. The blocked set
+``B_ij`` is the radial projection onto S^2 of the interior of the Minkowski difference
+``P_j - P_i``; the NDBG is the arrangement of all ``B_ij`` boundaries with one DBG per region.
+
+Exact route (no sampling of directions)
+---------------------------------------
+For closed polyhedral parts, a generic blocking ray leaves ``P_i`` through the relative
+interior of a triangle ``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a triangle ``t_j``
+(``n_j . d < 0``), possibly at the same point (a face contact). Hence
+
+    B_ij = union over triangle pairs of  cone(t_j - t_i) ∩ {n_i . d > 0} ∩ {n_j . d < 0},
+
+each term an open convex polyhedral cone, i.e. a convex spherical polygon, i.e. a convex
+polygon on each face of the gnomonic cube map (:mod:`ndbg_cli.cubemap`). Pairs that cannot
+face each other (``t_j`` wholly behind ``t_i``'s plane or ``t_i`` wholly behind ``t_j``'s) are
+pruned exactly, vectorised; no other pair of parts or triangles is skipped, since distant parts
+block too.
+
+Tolerance (``eps = asm.length_tolerance``)
+------------------------------------------
+For *near* triangle pairs (bounding boxes closer than ``4 eps``) both triangles are moved
+inward by ``1.5 eps`` along their normals: the parts are eroded by about ``eps``. Contact then
+never blocks by itself: a part blocks only if the sweep penetrates it deeper than about
+``eps``, sliding along a contact face is free, tessellation overlaps below ``eps`` are
+ignored, and the directions through a zero-clearance slot or bore form a thin free region of
+angular width about ``eps / L`` (``L`` the contact length). Regions whose width in the chart is
+below the angular tolerance ``eta = ANGULAR_FACTOR * eps / diagonal`` are reported as
+1-dimensional, those smaller than ``eta`` in every direction as 0-dimensional, with the
+representative direction inside them. *Far* pairs use the exact triangles, with closed
+polygons: a direction grazing a distant part with exactly zero clearance counts as blocked.
+
+The arrangement is computed per cube face with shapely: the union ``U_ij`` of each pair's
+polygons, all their boundaries noded and polygonized; each face of the overlay is a region, and
+its DBG is read at a point inside it. Regions cut by the cube edges are counted once per cube
+face (the DBG is constant on each piece, so the NDBG stays exact; region counts are those of
+the arrangement refined by the 12 cube-edge arcs). 2D assemblies are extruded to prisms and the
+arrangement is read on the equator (S^1).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+import trimesh
+
+from .assembly import Assembly
+from .cubemap import FACES, clip_halfplanes, cone_normals, face_of
+from .dbg import DBG
+from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
+from .ndbg import NDBG, Region
+
+#: Regions thinner than ``ANGULAR_FACTOR * length_tolerance / diagonal`` (chart units, about
+#: radians) are reported as lower-dimensional.
+ANGULAR_FACTOR = 50.0
+#: Snapping grid of the arrangement linework, chart units.
+GRID = 1e-10
+#: Triangle pairs processed per vectorised chunk.
+CHUNK = 20000
+
+
+@dataclass
+class BlockedSets:
+    """The blocked-direction sets ``B_ij`` on the six cube faces.
+
+    ``geoms[f]`` maps an ordered part pair ``(i, j)`` to the shapely geometry (chart
+    coordinates of face ``f``) of the closure of ``B_ij`` there; pairs absent from the dict
+    are never blocked on that face. ``eta`` is the angular tolerance (chart units).
+    """
+
+    n: int
+    geoms: list[dict[tuple[int, int], object]]
+    eta: float
+    cones: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
+    trees: list[dict[tuple[int, int], tuple]] = field(default_factory=list)
+    circles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    space_dimension: int = 3
+    stats: dict = field(default_factory=dict)
+
+    def blocked_pairs(self, d: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
+        """For directions ``d`` ``(m, 3)``: list of ``(mask (m,), i, j)`` with ``mask[k]``
+        true iff ``P_j`` blocks ``P_i`` along ``d[k]``."""
+        d = np.atleast_2d(np.asarray(d, dtype=float))
+        f, st = face_of(d)
+        out: dict[tuple[int, int], np.ndarray] = {}
+        for face in range(6):
+            sel = np.nonzero(f == face)[0]
+            if not len(sel):
+                continue
+            x, y = st[sel, 0], st[sel, 1]
+            for key, g in self.geoms[face].items():
+                hit = shapely.contains_xy(g, x, y)
+                if hit.any():
+                    m = out.setdefault(key, np.zeros(len(d), dtype=bool))
+                    m[sel[hit]] = True
+        return [(m, i, j) for (i, j), m in out.items()]
+
+    def dbgs(self, d: np.ndarray, exact: bool = False) -> list[DBG]:
+        """The DBG at each direction of ``d`` ``(m, 3)`` (region lookup, vectorised).
+
+        The chart lookup tests the interior of the closure of ``B_ij``; it is right for every
+        direction off the contact circles. With ``exact``, a direction inside that closure is
+        re-tested against the open cones themselves (the open-set semantics of ``B_ij``),
+        which is what the 1- and 0-dimensional cells need: a slot, a bore or a sliding face
+        leaves free directions on seams between blocked cones.
+        """
+        d = np.atleast_2d(np.asarray(d, dtype=float))
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        mat = np.zeros((len(d), self.n, self.n), dtype=bool)
+        for m, i, j in self.blocked_pairs(d):
+            if exact:
+                m = self._exact(m, i, j, d)
+            mat[m, i, j] = True
+        return [DBG(row) for row in succ_from_matrix(mat)]
+
+    def _exact(self, mask: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
+        """Re-test the directions ``d[mask]`` against the open cones of pair ``(i, j)``
+        whose chart polygons contain them (STR-tree point location)."""
+        out = np.zeros_like(mask)
+        sel = np.nonzero(mask)[0]
+        f, st = face_of(d[sel])
+        cones = self.cones[(i, j)]
+        zero = ~np.any(cones != 0.0, axis=2)
+        for face in np.unique(f):
+            entry = self.trees[face].get((i, j))
+            if entry is None:
+                continue
+            tree, index = entry
+            rows = np.nonzero(f == face)[0]
+            pt, item = tree.query(shapely.points(st[rows]), predicate="intersects")
+            if not len(pt):
+                continue
+            c = index[item]
+            v = np.einsum("hkx,hx->hk", cones[c], d[sel[rows[pt]]])
+            inside = np.all((v > OPEN_TOL) | zero[c], axis=1)
+            out[sel[rows[pt[inside]]]] = True
+        return out
+
+
+#: Directions within this (radians, about) of a cone's facet count as outside the open cone.
+OPEN_TOL = 1e-6
+
+
+def succ_from_matrix(mat: np.ndarray) -> list[tuple[int, ...]]:
+    """Successor bitmasks from boolean adjacency matrices ``(m, n, n)``."""
+    m, n, _ = mat.shape
+    if n <= 62:
+        w = (1 << np.arange(n, dtype=np.int64))
+        s = (mat.astype(np.int64) * w).sum(axis=2)
+        return [tuple(int(x) for x in row) for row in s]
+    packed = np.packbits(mat, axis=2, bitorder="little")
+    return [tuple(int.from_bytes(packed[k, i].tobytes(), "little") for i in range(n))
+            for k in range(m)]
+
+
+# --------------------------------------------------------------------------------------------
+# Geometry of one ordered pair
+# --------------------------------------------------------------------------------------------
+
+def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per part: triangles ``(t, 3, 3)`` and unit outward normals ``(t, 3)``, in the assembly
+    frame (2D parts are extruded to prisms of height ``diagonal``)."""
+    out = []
+    h = max(asm.diagonal, 1e-9)
+    for p in asm.parts:
+        if asm.dimension == 2:
+            mesh = trimesh.creation.extrude_polygon(p.polygon, h)
+            mesh.apply_translation([0.0, 0.0, -h / 2])
+        else:
+            mesh = p.mesh
+        tri = np.asarray(mesh.triangles, dtype=float)
+        nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+        ok = ln[:, 0] > 0
+        out.append((tri[ok], nrm[ok] / ln[ok]))
+    return out
+
+
+def pair_cones(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, eps: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Open cones (H-representation, ``(p, k, 3)``) whose union is ``B_ij``, and the normals
+    ``(c, 3)`` of the triangles of near (contact) pairs.
+
+    ``ti`` ``(a, 3, 3)`` / ``ni`` ``(a, 3)`` are the moving part's triangles and normals,
+    ``tj`` / ``nj`` the blocker's. Pairs that cannot face each other are pruned; near pairs
+    use eroded triangles (see the module docstring). The great circles ``d . n = 0`` of the
+    contact normals carry the sliding directions, where lower-dimensional free regions lie.
+    """
+    empty = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
+    if not len(ti) or not len(tj):
+        return empty
+    ci = ti[:, 0]
+    cj = tj[:, 0]
+    # Facing prune: some vertex of t_j in front of t_i's plane, some vertex of t_i in front of
+    # t_j's plane (lenient by 2 eps; an empty cone is harmless).
+    front_j = np.einsum("ak,bvk->abv", ni, tj) - np.einsum("ak,ak->a", ni, ci)[:, None, None]
+    front_i = np.einsum("bk,avk->abv", nj, ti) - np.einsum("bk,bk->b", nj, cj)[None, :, None]
+    ok = (front_j.max(axis=2) > -2 * eps) & (front_i.max(axis=2) > -2 * eps)
+    ia, jb = np.nonzero(ok)
+    if not len(ia):
+        return empty
+    lo_i, hi_i = ti.min(axis=1), ti.max(axis=1)
+    lo_j, hi_j = tj.min(axis=1), tj.max(axis=1)
+    gap = np.maximum(lo_j[jb] - hi_i[ia], lo_i[ia] - hi_j[jb]).max(axis=1)
+    near = gap <= 4 * eps
+    parts = []
+    for sel, is_near in ((np.nonzero(~near)[0], False), (np.nonzero(near)[0], True)):
+        for s in range(0, len(sel), CHUNK):
+            idx = sel[s:s + CHUNK]
+            a, b = ia[idx], jb[idx]
+            gens = (tj[b][:, :, None, :] - ti[a][:, None, :, :]).reshape(len(idx), 9, 3)
+            if is_near:
+                # Both triangles moved inward by 1.5 eps along their normals (erosion).
+                gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
+            m = _compact(cone_normals(gens))
+            facing = np.stack([ni[a], -nj[b]], axis=1)
+            parts.append(np.concatenate([m, facing], axis=1))
+    width = max(p.shape[1] for p in parts)
+    cones = np.concatenate([np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)))
+                            for p in parts], axis=0)
+    circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
+    return cones, circles
+
+
+def unique_circles(normals: np.ndarray) -> np.ndarray:
+    """Deduplicate great circles given by normals ``(c, 3)`` (``n`` and ``-n`` are one)."""
+    if not len(normals):
+        return np.zeros((0, 3))
+    n = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    first = np.argmax(np.abs(n) > 1e-12, axis=1)
+    sign = np.sign(n[np.arange(len(n)), first])
+    n = n * sign[:, None]
+    _, idx = np.unique(np.round(n, 9), axis=0, return_index=True)
+    return n[np.sort(idx)]
+
+
+def _compact(normals: np.ndarray) -> np.ndarray:
+    """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
+    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
+    order = np.argsort(key, axis=1, kind="stable")
+    key = np.take_along_axis(key, order, axis=1)
+    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
+    dup = np.zeros_like(key, dtype=bool)
+    dup[:, 1:] = key[:, 1:] == key[:, :-1]
+    zero = ~np.any(nm != 0.0, axis=2)
+    drop = dup | zero
+    order = np.argsort(drop, axis=1, kind="stable")
+    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
+    width = max(int((~drop).sum(axis=1).max()) if len(nm) else 0, 1)
+    nm = nm[:, :width]
+    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
+    return np.where(keepmask[:, :, None], nm, 0.0)
+
+
+def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
+    """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
+    empty, else ``(union, tree, index)``: the union (closed polygons in chart coordinates),
+    an STR-tree over the pieces' polygons and the cone index of each tree item."""
+    out: list[tuple | None] = []
+    for face in range(6):
+        if not len(cones):
+            out.append(None)
+            continue
+        poly, cnt = clip_halfplanes(cones, face)
+        keep = cnt >= 3
+        if not keep.any():
+            out.append(None)
+            continue
+        index = np.nonzero(keep)[0]
+        poly, cnt = poly[keep], cnt[keep]
+        k = np.arange(poly.shape[1])[None, :] < cnt[:, None]
+        coords = poly[k]
+        ring = np.repeat(np.arange(len(cnt)), cnt)
+        rings = shapely.linearrings(coords, indices=ring)
+        # The pieces are convex: their hull is the same polygon, and always valid.
+        polys = shapely.convex_hull(shapely.polygons(rings))
+        big = (shapely.area(polys) > GRID * GRID) & (shapely.get_type_id(polys) == 3)
+        polys, index = polys[big], index[big]
+        if not len(polys):
+            out.append(None)
+            continue
+        g = _union(polys)
+        out.append(None if g.is_empty else (g, shapely.STRtree(polys), index))
+    return out
+
+
+def _union(polys: np.ndarray, seed: int = 64) -> object:
+    """Union of many overlapping convex polygons: the largest first, then only those not
+    already covered (exact ``covered_by`` tests against the partial union), repeatedly."""
+    polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
+    acc = _robust_union(polys[:seed])
+    rest = polys[seed:]
+    while len(rest):
+        shapely.prepare(acc)
+        rest = rest[~shapely.covers(acc, rest)]
+        if not len(rest):
+            break
+        take = max(seed, len(rest) // 8)
+        acc = _robust_union(np.concatenate([[acc], rest[:take]]))
+        rest = rest[take:]
+    return acc
+
+
+def _robust_union(polys: np.ndarray) -> object:
+    """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
+    overlay fails (GEOS topology exceptions on nearly coincident edges)."""
+    try:
+        return shapely.union_all(polys)
+    except shapely.errors.GEOSException:
+        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
+
+
+def triangle_pairs(asm: Assembly) -> int:
+    """Number of (moving, blocking) triangle pairs the builder examines: the cost driver
+    (about 2-25 microseconds each, plus memory for the cones kept for the exact test). The
+    CLI should refuse or warn above a budget (AS1: 1.1e8 pairs, about 45 minutes)."""
+    t = np.array([p.check.triangles if asm.dimension == 3 else 4 * p.check.vertices
+                  for p in asm.parts], dtype=float)
+    return int(t.sum() ** 2 - (t ** 2).sum())
+
+
+def blocked_sets(asm: Assembly) -> BlockedSets:
+    """``B_ij`` for every ordered pair of parts, on the cube map."""
+    t0 = time.perf_counter()
+    tris = part_triangles(asm)
+    eps = asm.length_tolerance
+    n = len(asm.parts)
+    geoms: list[dict[tuple[int, int], object]] = [{} for _ in range(6)]
+    npieces = 0
+    t_cones = t_union = 0.0
+    all_cones: dict[tuple[int, int], np.ndarray] = {}
+    trees: list[dict[tuple[int, int], tuple]] = [{} for _ in range(6)]
+    circles: list[np.ndarray] = []
+    for i in range(n):
+        for j in range(n):
+            if i == j:
+                continue
+            ta = time.perf_counter()
+            cones, circ = pair_cones(tris[i][0], tris[i][1], tris[j][0], tris[j][1], eps)
+            tb = time.perf_counter()
+            all_cones[(i, j)] = cones
+            circles.append(circ)
+            npieces += len(cones)
+            for face, entry in enumerate(cones_to_face_geoms(cones)):
+                if entry is not None:
+                    geoms[face][(i, j)] = entry[0]
+                    trees[face][(i, j)] = entry[1:]
+            t_cones += tb - ta
+            t_union += time.perf_counter() - tb
+    for fd in geoms:
+        for g in fd.values():
+            shapely.prepare(g)
+    eta = ANGULAR_FACTOR * eps / max(asm.diagonal, 1e-300)
+    stats = {"pieces": npieces, "time_cones_s": t_cones, "time_union_s": t_union,
+             "time_blocked_sets_s": time.perf_counter() - t0}
+    circ = unique_circles(np.concatenate(circles)) if circles else np.zeros((0, 3))
+    stats["contact_circles"] = len(circ)
+    return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, trees=trees, circles=circ,
+                       space_dimension=asm.dimension, stats=stats)
+
+
+# --------------------------------------------------------------------------------------------
+# The arrangement and the NDBG
+# --------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Cell:
+    """One region of the arrangement on one cube face: its dimension (2, 1 or 0 after the
+    thin-region rule), a representative unit direction strictly inside it (``(3,)``), and its
+    chart geometry."""
+
+    dimension: int
+    direction: np.ndarray
+    face: int
+    geom: object
+    seam: bool = False
+
+
+def arrangement_cells(bs: BlockedSets) -> list[Cell]:
+    """The regions of the arrangement of all ``B_ij`` boundaries, face by face.
+
+    The boundaries of every ``U_ij`` on a face, with the chart square, are noded and
+    polygonized; each polygon is a region. A region thinner than ``eta`` (width ``2 area /
+    perimeter``) is 1-dimensional, one smaller than ``eta`` across (bounding box) is
+    0-dimensional. The noded boundaries give the 1-dimensional cells (segments) and the
+    0-dimensional ones (their end points). Cells on the contact circles but off every
+    boundary are *seam candidates* (``seam=True``): :func:`build_infinite` keeps those whose
+    exact DBG differs from the one around them (a slot's or a bore's free directions).
+    """
+    from .cubemap import SQUARE_MARGIN, direction_of
+
+    r = 1.0 + SQUARE_MARGIN
+    square = shapely.box(-r, -r, r, r)
+    cells: list[Cell] = []
+    for face in range(6):
+        lines = [shapely.boundary(g) for g in bs.geoms[face].values()]
+        lines.append(square.boundary)
+        noded = shapely.union_all(lines, grid_size=GRID)
+        circ = circle_lines(bs.circles, face)
+        if circ:
+            with_circles = shapely.union_all([noded, *circ], grid_size=GRID)
+            seams = [c for c in _edge_cells(with_circles, face)
+                     if shapely.distance(noded, shapely.Point(_chart(c))) > 10 * GRID]
+            cells.extend(Cell(c.dimension, c.direction, face, c.geom, seam=True)
+                         for c in seams)
+        faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+        faces = faces[shapely.area(faces) > 0]
+        if not len(faces):
+            continue
+        pts = shapely.point_on_surface(faces)
+        xy = shapely.get_coordinates(pts)
+        area = shapely.area(faces)
+        width = 2 * area / np.maximum(shapely.length(faces), 1e-300)
+        b = shapely.bounds(faces)
+        extent = np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])
+        dims = np.where(extent < bs.eta, 0, np.where(width < bs.eta, 1, 2))
+        cent = shapely.get_coordinates(shapely.centroid(faces))
+        use = np.where((dims == 0)[:, None], cent, xy)
+        dirs = direction_of(face, use)
+        for k in range(len(faces)):
+            cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
+        cells.extend(_edge_cells(noded, face))
+    return cells
+
+
+def _chart(c: Cell) -> tuple[float, float]:
+    """Chart coordinates of a cell's representative direction on its face."""
+    e, u, v = FACES[c.face]
+    de = float(c.direction @ e)
+    return float(c.direction @ u) / de, float(c.direction @ v) / de
+
+
+def circle_lines(normals: np.ndarray, face: int) -> list[object]:
+    """Chart segments of the great circles ``d . n = 0`` crossing ``face``'s square."""
+    from .cubemap import SQUARE_MARGIN
+
+    e, u, v = FACES[face]
+    r = 1.0 + SQUARE_MARGIN
+    out = []
+    for n in normals:
+        a, b, c = n @ u, n @ v, n @ e  # a s + b t + c = 0
+        if max(abs(a), abs(b)) < 1e-12:
+            continue
+        if abs(a) >= abs(b):
+            t = np.array([-r, r])
+            s_ = -(b * t + c) / a
+            pts = np.stack([s_, t], axis=1)
+        else:
+            s_ = np.array([-r, r])
+            t = -(a * s_ + c) / b
+            pts = np.stack([s_, t], axis=1)
+        seg = shapely.clip_by_rect(shapely.LineString(pts), -r, -r, r, r)
+        if not seg.is_empty and seg.length > 0:
+            out.append(seg)
+    return out
+
+
+def _edge_cells(noded: object, face: int) -> list[Cell]:
+    """The 1- and 0-dimensional cells of a face: the noded boundary segments and their end
+    points, leaving out those on the chart square's border (cube-edge artefacts)."""
+    from .cubemap import direction_of
+
+    segs = shapely.get_parts(shapely.get_parts(noded))
+    segs = segs[shapely.get_type_id(segs) == 1]
+    if not len(segs):
+        return []
+    lim = 1.0 - 1e-7
+    mids = shapely.get_coordinates(shapely.line_interpolate_point(segs, 0.5, normalized=True))
+    inside = (np.abs(mids) < lim).all(axis=1)
+    segs, mids = segs[inside], mids[inside]
+    cells = [Cell(1, d, face, g) for d, g in zip(direction_of(face, mids), segs)] \
+        if len(segs) else []
+    ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
+                           shapely.get_coordinates(shapely.get_point(segs, -1))]) \
+        if len(segs) else np.zeros((0, 2))
+    ends = ends[(np.abs(ends) < lim).all(axis=1)]
+    if len(ends):
+        ends = np.unique(np.round(ends / GRID) * GRID, axis=0)
+        cells.extend(Cell(0, d, face, shapely.Point(p))
+                     for d, p in zip(direction_of(face, ends), ends))
+    return cells
+
+
+def equator_cells(bs: BlockedSets) -> list[Cell]:
+    """For 2D assemblies: the regions on S^1 (the equator ``z = 0`` of the extruded model).
+
+    The equator crosses the four side faces along a chart line; the ``U_ij`` boundaries cut it
+    into intervals (1-dimensional regions, 0-dimensional when shorter than ``eta``).
+    """
+    from .cubemap import direction_of
+
+    cells: list[Cell] = []
+    for face in range(4):
+        e, u, v = FACES[face]
+        # Chart line of z = 0: the chart coordinate whose axis is z is zero.
+        zc = 0 if abs(u[2]) > 0 else 1
+        seg = shapely.LineString([(-1, 0), (1, 0)] if zc == 1 else [(0, -1), (0, 1)])
+        cuts = [shapely.intersection(seg, shapely.boundary(g)) for g in bs.geoms[face].values()]
+        ts = [-1.0, 1.0]
+        for c in cuts:
+            if not c.is_empty:
+                xy = shapely.get_coordinates(c)
+                ts.extend(xy[:, 1 - zc].tolist())
+        ts = np.unique(np.round(ts, 12))
+        for a, b in zip(ts[:-1], ts[1:]):
+            mid = 0.5 * (a + b)
+            pt = (mid, 0.0) if zc == 1 else (0.0, mid)
+            dim = 0 if b - a < bs.eta else 1
+            cells.append(Cell(dim, direction_of(face, np.array([pt]))[0], face,
+                              shapely.LineString([(a, 0), (b, 0)] if zc == 1
+                                                 else [(0, a), (0, b)])))
+    return cells
+
+
+def build_infinite(asm: Assembly) -> NDBG:
+    """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
+    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG."""
+    t0 = time.perf_counter()
+    bs = blocked_sets(asm)
+    t1 = time.perf_counter()
+    cells = equator_cells(bs) if asm.dimension == 2 else arrangement_cells(bs)
+    t2 = time.perf_counter()
+    dirs = np.array([c.direction for c in cells]) if cells else np.zeros((0, 3))
+    dbgs = bs.dbgs(dirs) if len(dirs) else []
+    # Seam candidates: keep those where the open-set semantics frees something.
+    seam = np.array([c.seam for c in cells], dtype=bool)
+    lower = np.array([c.dimension < 2 for c in cells], dtype=bool)
+    on_circle = np.zeros(len(cells), dtype=bool)
+    if len(bs.circles) and len(dirs):
+        on_circle = (np.abs(dirs @ bs.circles.T) < 1e-7).any(axis=1)
+    recheck = np.nonzero(seam | (lower & on_circle))[0]
+    keep = ~seam
+    if len(recheck):
+        for k, g in zip(recheck, bs.dbgs(dirs[recheck], exact=True)):
+            if seam[k] and g.succ != dbgs[k].succ:
+                keep[k] = True
+            dbgs[k] = g
+    cells = [c for c, ok in zip(cells, keep) if ok]
+    dbgs = [g for g, ok in zip(dbgs, keep) if ok]
+    regions = []
+    for c, g in zip(cells, dbgs):
+        d = c.direction[:2] / np.linalg.norm(c.direction[:2]) if asm.dimension == 2 \
+            else c.direction
+        regions.append(Region(dimension=c.dimension, direction=tuple(float(x) for x in d),
+                              dbg=g))
+    t3 = time.perf_counter()
+    ndbg = NDBG(family=FAMILY, ids=tuple(asm.ids), regions=tuple(regions),
+                space_dimension=asm.dimension, stats={})
+    counts = ndbg.region_counts()
+    ndbg.stats.update({
+        "regions_by_dimension": counts, "regions": len(regions),
+        "distinct_dbgs": len(ndbg.distinct()), "pieces": bs.stats["pieces"],
+        "length_tolerance": asm.length_tolerance, "angular_tolerance": bs.eta,
+        "time_blocked_sets_s": t1 - t0, "time_arrangement_s": t2 - t1,
+        "time_dbgs_s": t3 - t2, "time_total_s": t3 - t0,
+    })
+    object.__setattr__(ndbg, "_blocked_sets", bs)
+    return ndbg
+
+
+def lookup(ndbg: NDBG, d: np.ndarray, exact: bool = False) -> list[DBG]:
+    """DBGs at directions ``d`` (``(m, 3)``; ``(m, 2)`` in 2D) from the NDBG's blocked sets:
+    a vectorised point location in the arrangement, no geometry of the parts. With
+    ``exact`` the open-set semantics is applied too (right on the contact circles, e.g.
+    exactly along a bore's axis; slower)."""
+    bs: BlockedSets = ndbg._blocked_sets  # type: ignore[attr-defined]
+    d = np.atleast_2d(np.asarray(d, dtype=float))
+    if d.shape[1] == 2:
+        d = np.concatenate([d, np.zeros((len(d), 1))], axis=1)
+    return bs.dbgs(d, exact=exact)
+
+
+def boundary_distance(ndbg: NDBG, d: np.ndarray) -> np.ndarray:
+    """Chart distance ``(m,)`` from each direction to the nearest ``B_ij`` boundary on its
+    face (about the angle in radians, within a factor 3): where the lookup is robust."""
+    bs: BlockedSets = ndbg._blocked_sets  # type: ignore[attr-defined]
+    d = np.atleast_2d(np.asarray(d, dtype=float))
+    if d.shape[1] == 2:
+        d = np.concatenate([d, np.zeros((len(d), 1))], axis=1)
+    f, st = face_of(d)
+    out = np.full(len(d), np.inf)
+    for face in range(6):
+        sel = np.nonzero(f == face)[0]
+        if not len(sel) or not bs.geoms[face]:
+            continue
+        lines = shapely.union_all([shapely.boundary(g) for g in bs.geoms[face].values()])
+        out[sel] = shapely.distance(lines, shapely.points(st[sel]))
+    return out
+
+
+def free_directions(ndbg: NDBG, moved: int, mask: int | None = None
+                    ) -> list[tuple[int, tuple[float, ...]]]:
+    """``(dimension, direction)`` of every region in which the part set ``moved`` (bitmask)
+    is free inside ``mask`` (default all parts)."""
+    return [(r.dimension, r.direction) for r in ndbg.regions if r.dbg.is_free(moved, mask)]
+
+
+__all__ = ["BlockedSets", "Cell", "FAMILY", "blocked_sets", "build_infinite", "lookup",
+           "boundary_distance", "infinite_section", "infinite_text", "partitioning_records",
+           "free_directions", "arrangement_cells", "pair_cones", "triangle_pairs"]

@@ -1,0 +1,449 @@
+"""Assembly trees and sequences from an NDBG (paper Fig. 1 and section 4.4).
+
+An assembly tree recursively partitions the product into two subassemblies; every internal
+node is an instruction: its ``moved`` side travels along a region's motion away from the
+``rest`` (disassembly), i.e. it is inserted along the opposite direction when assembling.
+Directions in the output: ``removal_direction`` is the region's direction ``d`` (the moved side
+is free along ``d``), ``direction`` is the assembly (insertion) direction ``-d``; generalized
+regions give their ``motion`` dict (the removal motion) instead.
+
+Strategies (all deterministic):
+
+* ``shortest``: minimum tree height, exact from the AND/OR graph (ties: fewer nonlinear steps,
+  balance); when the budget truncates the graph, by iterative deepening
+  (:func:`classes.min_depth_search`), exact if its budget suffices, else its best tree;
+* ``linear``: fewest nonlinear instructions (one part at a time when possible), exact from
+  the AND/OR graph, else greedy (a linear split whenever one exists: exact for linearizable
+  products by heredity);
+* ``fewest-directions``: only the regions of a minimum direction set (:func:`classes.
+  min_directions`, which ignores ``connected``), most balanced split first;
+* ``balanced``: greedy, the most balanced split at every node.
+
+With ``base`` (a part index) the base is never moved: it always stays on the ``rest`` side.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, field
+
+from .andor import (
+    AndOrGraph,
+    Budget,
+    Hyperarc,
+    greedy_tree,
+    lower_bound_depth,
+    node_splits,
+    prefer_balanced,
+    prefer_linear,
+)
+from .classes import min_depth_search, min_directions
+from .dbg import bits
+from .ndbg import NDBG, ConnectivityTest
+
+STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One instruction: ``mask`` splits into ``moved`` (free along ``region``) and ``rest``."""
+
+    mask: int
+    moved: int
+    rest: int
+    region: int
+
+
+@dataclass
+class Plan:
+    """A candidate assembly tree: ``steps[m]`` is the instruction splitting subassembly ``m``.
+
+    ``exact`` says whether the strategy's objective is proven optimal (``False`` when a budget
+    forced a greedy answer); ``found`` is False when no candidate algorithm exists, ``stuck``
+    then holds a subassembly without any candidate partitioning."""
+
+    ndbg: NDBG
+    root: int
+    strategy: str
+    steps: dict[int, Step] = field(default_factory=dict)
+    exact: bool = True
+    found: bool = True
+    stuck: int | None = None
+    notes: list[str] = field(default_factory=list)
+
+    def depth(self, mask: int | None = None) -> int:
+        """Tree height (a single part has depth 0)."""
+        m = self.root if mask is None else mask
+        if m.bit_count() < 2:
+            return 0
+        s = self.steps[m]
+        return 1 + max(self.depth(s.moved), self.depth(s.rest))
+
+    def nonlinear(self) -> int:
+        """Number of instructions whose sides both have two or more parts."""
+        return sum(1 for s in self.steps.values()
+                   if s.moved.bit_count() > 1 and s.rest.bit_count() > 1)
+
+    def regions_used(self) -> list[int]:
+        return sorted({s.region for s in self.steps.values()})
+
+    def sequence(self) -> list[Step]:
+        """Assembly order (the reverse of a disassembly): children before parents; for each
+        instruction the ``rest`` side is built first, then the ``moved`` side."""
+        out: list[Step] = []
+
+        def visit(m: int) -> None:
+            if m.bit_count() < 2:
+                return
+            s = self.steps[m]
+            visit(s.rest)
+            visit(s.moved)
+            out.append(s)
+
+        if self.found:
+            visit(self.root)
+        return out
+
+
+def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
+    """The region reported for an instruction free in several: highest dimension (open cells are
+    the most robust), then lowest index."""
+    return min(regions, key=lambda r: (-ndbg.regions[r].dimension, r))
+
+
+def orient(ndbg: NDBG, h: Hyperarc, allowed: set[int] | None = None) -> Step:
+    """Choose the moved side (the smaller one, then the lower mask) and the region of ``h``."""
+    opts = []
+    for moved, regions in h.moves:
+        regs = [r for r in regions if allowed is None or r in allowed]
+        if regs:
+            opts.append((moved.bit_count(), moved, pick_region(ndbg, regs)))
+    _, moved, region = min(opts)
+    return Step(mask=h.node, moved=moved, rest=h.node & ~moved, region=region)
+
+
+def _restrict(h: Hyperarc, allowed: set[int]) -> Hyperarc | None:
+    moves = tuple((m, tuple(r for r in regs if r in allowed)) for m, regs in h.moves)
+    moves = tuple((m, regs) for m, regs in moves if regs)
+    return Hyperarc(h.node, h.left, h.right, moves) if moves else None
+
+
+def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
+         connected: ConnectivityTest | None = None, budget: Budget | None = None,
+         graph: AndOrGraph | None = None, mask: int | None = None) -> Plan:
+    """Build an assembly tree of ``mask`` (default: the whole product) with ``strategy``.
+
+    ``graph`` may pass an already built AND/OR graph (same ``base``/``connected``) to reuse."""
+    if strategy not in STRATEGIES:
+        raise ValueError(f"unknown strategy {strategy!r}; expected one of {STRATEGIES}")
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    out = Plan(ndbg=ndbg, root=root, strategy=strategy)
+    if strategy in ("shortest", "linear"):
+        g = graph or AndOrGraph(ndbg, root, base=base, connected=connected, budget=budget)
+        g.build()
+        if g.complete:
+            key = "depth" if strategy == "shortest" else "nonlinear"
+            if g.depths()[root] is None:
+                _fail(out, g, ndbg)
+                return out
+            stack = [root]
+            while stack:
+                m = stack.pop()
+                if m.bit_count() < 2:
+                    continue
+                h = g.best_arc(m, key)
+                assert h is not None
+                s = orient(ndbg, h)
+                out.steps[m] = s
+                stack.extend((s.rest, s.moved))
+            return out
+        if strategy == "shortest":
+            r = min_depth_search(ndbg, root, base=base, connected=connected, budget=budget,
+                                 arcs=g.expand)
+            if r.upper is not None:
+                out.exact = r.exact
+                out.notes.append(f"AND/OR graph truncated at {g.node_count} nodes; depth by "
+                                 f"iterative deepening ({r.expanded} nodes): "
+                                 + ("optimal" if r.exact else
+                                    f"between {r.lower} and {r.upper}"))
+                for m, h in r.choice.items():
+                    out.steps[m] = orient(ndbg, h)
+                return out
+        out.exact = False
+        out.notes.append(f"AND/OR graph truncated at {g.node_count} nodes; greedy tree "
+                         "(an upper bound on the optimum)")
+        chooser = prefer_balanced if strategy == "shortest" else prefer_linear
+        return _from_greedy(out, ndbg, root, base, connected, chooser, budget, None)
+    if strategy == "balanced":
+        out.exact = False
+        return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None)
+    # fewest-directions
+    md = min_directions(ndbg, base=base, budget=budget)
+    if md["regions"] is None:
+        out.found = False
+        out.stuck = md.get("stuck")
+        out.notes.append(md["why"])
+        return out
+    out.exact = bool(md["exact"])
+    out.notes.append(md["why"])
+    got = _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget,
+                       set(md["regions"]))
+    if got.found or connected is None:
+        return got
+    # the direction count ignores the connectivity filter: fall back to all regions
+    out = Plan(ndbg=ndbg, root=root, strategy=strategy, exact=False,
+               notes=["no connected tree within the minimum direction set; all regions used"])
+    return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None)
+
+
+def _fail(out: Plan, g: AndOrGraph, ndbg: NDBG) -> None:
+    out.found = False
+    d = g.depths()
+    stuck = [m for m, v in d.items() if v is None]
+    out.stuck = min(stuck, key=lambda m: (m.bit_count(), m)) if stuck else g.root
+    out.notes.append("no candidate algorithm: subassembly "
+                     f"{ndbg.names(out.stuck)} has no candidate partitioning")
+
+
+def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
+                 connected: ConnectivityTest | None, chooser, budget: Budget,
+                 allowed: set[int] | None) -> Plan:
+    arcs = None
+    if allowed is not None:
+        def arcs(m: int) -> list[Hyperarc]:
+            got, _ = node_splits(ndbg, m, base=base, connected=connected,
+                                 limit=budget.split_limit)
+            return [r for r in (_restrict(h, allowed) for h in got) if r is not None]
+    res = greedy_tree(ndbg, root, base=base, connected=connected, chooser=chooser,
+                      budget=budget, arcs=arcs)
+    if not res.found:
+        out.found = False
+        out.stuck = res.stuck
+        out.exact = not res.truncated
+        if res.truncated:
+            out.notes.append("search budget exhausted before a tree was found")
+        elif res.stuck is not None:
+            out.notes.append("no candidate algorithm: subassembly "
+                             f"{ndbg.names(res.stuck)} has no candidate partitioning")
+        return out
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        s = orient(ndbg, res.choice[m], allowed)
+        out.steps[m] = s
+        stack.extend((s.rest, s.moved))
+    return out
+
+
+# ----------------------------------------------------------------------------- output
+def _vec(v) -> list[float] | None:
+    return None if v is None else [float(x) for x in v]
+
+
+def step_motion(ndbg: NDBG, s: Step) -> dict:
+    """Family and motion fields of an instruction (see the module docstring)."""
+    r = ndbg.regions[s.region]
+    d: dict = {"family": ndbg.family, "region": s.region}
+    if r.direction is not None:
+        d["removal_direction"] = _vec(r.direction)
+        d["direction"] = [(-x if x != 0 else 0.0) for x in _vec(r.direction)]
+    else:
+        d["direction"] = None
+    if r.motion is not None:
+        d["motion"] = r.motion
+    return d
+
+
+def tree_json(p: Plan, mask: int | None = None) -> dict:
+    """Nested tree: ``{"parts", "moved": subtree, "rest": subtree, ...motion}``; leaves only
+    have ``parts``."""
+    m = p.root if mask is None else mask
+    node: dict = {"parts": p.ndbg.names(m)}
+    if m.bit_count() >= 2 and m in p.steps:
+        s = p.steps[m]
+        node.update(step_motion(p.ndbg, s))
+        node["depth"] = p.depth(m)
+        node["moved"] = tree_json(p, s.moved)
+        node["rest"] = tree_json(p, s.rest)
+    return node
+
+
+def sequence_json(p: Plan) -> list[dict]:
+    """Numbered assembly steps: ``moved`` is inserted ``onto`` the rest, producing
+    ``produces``."""
+    out = []
+    for k, s in enumerate(p.sequence(), start=1):
+        d = {"step": k, "moved": p.ndbg.names(s.moved), "onto": p.ndbg.names(s.rest),
+             "produces": p.ndbg.names(s.mask)}
+        d.update(step_motion(p.ndbg, s))
+        out.append(d)
+    return out
+
+
+def plan_section(p: Plan) -> dict:
+    """The report's ``plan`` section."""
+    return {
+        "strategy": p.strategy,
+        "found": p.found,
+        "exact": p.exact,
+        "depth": p.depth() if p.found else None,
+        "depth_lower_bound": lower_bound_depth(p.root),
+        "nonlinear_steps": p.nonlinear() if p.found else None,
+        "regions_used": p.regions_used(),
+        "stuck": None if p.stuck is None else p.ndbg.names(p.stuck),
+        "notes": list(p.notes),
+        "tree": tree_json(p) if p.found else None,
+        "sequence": sequence_json(p),
+    }
+
+
+def _fmt_dir(d: dict) -> str:
+    if d.get("direction") is not None:
+        return "along (" + ", ".join(f"{x:+.3g}" for x in d["direction"]) + ")"
+    if d.get("motion") is not None:
+        mo = d["motion"]
+        return f"by {mo.get('type', 'motion')} (reverse of removal motion {mo})"
+    return f"via region {d['region']}"
+
+
+def plan_text(p: Plan) -> list[str]:
+    """Designer-readable assembly sequence as numbered steps."""
+    if not p.found:
+        return [f"No candidate assembly sequence ({p.ndbg.family}): " + "; ".join(p.notes)]
+    lines = [f"Assembly sequence ({p.strategy}, {p.ndbg.family}): {len(p.steps)} steps, "
+             f"tree depth {p.depth()}{'' if p.exact else ' (not proven optimal)'}"]
+    for d in sequence_json(p):
+        lines.append(f"  {d['step']}. insert {{{', '.join(d['moved'])}}} onto "
+                     f"{{{', '.join(d['onto'])}}} {_fmt_dir(d)}")
+    return lines
+
+
+# ----------------------------------------------------------------------------- remove
+@dataclass
+class Removal:
+    """Parts to withdraw before ``target`` comes out: ``steps`` are ``(withdrawn set, region)``
+    in order, then ``final_region`` frees the target. ``exact``: ``withdrawn`` is a minimum
+    (fewest parts, then fewest steps); otherwise ``lower_bound`` bounds the minimum."""
+
+    target: int
+    found: bool
+    withdrawn: int
+    steps: list[tuple[int, int]]
+    final_region: int | None
+    exact: bool
+    lower_bound: int
+    explored: int
+
+    def section(self, ndbg: NDBG) -> dict:
+        return {
+            "target": ndbg.names(self.target), "found": self.found, "exact": self.exact,
+            "withdrawn": ndbg.names(self.withdrawn), "count": self.withdrawn.bit_count(),
+            "lower_bound": self.lower_bound, "explored_states": self.explored,
+            "steps": [{"step": k, "withdraw": ndbg.names(w),
+                       **step_motion(ndbg, Step(0, w, 0, r))}
+                      for k, (w, r) in enumerate(self.steps, start=1)],
+            "final": None if self.final_region is None else step_motion(
+                ndbg, Step(0, self.target, 0, self.final_region)),
+        }
+
+
+def _free_region(ndbg: NDBG, subset: int, mask: int) -> int | None:
+    regs = [k for k, r in enumerate(ndbg.regions) if r.dbg.is_free(subset, mask)]
+    return pick_region(ndbg, regs) if regs else None
+
+
+def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget | None = None
+           ) -> Removal:
+    """Which parts must be withdrawn, in which order, before subassembly ``target`` (bitmask)
+    can be removed, i.e. becomes free along some region of the remaining assembly.
+
+    Each withdrawal moves a free set of the current assembly avoiding the target (and the base)
+    out along one region. Exact search: Dijkstra over remaining assemblies ordered by (parts
+    withdrawn, steps), up to ``budget.max_nodes`` states, which returns a minimum set. Beyond
+    the budget, a greedy (withdraw the smallest free set containing a blocker) gives an upper
+    bound; ``lower_bound`` is then ``min over regions of |direct blockers of target|`` (the
+    final region must have every direct blocker gone).
+    """
+    budget = budget or Budget()
+    full = (1 << ndbg.n) - 1
+    keep = target | (0 if base is None else 1 << base)
+    lower = min((r.dbg.blockers(target, full).bit_count() for r in ndbg.regions), default=0)
+    start = full
+    heap: list[tuple[int, int, int]] = [(0, 0, start)]
+    prev: dict[int, tuple[int, int, int] | None] = {start: None}
+    best: dict[int, tuple[int, int]] = {start: (0, 0)}
+    done: set[int] = set()
+    explored = 0
+    while heap and explored < budget.max_nodes:
+        cost, nsteps, m = heapq.heappop(heap)
+        if m in done:
+            continue
+        done.add(m)
+        explored += 1
+        fr = _free_region(ndbg, target, m)
+        if fr is not None:
+            steps = []
+            cur = m
+            while prev[cur] is not None:
+                p_mask, w, r = prev[cur]
+                steps.append((w, r))
+                cur = p_mask
+            steps.reverse()
+            return Removal(target, True, full & ~m, steps, fr, True, max(lower, cost), explored)
+        parts, _ = node_splits(ndbg, m, limit=budget.split_limit)
+        for h in parts:
+            for moved, regions in h.moves:
+                if moved & keep:
+                    continue
+                nm = m & ~moved
+                key = (cost + moved.bit_count(), nsteps + 1)
+                if nm not in best or key < best[nm]:
+                    best[nm] = key
+                    prev[nm] = (m, moved, pick_region(ndbg, regions))
+                    heapq.heappush(heap, (key[0], key[1], nm))
+    exhausted = not heap
+    if exhausted:
+        return Removal(target, False, 0, [], None, True, lower, explored)
+    return _remove_greedy(ndbg, target, keep, lower, explored)
+
+
+def _remove_greedy(ndbg: NDBG, target: int, keep: int, lower: int, explored: int) -> Removal:
+    """Goal-directed withdrawal: ``wanted`` starts as the target's direct blockers; withdraw the
+    smallest free set (closure in some region) of a wanted part that avoids the target and
+    base; when none exists, add the blockers of the wanted parts to ``wanted``."""
+    full = (1 << ndbg.n) - 1
+    m = full
+    steps: list[tuple[int, int]] = []
+
+    def blockers_of(sub: int) -> int:
+        out = 0
+        for r in ndbg.regions:
+            out |= r.dbg.blockers(sub, m)
+        return out & ~keep
+
+    wanted = blockers_of(target)
+    while True:
+        fr = _free_region(ndbg, target, m)
+        if fr is not None:
+            return Removal(target, True, full & ~m, steps, fr, False, lower, explored)
+        best = None
+        for b in bits(wanted):
+            for k, r in enumerate(ndbg.regions):
+                c = r.dbg.closure(1 << b, m)
+                if c & keep or c == m:
+                    continue
+                cand = (c.bit_count(), c, -r.dimension, k)
+                if best is None or cand < best:
+                    best = cand
+        if best is None:
+            grown = wanted | blockers_of(wanted)
+            if grown == wanted:
+                return Removal(target, False, full & ~m, steps, None, False, lower, explored)
+            wanted = grown
+            continue
+        steps.append((best[1], best[3]))
+        m &= ~best[1]
+        wanted = (wanted & m) | blockers_of(target)

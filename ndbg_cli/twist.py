@@ -1,0 +1,445 @@
+"""Infinitesimal rigid motions (twists): the 6D contact constraints, their tolerances and the
+naming of a motion (paper section 5.2, Fig. 5 and 6). The local-freedom LP over these rows
+is :mod:`ndbg_cli.motion_lp`.
+
+Conventions
+-----------
+A *twist* ``(v, w)`` (a 6-vector, ``v`` first) is an infinitesimal rigid motion about the
+assembly origin: a point ``p`` of the moving set moves with velocity ``u(p) = v + w x p``
+(``v`` in assembly units per unit time, ``w`` in radians per unit time).
+
+A contact point ``p`` between parts ``a`` and ``b`` carries a unit normal ``n`` pointing *out
+of* ``a`` *into* ``b`` (the contact stage's convention). Moving ``a`` with velocity ``u`` at
+``p`` (``b`` staying) pushes ``a`` into ``b`` iff ``n . u > 0``; this is the translation rule
+of paper section 4.3 (``a`` translating along ``d`` is blocked by ``b`` iff ``d . n > 0``)
+applied to the velocity of each point. Hence the twist ``X = (v, w)`` of ``a`` relative to
+``b`` is *allowed* by the contact point iff::
+
+    g . X <= 0,   g = (n, p x n)          (since n . (w x p) = w . (p x n))
+
+It *breaks* the contact iff ``g . X < 0`` and *slides* iff ``g . X = 0``. The paper writes the
+same half-space as ``n_F J_V dX >= 0`` with the outgoing normal of the *fixed* face (``-n``).
+When ``b`` is the part that moves (``a`` stays), the row is ``-g``. A planar contact
+contributes one row per convex-hull vertex of its contact polygon (Fig. 6); curved contacts
+one row per contact point; edge and point contacts (``blocking == "all"``) one row per point
+and normal of their cone, grouped (:func:`contact_rows`).
+
+Cylindrical contacts: a tessellated cylinder's facet normals are radial only on each facet's
+centre line, so at the facet's other points they would spuriously block the rotation about
+the cylinder's own axis. On a contact reported as ``surface == "cylinder"`` (with ``axis`` and
+``center``), and on a curved contact between the two parts of a declared joint that is a
+surface of revolution about the joint's axis, each point is turned about the axis onto the
+line where its facet normal is radial (:func:`contact_points`). Rows sharing a normal are then
+reduced to the extreme points (:func:`reduce_points`).
+
+Scaling and tolerances
+----------------------
+``L`` is the assembly's bounding-box diagonal and ``c`` its centre. The LP works with the
+scaled, centred twist ``x = (v + w x c, L w)``: both halves are then speeds in assembly units
+(the rotational half is the speed of a point at distance ``L`` from the axis), so the box
+``|x_i| <= 1`` treats translation and rotation alike and every row reads
+``g' = (n, (p - c) x n / L)``, speeds of order 1. The LP's constraints are nearly exact,
+``G x <= LP_SLACK`` (1e-7, the order of the rounding in CAD normals and axes and of HiGHS's
+own feasibility tolerance): a larger allowance would let a part turn about an axis close to a
+small pin while violating the pin's rows by the allowance, and break far contacts ``L / r``
+times faster (the bell's armature about its 1.5 mm peg "came out" that way with 1e-4). Noise
+in the contact data is removed before (exact planar normals, radial cylinder normals). Two
+more dimensionless tolerances, in these scaled speed units (the model's size is in ``L``, so
+they are scale-invariant):
+
+* ``slide_tol`` = :data:`SLIDE_TOL`: a row with ``|G_k x| <= slide_tol`` slides (null-space
+  and polishing computations);
+* ``break_tol`` = :data:`BREAK_TOL`: a contact counts as broken only when it separates faster
+  than this, i.e. 1000 times the allowance: a spurious motion would need ``L / r > 1000``.
+  A screw of pitch ``h`` separates at about ``h / (2 pi L)`` (4e-3 for a 1.25 mm thread on a
+  50 mm model): threads finer than ``2 pi L BREAK_TOL`` (0.6 mm on a 1 m model) are missed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from .assembly import Assembly
+
+#: Angular tolerance (radians) for comparing directions: the project's sphere tolerance.
+ANGLE_TOL = 1e-6
+#: Largest ``|G_k x|`` of a sliding row, in the LP's scaled speed units (module docstring).
+SLIDE_TOL = 1e-6
+#: Smallest separation speed of a broken row, in the LP's scaled speed units.
+BREAK_TOL = 1e-4
+#: Allowed violation of each LP row (scaled units): rounding of normals and axes.
+LP_SLACK = 1e-7
+#: A twist whose rotational speed ``L |w|`` is below this fraction of its largest component is
+#: read as a pure translation.
+TRANSLATION_FRACTION = 1e-6
+#: Largest angle (radians) between a curved contact's normals and the radial directions
+#: about a declared joint's axis for the contact to be read as a surface of revolution about
+#: it: 20 degrees, i.e. cylinders tessellated with at least 9 facets per turn.
+REVOLUTION_ANGLE = float(np.radians(20.0))
+#: A screw whose advance per turn is at most ``PITCH_FACTOR`` length tolerances is a rotation.
+PITCH_FACTOR = 10.0
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    return v / n if n > 0 else v
+
+
+@dataclass(frozen=True)
+class ContactRows:
+    """Every contact point of an assembly, flattened (built once, sliced per split).
+
+    ``points`` ``(K, 3)`` and ``normals`` ``(K, 3)`` (unit, out of part ``a[k]`` into part
+    ``b[k]``), ``a``/``b`` ``(K,)`` part indices, ``contact`` ``(K,)`` the index of the contact
+    each row comes from, ``group`` ``(K,)`` non-decreasing group ids (see
+    :func:`contact_rows`). ``center`` ``(3,)`` and ``scale`` (``L``) define the LP's scaled
+    twist; ``length_tol`` is the assembly's length tolerance.
+    """
+
+    points: np.ndarray
+    normals: np.ndarray
+    a: np.ndarray
+    b: np.ndarray
+    contact: np.ndarray
+    n: int
+    center: np.ndarray
+    scale: float
+    length_tol: float
+    group: np.ndarray
+    planar: bool = False
+
+    @property
+    def free_axes(self) -> np.ndarray:
+        """``(6,)`` bool: the scaled twist components that may move (2D assemblies, embedded
+        at z = 0: only ``v_x``, ``v_y`` and ``w_z``)."""
+        return np.array([True, True, False, False, False, True]) if self.planar \
+            else np.ones(6, dtype=bool)
+
+    @property
+    def slide_tol(self) -> float:
+        """Largest ``|G_k x|`` of a sliding row (scaled units, dimensionless)."""
+        return SLIDE_TOL
+
+    @property
+    def break_tol(self) -> float:
+        """Separation speed above which a row is broken, in the LP's scaled units."""
+        return BREAK_TOL
+
+
+def _part_index(asm: Assembly, ref: Any) -> int:
+    if isinstance(ref, (int, np.integer)):
+        return int(ref)
+    return asm.index(str(ref))
+
+
+def contact_points(c: Any, length_tol: float,
+                   joint_axes: Sequence[tuple[np.ndarray, np.ndarray]] = ()
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of one contact: points ``(m, 3)`` and unit normals ``(m, 3)`` (out of ``a``).
+
+    Uses ``point_normals`` when it matches ``points`` (flipped as a whole if they disagree in
+    sign with the contact's ``normals``), else the contact's first normal. On a cylinder with
+    ``axis`` and ``center``, and on a curved contact of a declared joint's two parts that is a
+    surface of revolution about one of the ``joint_axes`` ``(unit axis, point)`` (every
+    normal within :data:`REVOLUTION_ANGLE` of the radial direction, either sign, about that
+    axis), each normal loses its axial component and each point is turned about the axis,
+    at its own radius and height, onto the line where that normal is exactly radial: the
+    rows then let the part turn about the axis exactly; of the points sharing a normal only
+    the lowest and highest along the axis are kept (exact, see :func:`reduce_points`).
+    """
+    pts = _pad3(np.asarray(c.points, dtype=float)).reshape(-1, 3)
+    if getattr(c, "kind", None) == "planar" and np.size(c.normals) in (2, 3):  # one normal
+        n0 = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)[0]
+        return pts, np.repeat(_unit(n0)[None, :], len(pts), axis=0)
+    pn = getattr(c, "point_normals", None)
+    gens = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)
+    if pn is None and len(gens) == len(pts) and not hasattr(c, "kind"):
+        pn = gens  # 2D contacts: one normal per point
+    pn = None if pn is None else _pad3(np.asarray(pn, dtype=float)).reshape(-1, 3)
+    if pn is None or len(pn) != len(pts):
+        pn = np.repeat(gens[:1], len(pts), axis=0)
+    pn = pn / np.maximum(np.linalg.norm(pn, axis=1, keepdims=True), 1e-300)
+    if len(gens) and len(pn):
+        agree = (pn @ gens.T).max(axis=1).sum()
+        if (-pn @ gens.T).max(axis=1).sum() > agree:
+            pn = -pn
+    axis, center = getattr(c, "axis", None), getattr(c, "center", None)
+    lines: list[tuple[np.ndarray, np.ndarray, bool]] = []  # (axis, point, check first)
+    if getattr(c, "surface", None) == "cylinder" and axis is not None and center is not None:
+        lines.append((_unit(np.asarray(axis, dtype=float)), np.asarray(center, dtype=float),
+                      False))
+    elif getattr(c, "kind", None) == "curved":
+        lines.extend((np.asarray(ax, float), np.asarray(q, float), True) for ax, q in joint_axes)
+    for ax, q, check in lines:
+        rel = pts - q
+        h = rel @ ax
+        radial = rel - np.outer(h, ax)
+        r = np.linalg.norm(radial, axis=1)
+        across = pn - np.outer(pn @ ax, ax)
+        na = np.linalg.norm(across, axis=1)
+        if np.any(r <= length_tol) or np.any(na <= 1e-9):
+            continue
+        across /= na[:, None]
+        cos = np.sum(radial * across, axis=1) / r
+        if check and not np.all(np.abs(pn @ ax) <= np.sin(REVOLUTION_ANGLE)) or \
+                check and not np.all(np.abs(cos) >= np.cos(REVOLUTION_ANGLE)):
+            continue  # not a surface of revolution about this joint's axis
+        side = np.where(cos < 0, -1.0, 1.0)
+        # the point moves round the axis onto the line where its facet normal is radial
+        moved = q + np.outer(h, ax) + (r * side)[:, None] * across
+        # rows sharing a normal differ only by the height h (the radius drops out of
+        # p x n): keep the lowest and highest point of each normal
+        e1, e2 = _across(ax)  # normals across the axis: one angle each
+        _, inv = np.unique(np.round(np.arctan2(across @ e2, across @ e1), 6),
+                           return_inverse=True)
+        inv = inv.ravel()
+        order = np.lexsort((h, inv))
+        first = np.flatnonzero(np.r_[True, inv[order][1:] != inv[order][:-1]])
+        last = np.r_[first[1:], len(order)] - 1
+        sel = np.unique(np.r_[order[first], order[last]])
+        return moved[sel], across[sel]
+    return pts, pn
+
+
+def reduce_points(pts: np.ndarray, nrm: np.ndarray, tol: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the rows implied by others: for one normal ``n`` the speed
+    ``n . v + p . (n x w)`` is affine in the point ``p`` and depends only on its component
+    across ``n``, so over points sharing a normal (equal within 1e-9) only the vertices of
+    the convex hull of their projection on the plane across ``n`` matter (two extremes when
+    they are collinear, within ``tol``). Exact; it shrinks a tessellated cylinder's rows to
+    about four per facet direction."""
+    if len(pts) <= 2:
+        return pts, nrm
+    _, inv = np.unique(np.round(nrm, 9), axis=0, return_inverse=True)
+    inv = inv.ravel()
+    if np.bincount(inv).max() <= 3:
+        return pts, nrm
+    keep: list[np.ndarray] = []
+    for g in range(int(inv.max()) + 1):
+        idx = np.flatnonzero(inv == g)
+        if len(idx) <= 3:
+            keep.append(idx)
+            continue
+        e1, e2 = _across(nrm[idx[0]])
+        q = np.stack([pts[idx] @ e1, pts[idx] @ e2], axis=1)
+        keep.append(idx[_hull_2d(q, tol)])
+    sel = np.sort(np.concatenate(keep))
+    return pts[sel], nrm[sel]
+
+
+def _across(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An orthonormal basis of the plane across the unit vector ``n``."""
+    t = np.eye(3)[int(np.argmin(np.abs(n)))]
+    e1 = _unit(np.cross(n, t))
+    return e1, np.cross(n, e1)
+
+
+def _hull_2d(q: np.ndarray, tol: float) -> np.ndarray:
+    """Indices of the extreme points of ``q`` ``(k, 2)``: convex-hull vertices, or the two
+    ends when the points are collinear within ``tol``, or one point when they coincide."""
+    c = q - q.mean(axis=0)
+    _, sv, vt = np.linalg.svd(c, full_matrices=False)
+    t = c @ vt[0]
+    if sv[0] <= tol:
+        return np.array([0])
+    if len(sv) < 2 or np.abs(c @ vt[1]).max() <= tol:
+        return np.unique([int(np.argmin(t)), int(np.argmax(t))])
+    return np.asarray(ConvexHull(q).vertices)
+
+
+def _pad3(v: np.ndarray) -> np.ndarray:
+    """2D points or vectors ``(..., 2)`` embedded at z = 0 as ``(..., 3)``; 3D unchanged."""
+    if v.shape[-1] == 3:
+        return v
+    return np.concatenate([v, np.zeros(v.shape[:-1] + (1,))], axis=-1)
+
+
+def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
+    """Flatten ``contacts`` (objects with ``a``, ``b`` (ids or indices), ``points``,
+    ``point_normals``/``normals``, optional ``surface``/``axis``/``center``/``blocking``) into
+    rows.
+
+    Curved contacts between the two parts of a declared joint get radial normals about the
+    joint's axis when they are surfaces of revolution about it (:func:`contact_points`).
+
+    2D contacts (:class:`ndbg_cli.contacts2d.Contact2D`: ``points`` ``(k, 2)`` with one of
+    ``normals`` ``(k, 2)`` each) are embedded at z = 0 and the rows are marked ``planar``.
+
+    A contact with ``blocking == "all"`` (edge and point contacts: its ``normals`` generate
+    the cone of possible separating normals, and it blocks only when *every* one is pushed
+    into) gives one row per point and generator, and the rows of one point form a *group*:
+    :func:`group_blocks` blocks a group only when all its rows do (exact), while the LP
+    requires every row (conservative: it may miss a motion that slides round a vertex).
+    """
+    tol = asm.length_tolerance
+    P, N, A, B, C, G = [], [], [], [], [], []
+    ngroups = 0
+    joints: dict[frozenset, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for j in getattr(asm, "joints", ()):
+        key = frozenset(asm.index(p) for p in j.parts)
+        joints.setdefault(key, []).append((_unit(np.asarray(j.axis, float)),
+                                           np.asarray(j.point, float)))
+    for k, c in enumerate(contacts):
+        pair = frozenset((_part_index(asm, c.a), _part_index(asm, c.b)))
+        pts, nrm = contact_points(c, tol, joints.get(pair, ()))
+        if len(pts) == 0:
+            continue
+        if getattr(c, "blocking", "any") == "all":
+            gens = np.asarray(c.normals, dtype=float).reshape(-1, 3)
+            gens = gens / np.maximum(np.linalg.norm(gens, axis=1, keepdims=True), 1e-300)
+            pts = np.repeat(pts, len(gens), axis=0)
+            nrm = np.tile(gens, (len(pts) // len(gens), 1))
+            grp = ngroups + np.arange(len(pts)) // len(gens)
+        else:
+            if getattr(c, "kind", None) == "curved":  # planar points are hull vertices already
+                pts, nrm = reduce_points(pts, nrm, tol)
+            grp = ngroups + np.arange(len(pts))
+        ngroups = int(grp[-1]) + 1
+        P.append(pts)
+        N.append(nrm)
+        A.append(np.full(len(pts), _part_index(asm, c.a)))
+        B.append(np.full(len(pts), _part_index(asm, c.b)))
+        C.append(np.full(len(pts), k))
+        G.append(grp)
+    lo, hi = asm.bounds if len(asm) else (np.zeros(3), np.ones(3))
+    lo, hi = _pad3(np.asarray(lo, float)), _pad3(np.asarray(hi, float))
+    scale = max(float(np.linalg.norm(hi - lo)), tol, 1e-12)
+    planar = getattr(asm, "dimension", 3) == 2
+    if not P:
+        z = np.zeros((0, 3))
+        e = np.zeros(0, dtype=int)
+        return ContactRows(z, z, e, e, e, len(asm), (lo + hi) / 2, scale, tol, e, planar)
+    return ContactRows(np.vstack(P), np.vstack(N), np.concatenate(A), np.concatenate(B),
+                       np.concatenate(C), len(asm), (lo + hi) / 2, scale, tol,
+                       np.concatenate(G), planar)
+
+
+def group_blocks(rows: ContactRows, values: np.ndarray) -> np.ndarray:
+    """Per row, whether its group blocks: ``values`` ``(K,)`` or ``(K, R)`` (positive = this
+    row pushes in) reduced by minimum over each group and broadcast back, as bool."""
+    if len(values) == 0:
+        return np.zeros(values.shape, dtype=bool)
+    starts = np.flatnonzero(np.r_[True, rows.group[1:] != rows.group[:-1]])
+    if len(starts) == len(values):
+        return values > 0
+    gmin = np.minimum.reduceat(values, starts, axis=0)
+    counts = np.diff(np.r_[starts, len(values)])
+    return np.repeat(gmin, counts, axis=0) > 0
+
+
+# ----------------------------------------------------------------------------- twists
+def twist(kind: str, axis: Sequence[float], point: Sequence[float] = (0.0, 0.0, 0.0),
+          pitch: float = 0.0, sense: int = 1) -> np.ndarray:
+    """The twist ``(v, w)`` ``(6,)`` about the origin of a unit-speed motion.
+
+    ``translation``: ``v = sense * axis``, ``w = 0``. ``rotation`` about the line through
+    ``point`` along ``axis``: ``w = sense * axis`` (1 rad per unit time, right-hand rule),
+    ``v = -w x point``. ``screw``: the rotation plus an advance of ``pitch`` (assembly units
+    per turn; positive = right-hand) along ``w``: ``v = -w x point + pitch / (2 pi) * w``.
+    """
+    ax = _unit(np.asarray(axis, dtype=float)) * float(sense)
+    if kind == "translation":
+        return np.concatenate([ax, np.zeros(3)])
+    q = np.asarray(point, dtype=float)
+    v = -np.cross(ax, q)
+    if kind == "screw":
+        v = v + pitch / (2.0 * np.pi) * ax
+    return np.concatenate([v, ax])
+
+
+def to_scaled(rows: ContactRows, xi: np.ndarray) -> np.ndarray:
+    """Origin twist ``(v, w)`` -> the LP's scaled centred twist ``(v + w x c, L w)``."""
+    v, w = xi[:3], xi[3:]
+    return np.concatenate([v + np.cross(w, rows.center), rows.scale * w])
+
+
+def from_scaled(rows: ContactRows, x: np.ndarray) -> np.ndarray:
+    """Inverse of :func:`to_scaled`."""
+    w = x[3:] / rows.scale
+    return np.concatenate([x[:3] - np.cross(w, rows.center), w])
+
+
+def _velocities(rows: ContactRows, xi: np.ndarray) -> np.ndarray:
+    """``(K, 3)`` velocity ``v + w x p`` of every row's point under the origin twist."""
+    v, w, p = xi[:3], xi[3:], rows.points
+    return np.stack([v[0] + w[1] * p[:, 2] - w[2] * p[:, 1],
+                     v[1] + w[2] * p[:, 0] - w[0] * p[:, 2],
+                     v[2] + w[0] * p[:, 1] - w[1] * p[:, 0]], axis=1)
+
+
+def normal_speeds(rows: ContactRows, xi: np.ndarray) -> np.ndarray:
+    """``(K,)`` ``n . (v + w x p)`` per row for part ``a[k]`` moving by the origin twist
+    ``xi`` relative to ``b[k]``: positive = penetration, negative = separation."""
+    return np.einsum("ij,ij->i", rows.normals, _velocities(rows, xi))
+
+
+def block_tolerance(rows: ContactRows, xi: np.ndarray) -> np.ndarray:
+    """``(K,)`` penetration speed below which a row does not block the twist ``xi``:
+    ``length_tol * |w| + ANGLE_TOL * |u(p)|`` (scale-invariant: the point may be off by the
+    length tolerance, the velocity's direction by the angular tolerance)."""
+    u = _velocities(rows, xi)
+    return rows.length_tol * float(np.linalg.norm(xi[3:])) + ANGLE_TOL * np.linalg.norm(u, axis=1)
+
+
+# ----------------------------------------------------------------------------- motions
+@dataclass(frozen=True)
+class Motion:
+    """A classified infinitesimal rigid motion of a moved set relative to the rest.
+
+    ``twist`` ``(6,)``: ``(v, w)`` about the origin, normalised (``|w| = 1`` rad per unit time
+    for rotations and screws, ``|v| = 1`` for translations). ``type`` is ``"translation"``,
+    ``"rotation"`` or ``"screw"``; ``axis`` the unit direction (the translation direction, or
+    the rotation axis by the right-hand rule); ``point`` the point of the axis closest to the
+    model centre (``None`` for translations); ``pitch`` the advance per turn along ``axis`` in
+    assembly units (0 for rotations, ``None`` for translations). ``broken`` counts the contact
+    points the motion separates; ``margin`` is the largest separation speed in the LP's scaled
+    units.
+    """
+
+    type: str
+    twist: tuple[float, ...]
+    axis: tuple[float, float, float]
+    point: tuple[float, float, float] | None
+    pitch: float | None
+    broken: int = 0
+    margin: float = 0.0
+
+    def record(self) -> dict:
+        """JSON-ready description."""
+        return {"type": self.type, "axis": list(self.axis),
+                "point": None if self.point is None else list(self.point),
+                "pitch": self.pitch, "twist": list(self.twist), "broken_contacts": self.broken,
+                "margin": self.margin}
+
+
+def classify(xi: np.ndarray, *, length_tol: float, scale: float,
+             center: Sequence[float] = (0.0, 0.0, 0.0), broken: int = 0,
+             margin: float = 0.0) -> Motion:
+    """Name the motion of the origin twist ``xi``: translation when ``L |w|`` is below
+    ``TRANSLATION_FRACTION`` of ``max(|v_c|, L |w|)``; else rotation when the advance per turn
+    ``2 pi (w . v) / |w|^2`` is at most ``PITCH_FACTOR * length_tol``, else screw."""
+    v, w = np.asarray(xi[:3], float), np.asarray(xi[3:], float)
+    c = np.asarray(center, float)
+    rot = scale * float(np.linalg.norm(w))
+    lin = float(np.linalg.norm(v + np.cross(w, c)))
+    if rot <= TRANSLATION_FRACTION * max(rot, lin) or rot == 0.0:
+        d = _unit(v)
+        return Motion("translation", tuple(np.concatenate([d, np.zeros(3)]).tolist()),
+                      tuple(d.tolist()), None, None, broken, margin)
+    k = float(np.linalg.norm(w))
+    v, w = v / k, w / k
+    h = float(w @ v)  # advance per radian
+    q = np.cross(w, v)  # point of the axis closest to the origin
+    q = q + float((c - q) @ w) * w
+    pitch = 2.0 * np.pi * h
+    kind = "screw"
+    if abs(pitch) <= PITCH_FACTOR * length_tol:
+        kind, pitch = "rotation", 0.0
+    return Motion(kind, tuple(np.concatenate([v, w]).tolist()), tuple(w.tolist()),
+                  tuple(q.tolist()), pitch, broken, margin)

@@ -1,0 +1,477 @@
+"""Contact analysis (issue 3): answers worked out by hand on real meshes.
+
+Conventions checked: normals point out of part A (the lower index) into part B; areas in
+unit^2; the default tolerance is 1e-4 x the assembly's bounding-box diagonal.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import jsonschema
+import manifold3d as m3
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial.transform import Rotation
+
+import ndbg_cli
+from ndbg_cli.assembly import Assembly
+from ndbg_cli.contacts import (
+    DEFAULT_ANGLE_TOLERANCE,
+    analyze_contacts,
+    check_interference_policy,
+    contacts_section,
+    contacts_text,
+    fcl_model,
+)
+from ndbg_cli.errors import InterferenceError
+from ndbg_cli.validate import make_part
+
+from conftest import shared
+
+SCHEMA = Path(__file__).resolve().parents[1] / "ndbg_cli/schemas/fragments/contacts.json"
+
+
+def assemble(*meshes, units: str = "mm", tolerance: float | None = None) -> Assembly:
+    """An assembly of meshes (trimesh or (vertices, faces)) named p0, p1, ..."""
+    parts = []
+    for k, m in enumerate(meshes):
+        v, f = (m.vertices, m.faces) if isinstance(m, trimesh.Trimesh) else m
+        parts.append(make_part(f"p{k}", v, f)[0])
+    return Assembly("test", tuple(parts), units=units, tolerance=tolerance)
+
+
+def box(extents, center) -> trimesh.Trimesh:
+    b = trimesh.creation.box(extents=extents)
+    b.apply_translation(center)
+    return b
+
+
+def manifold_arrays(solid: m3.Manifold) -> tuple[np.ndarray, np.ndarray]:
+    mesh = solid.to_mesh64()
+    return np.asarray(mesh.vert_properties)[:, :3], np.asarray(mesh.tri_verts)
+
+
+def shaft_and_block(shaft_radius: float, hole_radius: float = 10.0):
+    """A 24-facet shaft (length 60, along z, centred on the origin) through a 64-facet hole in
+    a 50 x 50 x 30 block. Both polygons are inscribed in their circles (manifold3d)."""
+    shaft = m3.Manifold.cylinder(height=60, radius_low=shaft_radius, radius_high=-1.0,
+                                 circular_segments=24).translate((0, 0, -30))
+    hole = m3.Manifold.cylinder(height=40, radius_low=hole_radius, radius_high=-1.0,
+                                circular_segments=64).translate((0, 0, -20))
+    block = m3.Manifold.cube((50, 50, 30)).translate((-25, -25, -15)) - hole
+    return manifold_arrays(shaft), manifold_arrays(block)
+
+
+def moved(arrays, rotation: np.ndarray, translation: np.ndarray, scale: float = 1.0):
+    v, f = arrays
+    return (scale * v) @ rotation.T + translation, f
+
+
+def unit_rows(a) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    return a / np.linalg.norm(a, axis=1, keepdims=True)
+
+
+def same_directions(got: np.ndarray, want, atol: float = 1e-6) -> bool:
+    """Whether two sets of unit vectors are equal as sets."""
+    want = unit_rows(want)
+    if len(got) != len(want):
+        return False
+    return all(np.min(np.linalg.norm(got - w, axis=1)) < atol for w in want)
+
+
+# -- planar ---------------------------------------------------------------------------------
+
+def test_boxes_face_to_face_one_planar_contact_exact_area():
+    # A: [-2,2] x [-3,3] x [-1,1]; B on top: z in [1,3]. Contact: the 4 x 6 rectangle at z=1.
+    asm = assemble(box((4, 6, 2), (0, 0, 0)), box((4, 6, 2), (0, 0, 2)))
+    res = analyze_contacts(asm)
+    assert res.pairs() == [(0, 1)]
+    assert [c.kind for c in res.contacts] == ["planar"]
+    c = res.contacts[0]
+    assert np.allclose(c.normals, [[0, 0, 1]])  # out of A (below) into B (above)
+    assert c.area == pytest.approx(24.0, rel=1e-9)
+    assert {tuple(np.round(p, 9)) for p in c.points} == {
+        (-2, -3, 1), (2, -3, 1), (2, 3, 1), (-2, 3, 1)}
+    assert np.allclose(c.point_normals, [0, 0, 1])
+    assert res.interferences == ()
+
+
+def test_normal_sign_follows_part_order():
+    # the same contact with the upper box first: out of the upper box is -z
+    asm = assemble(box((4, 6, 2), (0, 0, 2)), box((4, 6, 2), (0, 0, 0)))
+    c, = analyze_contacts(asm).contacts
+    assert np.allclose(c.normals, [[0, 0, -1]])
+
+
+def test_boxes_shifted_half_sideways_half_area():
+    # B shifted by 2 in x: overlap x in [0,2], y in [-3,3] at z=1: area 12.
+    asm = assemble(box((4, 6, 2), (0, 0, 0)), box((4, 6, 2), (2, 0, 2)))
+    res = analyze_contacts(asm)
+    assert [c.kind for c in res.contacts] == ["planar"]
+    c = res.contacts[0]
+    assert c.area == pytest.approx(12.0, rel=1e-9)
+    pts = {tuple(np.round(p, 9)) for p in c.points}
+    assert pts == {(0, -3, 1), (2, -3, 1), (2, 3, 1), (0, 3, 1)}
+
+
+def test_gap_below_tolerance_touches_above_does_not():
+    # gap 0.05 between the boxes; the default tolerance is 1e-4 x diagonal ~ 0.0009
+    far = assemble(box((4, 6, 2), (0, 0, 0)), box((4, 6, 2), (0, 0, 2.05)))
+    assert analyze_contacts(far).contacts == ()
+    near = analyze_contacts(far, tolerance=0.1)
+    assert [c.kind for c in near.contacts] == ["planar"]
+    assert near.contacts[0].area == pytest.approx(24.0, rel=1e-9)
+    # the tolerance may also arrive through the assembly (manifest / --tolerance)
+    assert analyze_contacts(far.replace(tolerance=0.1)).pairs() == [(0, 1)]
+
+
+# -- edge and point ---------------------------------------------------------------------------
+
+def test_box_on_box_along_an_edge():
+    # A = [-1,1]^3; B = [1,3] x [-1,1] x [1,3]: they share the segment x=1, z=1, y in [-1,1].
+    asm = assemble(box((2, 2, 2), (0, 0, 0)), box((2, 2, 2), (2, 0, 2)))
+    res = analyze_contacts(asm)
+    assert [c.kind for c in res.contacts] == ["edge"]
+    c = res.contacts[0]
+    assert c.area == 0.0
+    assert {tuple(np.round(p, 9)) for p in c.points} == {(1, -1, 1), (1, 1, 1)}
+    # separating normals: the cone between +x and +z; A is blocked iff d.x > 0 and d.z > 0
+    assert same_directions(c.normals, [[1, 0, 0], [0, 0, 1]])
+    assert c.blocking == "all"
+
+
+def test_box_on_box_at_a_corner():
+    # B = [1,3]^3 touches A = [-1,1]^3 only at (1, 1, 1)
+    asm = assemble(box((2, 2, 2), (0, 0, 0)), box((2, 2, 2), (2, 2, 2)))
+    res = analyze_contacts(asm)
+    assert [c.kind for c in res.contacts] == ["point"]
+    c = res.contacts[0]
+    assert np.allclose(c.points, [[1, 1, 1]])
+    assert same_directions(c.normals, np.eye(3))
+
+
+def test_separated_boxes_no_contact():
+    asm = assemble(box((2, 2, 2), (0, 0, 0)), box((2, 2, 2), (2.5, 0, 0)))
+    res = analyze_contacts(asm)
+    assert res.contacts == () and res.interferences == ()
+
+
+# -- curved -----------------------------------------------------------------------------------
+
+AXIS = np.array([1.0, 2.0, 3.0]) / np.sqrt(14.0)
+
+
+def tilted(arrays):
+    """Rotate so that +z goes to AXIS and translate by (5, -7, 11)."""
+    rot = Rotation.align_vectors([AXIS], [[0, 0, 1]])[0].as_matrix()
+    return moved(arrays, rot, np.array([5.0, -7.0, 11.0]))
+
+
+def test_shaft_24_in_hole_64_one_curved_contact_axis_and_radius():
+    shaft, block = shaft_and_block(10.0)
+    asm = assemble(tilted(shaft), tilted(block))
+    res = analyze_contacts(asm)
+    assert res.interferences == ()  # the 24-gon's edges cross the 64-gon's chords by < sag
+    assert len(res.contacts) == 1
+    c = res.contacts[0]
+    assert (c.kind, c.surface) == ("curved", "cylinder")
+    angle = np.degrees(np.arccos(min(1.0, abs(float(c.axis @ AXIS)))))
+    assert angle < 0.5
+    assert c.radius == pytest.approx(10.0, rel=0.01)
+    # the centre lies on the true axis through (5, -7, 11)
+    rel = c.center - np.array([5.0, -7.0, 11.0])
+    assert np.linalg.norm(rel - (rel @ AXIS) * AXIS) < 0.1
+    # normals: out of the shaft, all perpendicular to the axis, all around the circle
+    assert np.allclose(c.normals @ AXIS, 0.0, atol=1e-6)
+    assert len(c.normals) >= 24
+    assert np.allclose(np.linalg.norm(c.normals, axis=1), 1.0)
+    # every radial direction is blocked: d.n > 0 for some n
+    u = np.cross(AXIS, [1.0, 0, 0])
+    u /= np.linalg.norm(u)
+    w = np.cross(AXIS, u)
+    for t in np.linspace(0, 2 * np.pi, 37):
+        assert (c.normals @ (np.cos(t) * u + np.sin(t) * w)).max() > 0.9
+    # sliding along the axis and turning about it are free
+    assert np.abs(c.normals @ AXIS).max() < 1e-6
+    assert c.points.shape == c.point_normals.shape
+
+
+def test_press_fit_is_an_interference_with_hand_computed_volume():
+    # shaft 1% oversize: its 24-gon (apothem 10.1 cos 7.5 deg = 10.0135) contains the
+    # 64-gon hole (radius 10), so the overlap is the difference of the polygons' areas
+    # (N/2 r^2 sin(2 pi/N)) times the block's thickness 30.
+    shaft, block = shaft_and_block(10.1)
+    asm = assemble(shaft, block)
+    res = analyze_contacts(asm)
+    assert res.contacts == ()
+    inter, = res.interferences
+    want = 30.0 * (12 * 10.1**2 * np.sin(np.pi / 12) - 32 * 10.0**2 * np.sin(np.pi / 32))
+    assert (inter.a, inter.b, inter.method) == (0, 1, "volume")
+    assert inter.volume == pytest.approx(want, rel=1e-6)
+    assert 0.0135 < inter.depth < 0.1  # between the thinnest and thickest overlap
+    with pytest.raises(InterferenceError) as err:
+        check_interference_policy(asm, res, "error")
+    assert err.value.exit_code == 2 and "p0" in str(err.value)
+    warn, = check_interference_policy(asm, res, "warn")
+    assert (warn.level, warn.code) == ("warning", "interference")
+    assert check_interference_policy(asm, res, "ignore") == []
+    with pytest.raises(ValueError):
+        check_interference_policy(asm, res, "sometimes")
+
+
+def test_conical_plug_in_conical_seat():
+    # frustum r 10 -> 5 over z in [0, 10] (24 facets) in a 64-facet seat: a cone about +z;
+    # the slope 5 in 10 gives outward normals with n.z = 5 / sqrt(10^2 + 5^2) = 1/sqrt(5);
+    # the centre is put at mid-height z = 5 where the radius is (10 + 5) / 2 = 7.5
+    plug = m3.Manifold.cylinder(height=10, radius_low=10, radius_high=5, circular_segments=24)
+    seat = m3.Manifold.cylinder(height=10, radius_low=10, radius_high=5, circular_segments=64)
+    block = m3.Manifold.cube((40, 40, 10)).translate((-20, -20, 0)) - seat
+    res = analyze_contacts(assemble(manifold_arrays(plug), manifold_arrays(block)))
+    assert res.interferences == ()
+    c, = res.contacts
+    assert (c.kind, c.surface) == ("curved", "cone")
+    assert abs(abs(c.axis[2]) - 1.0) < 1e-6
+    assert np.allclose(c.center, [0, 0, 5], atol=0.05)
+    assert c.radius == pytest.approx(7.5, rel=0.01)
+    assert np.allclose(c.normals[:, 2], 1 / np.sqrt(5), atol=0.01)
+
+
+def test_ball_in_spherical_socket():
+    # ball r=5 centred at (0, 0, 10), its lower half in a 64-segment socket cut in a block
+    # whose top face is z = 10
+    ball = m3.Manifold.sphere(5, circular_segments=32).translate((0, 0, 10))
+    socket = m3.Manifold.sphere(5, circular_segments=64).translate((0, 0, 10))
+    block = m3.Manifold.cube((20, 20, 10)).translate((-10, -10, 0)) - socket
+    res = analyze_contacts(assemble(manifold_arrays(ball), manifold_arrays(block)))
+    assert res.interferences == ()
+    c, = res.contacts
+    assert (c.kind, c.surface) == ("curved", "sphere")
+    assert np.allclose(c.center, [0, 0, 10], atol=0.05)
+    assert c.radius == pytest.approx(5.0, rel=0.01)
+    assert (c.normals[:, 2] <= 0.05).all()  # the ball presses down and sideways only
+    assert c.normals[:, 2].min() < -0.99  # straight down is blocked
+
+
+def test_part_wholly_inside_another_is_an_interference():
+    # a 2 x 2 x 2 box inside a 10 x 10 x 10 box: the surfaces never meet, the overlap is the
+    # small box, volume 8, mean thickness 2V/S = 16/24
+    res = analyze_contacts(assemble(box((10, 10, 10), (0, 0, 0)), box((2, 2, 2), (1, 1, 1))))
+    assert res.contacts == ()
+    inter, = res.interferences
+    assert inter.volume == pytest.approx(8.0, rel=1e-9)
+    assert inter.depth == pytest.approx(16 / 24, rel=1e-9)
+
+
+def open_box(center):
+    """A 2 x 2 x 2 box without its top face: not watertight, so no manifold."""
+    b = box((2, 2, 2), center)
+    keep = ~np.isclose(b.triangles_center[:, 2], center[2] + 1)
+    return b.vertices, b.faces[keep]
+
+
+def test_open_meshes_use_the_approximate_interference_test():
+    # A = [-1,1]^3 and B = [0,2] x [-0.5,1.5] x [-0.75,1.25] (both open at the top) overlap in
+    # [0,1] x [-0.5,1] x [-0.75,1]: A's faces cross B's. The estimate is the reach of a
+    # triangle's vertices behind the other's plane: at least the true depth 1 along x (the
+    # crossing of A's face x=1 with B's faces) and at most the box size 2.
+    asm = assemble(open_box((0, 0, 0)), open_box((1, 0.5, 0.25)))
+    assert not any(p.check.watertight for p in asm.parts)
+    res = analyze_contacts(asm)
+    inter, = res.interferences
+    assert (inter.method, inter.volume) == ("fcl-depth", 0.0)
+    assert 1.0 - 1e-9 <= inter.depth <= 2.0 + 1e-9
+    assert res.stats["interference_approximate_pairs"] == [["p0", "p1"]]
+    assert res.contacts == ()
+
+
+def test_open_meshes_touching_are_not_an_interference():
+    # open boxes face to face (B on A's side x=1): touching, not crossing
+    asm = assemble(open_box((0, 0, 0)), open_box((2, 0, 0)))
+    res = analyze_contacts(asm)
+    assert res.interferences == ()
+    c, = res.contacts
+    assert (c.kind, c.area) == ("planar", pytest.approx(4.0, rel=1e-9))
+    assert np.allclose(c.normals, [[1, 0, 0]])
+
+
+def test_cylinder_lying_on_a_plate_is_a_line_contact():
+    # a 32-facet cylinder, radius 1, length 6 along x, one of its edges (y=0) on the plate's
+    # top z=0: a line contact from (-3,0,0) to (3,0,0) whose only normal is the plate's +z
+    # (the facet normals next to the line, tilted by 360/32/2 degrees, are artefacts)
+    cyl = trimesh.creation.cylinder(radius=1, height=6, sections=32)
+    cyl.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    cyl.apply_translation((0, 0, 1))
+    plate = box((10, 10, 1), (0, 0, -0.5))
+    res = analyze_contacts(assemble(plate, cyl))
+    c, = res.contacts
+    assert c.kind == "edge" and c.area == 0.0
+    assert np.allclose(c.normals, [[0, 0, 1]])
+    assert np.allclose(sorted(c.points.tolist()), [[-3, 0, 0], [3, 0, 0]], atol=1e-9)
+
+
+def test_ball_on_a_plate_is_a_point_contact():
+    # a UV sphere (radius 1) with its pole on the plate's top z=0
+    ball = trimesh.creation.uv_sphere(radius=1, count=[16, 16])
+    ball.apply_translation((0, 0, 1))
+    plate = box((10, 10, 1), (0, 0, -0.5))
+    res = analyze_contacts(assemble(plate, ball))
+    c, = res.contacts
+    assert c.kind == "point"
+    assert np.allclose(c.points, [[0, 0, 0]], atol=1e-9)
+    assert np.allclose(c.normals, [[0, 0, 1]])
+
+
+# -- invariance -------------------------------------------------------------------------------
+
+def mixed_assembly(rot=None, shift=None, scale=1.0, units="mm"):
+    """Shaft in block, a box on the block, a box touching that box along an edge."""
+    rot = np.eye(3) if rot is None else rot
+    shift = np.zeros(3) if shift is None else shift
+    shaft, block = shaft_and_block(10.0)
+    # `top`: x in [-10,10], y in [12,32], z in [15,25], on the block's top face z=15 (overhanging
+    # beyond y=25, clear of the shaft, which reaches y=10); `edge`: x in [10,20], z in [25,35],
+    # same y: it shares the segment x=10, z=25, y in [12,32] with `top`
+    top = box((20, 20, 10), (0, 22, 20))
+    edge = box((10, 20, 10), (15, 22, 30))
+    items = [shaft, block, (top.vertices, top.faces), (edge.vertices, edge.faces)]
+    return assemble(*(moved(m, rot, shift, scale) for m in items), units=units)
+
+
+def summary(res) -> list[tuple[int, int, str]]:
+    return [(c.a, c.b, c.kind) for c in res.contacts]
+
+
+def test_mixed_assembly_by_hand():
+    res = analyze_contacts(mixed_assembly())
+    assert summary(res) == [(0, 1, "curved"), (1, 2, "planar"), (2, 3, "edge")]
+    planar = res.contacts[1]
+    assert planar.area == pytest.approx(20 * 13, rel=1e-9)  # x in [-10,10], y in [12,25]
+    assert np.allclose(planar.normals, [[0, 0, 1]])
+    edge = res.contacts[2]
+    assert same_directions(edge.normals, [[1, 0, 0], [0, 0, 1]])
+    assert {tuple(np.round(p, 9)) for p in edge.points} == {(10, 12, 25), (10, 32, 25)}
+
+
+def test_invariant_under_rigid_motion_and_units():
+    base = analyze_contacts(mixed_assembly())
+    rng = np.random.default_rng(7)
+    rot = Rotation.random(random_state=rng).as_matrix()
+    shift = rng.uniform(-500, 500, 3)
+    moved_res = analyze_contacts(mixed_assembly(rot, shift))
+    assert summary(moved_res) == summary(base)
+    for c in base.contacts:
+        twin = next(d for d in moved_res.contacts if (d.a, d.b, d.kind) == (c.a, c.b, c.kind))
+        assert same_directions(twin.normals, c.normals @ rot.T, atol=1e-6)
+        assert twin.area == pytest.approx(c.area, rel=1e-6)
+    metres = analyze_contacts(mixed_assembly(scale=1e-3, units="m"))
+    assert summary(metres) == summary(base)
+    assert metres.tolerance == pytest.approx(base.tolerance * 1e-3, rel=1e-9)
+    assert metres.contacts[1].area == pytest.approx(base.contacts[1].area * 1e-6, rel=1e-9)
+
+
+# -- API and report ---------------------------------------------------------------------------
+
+def test_report_sections_json_and_schema():
+    asm = mixed_assembly()
+    res = analyze_contacts(asm)
+    sec = contacts_section(asm, res)
+    again = contacts_section(asm, analyze_contacts(asm))
+    for x in (sec, again):
+        x["contact_stats"].pop("timings_s")
+    assert json.dumps(sec, sort_keys=True) == json.dumps(again, sort_keys=True)
+    sec = contacts_section(asm, res)
+    schema = json.loads(SCHEMA.read_text())
+    for key in ("contacts", "interferences", "contact_stats"):
+        jsonschema.validate(sec[key], schema[key])
+    assert [(c["a"], c["b"], c["kind"]) for c in sec["contacts"]] == [
+        ("p0", "p1", "curved"), ("p1", "p2", "planar"), ("p2", "p3", "edge")]
+    assert sec["contact_stats"]["touching_pairs"] == [["p0", "p1"], ["p1", "p2"], ["p2", "p3"]]
+    lines = contacts_text(asm, res)
+    assert any("cylinder" in x and "p0" in x for x in lines)
+    assert lines[-1].startswith("3 touching pairs, 3 contacts, 0 interferences")
+    assert res.normals_by_pair()[(1, 2)].shape == (1, 3)
+    assert set(res.stats) >= {"bvh_s", "broad_s", "narrow_s"}
+
+
+def test_bvh_model_is_built_once_per_part():
+    asm = assemble(box((2, 2, 2), (0, 0, 0)))
+    part = asm.parts[0]
+    assert fcl_model(part) is fcl_model(part)
+    assert DEFAULT_ANGLE_TOLERANCE == pytest.approx(np.radians(1.0))
+
+
+# -- external data ----------------------------------------------------------------------------
+
+def family(pid: str) -> str:
+    return pid.split("_")[0]
+
+
+@pytest.mark.external
+def test_as1_32_touching_pairs_and_no_interference():
+    asm = ndbg_cli.load(shared("as1", "as1-oc-214.stp"))
+    res = analyze_contacts(asm)
+    assert res.interferences == ()
+    pairs = [tuple(sorted((asm.ids[a], asm.ids[b]))) for a, b in res.pairs()]
+    assert len(pairs) == 32
+    counts: dict[tuple[str, str], int] = {}
+    for a, b in pairs:
+        key = tuple(sorted((family(a), family(b))))
+        counts[key] = counts.get(key, 0) + 1
+    assert counts == {("bolt", "l-bracket"): 6, ("bolt", "nut"): 6, ("bolt", "plate"): 6,
+                      ("nut", "plate"): 6, ("l-bracket", "plate"): 2, ("l-bracket", "rod"): 2,
+                      ("nut", "rod"): 2, ("l-bracket", "nut"): 2}
+    rod_nuts = sorted(a if b == "rod_1" else b for a, b in pairs if "rod_1" in (a, b)
+                      and "nut" in a + b)
+    assert rod_nuts == ["nut_1", "nut_2"]
+    bracket_nuts = {b for a, b in pairs if a.startswith("l-bracket") and b.startswith("nut")}
+    assert bracket_nuts == {"nut_1", "nut_2"}  # the rod nuts clamp the brackets
+
+
+@pytest.mark.external
+def test_as1_in_metres_gives_the_same_pairs():
+    asm = ndbg_cli.load(shared("as1", "as1-oc-214.stp"))
+    parts = tuple(make_part(p.id, p.mesh.vertices * 1e-3, p.mesh.faces)[0] for p in asm.parts)
+    metres = Assembly("as1-m", parts, units="m")
+    assert analyze_contacts(metres).pairs() == analyze_contacts(asm).pairs()
+
+
+@pytest.mark.external
+def test_as1_under_a_random_rigid_motion():
+    asm = ndbg_cli.load(shared("as1", "as1-oc-214.stp"))
+    rng = np.random.default_rng(3)
+    rot = Rotation.random(random_state=rng).as_matrix()
+    shift = rng.uniform(-1000, 1000, 3)
+    parts = tuple(make_part(p.id, p.mesh.vertices @ rot.T + shift, p.mesh.faces)[0]
+                  for p in asm.parts)
+    base = analyze_contacts(asm)
+    moved_res = analyze_contacts(Assembly("as1-moved", parts))
+    assert moved_res.pairs() == base.pairs()
+    for pair, normals in base.normals_by_pair().items():
+        got = moved_res.normals_by_pair()[pair]
+        # every rotated normal has a twin within the angular tolerance
+        dots = (normals @ rot.T) @ got.T
+        assert dots.max(axis=1).min() > np.cos(2 * DEFAULT_ANGLE_TOLERANCE)
+
+
+@pytest.mark.external
+def test_beam_four_contacts_no_interference():
+    asm = ndbg_cli.load(shared("beam", "assembled"))
+    res = analyze_contacts(asm)
+    assert res.interferences == ()
+    assert [(asm.ids[a], asm.ids[b]) for a, b in res.pairs()] == [
+        ("0", "2"), ("1", "3"), ("2", "6"), ("3", "6")]
+
+
+@pytest.mark.external
+def test_engine_glb_completes_with_warnings():
+    asm = ndbg_cli.load(shared("engine", "2CylinderEngine.glb"))
+    res = analyze_contacts(asm)
+    assert res.pairs()
+    assert res.stats["interference_approximate_pairs"]  # open meshes: the fallback was used
+    warnings = check_interference_policy(asm, res, "warn")
+    assert warnings and all(w.code == "interference" for w in warnings)
+    json.dumps(contacts_section(asm, res))

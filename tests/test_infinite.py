@@ -1,0 +1,292 @@
+"""The NDBG for infinite translations (paper 5.3): answers worked out by hand, and the region
+lookup checked against the independent per-direction sweep test (:mod:`ndbg_cli.sweep`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from manifold3d import Manifold
+
+import ndbg_cli
+from ndbg_cli.assembly import Assembly
+from ndbg_cli.cubemap import random_directions
+from ndbg_cli.dbg import free_subsets
+from ndbg_cli.infinite import (
+    boundary_distance,
+    build_infinite,
+    free_directions,
+    infinite_section,
+    infinite_text,
+    lookup,
+)
+from ndbg_cli.ndbg import partitionings
+from ndbg_cli.sweep import SweepChecker, dbg_at
+from ndbg_cli.validate import make_part
+
+from conftest import shared
+
+
+def box(pid: str, lo, hi, rot: np.ndarray | None = None):
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    m = trimesh.creation.box(extents=hi - lo)
+    m.apply_translation((lo + hi) / 2)
+    return make_part(pid, m.vertices, m.faces, transform=rot)[0]
+
+
+def mpart(pid: str, m: Manifold, rot: np.ndarray | None = None):
+    mesh = m.to_mesh()
+    return make_part(pid, np.asarray(mesh.vert_properties)[:, :3],
+                     np.asarray(mesh.tri_verts), transform=rot)[0]
+
+
+def arcs(g, asm) -> set[tuple[str, str]]:
+    return {(asm.ids[i], asm.ids[j]) for i, j in g.arcs()}
+
+
+def unit(v) -> np.ndarray:
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+# -- two boxes side by side ------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def side_by_side():
+    asm = Assembly("pair", (box("a", [0, 0, 0], [1, 1, 1]), box("b", [1, 0, 0], [2, 1, 1])))
+    return asm, build_infinite(asm)
+
+
+def test_side_by_side_sliding_is_free(side_by_side):
+    asm, nd = side_by_side
+    dirs = np.array([[0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1], unit([0, 1, 1])])
+    for g in lookup(nd, dirs):
+        assert arcs(g, asm) == set()
+    # Moving a into b (+x, or any direction with a positive x component) is blocked by b.
+    for d, want in [([1, 0, 0], {("a", "b")}), ([-1, 0, 0], {("b", "a")}),
+                    (unit([1e-3, 1, 0]), {("a", "b")}), (unit([-0.2, 0.3, 1]), {("b", "a")})]:
+        assert arcs(lookup(nd, np.array([d]))[0], asm) == want
+        assert arcs(dbg_at(asm, np.array(d, float)), asm) == want
+
+
+def test_side_by_side_regions(side_by_side):
+    asm, nd = side_by_side
+    # Three DBGs: a->b (d.x > 0), b->a (d.x < 0), none on the circle d.x = 0 (1-dimensional).
+    distinct = {frozenset(arcs(g, asm)) for g, _ in nd.distinct()}
+    assert distinct == {frozenset({("a", "b")}), frozenset({("b", "a")}), frozenset()}
+    free_both = [r for r in nd.regions if not r.dbg.arcs()]
+    assert free_both and all(r.dimension < 2 for r in free_both)
+    assert all(abs(r.direction[0]) < 1e-6 for r in free_both)
+
+
+# -- a box under a hovering box ----------------------------------------------------------------
+
+def hovering(dx: float) -> Assembly:
+    base = box("base", [-5, -5, -1], [5, 5, 0])
+    a = box("a", [-1, -1, 0], [1, 1, 1])
+    pillar = Manifold.cube([1, 2, 2.5]).translate([3, -1, 0])
+    arm = Manifold.cube([2.5 + dx, 2, 0.5]).translate([1.5, -1, 2.5])
+    bridge = mpart("bridge", pillar + arm)
+    c = box("c", [-1 + dx, -1, 3], [2 + dx, 1, 4])
+    return Assembly("hover", (base, a, bridge, c))
+
+
+def test_hovering_box_blocks_infinite_translation():
+    asm = hovering(0.0)
+    nd = build_infinite(asm)
+    up = np.array([[0.0, 0.0, 1.0]])
+    g = lookup(nd, up)[0]
+    # a rests on the base and touches nothing else, yet c (not touching) blocks it along +z.
+    assert ("a", "c") in arcs(g, asm)
+    assert ("a", "bridge") not in arcs(g, asm)
+    assert ("bridge", "c") in arcs(g, asm)
+    assert ("c", "a") not in arcs(g, asm) and not g.succ[asm.index("c")]
+    assert arcs(g, asm) == arcs(dbg_at(asm, up[0]), asm)
+    assert not g.is_free(nd.mask(["a"]))
+
+
+def test_hovering_box_moved_aside_frees_a():
+    asm = hovering(2.2)  # c spans x in [1.2, 4.2]: no overlap with a (x <= 1) seen from above
+    nd = build_infinite(asm)
+    g = lookup(nd, np.array([[0.0, 0.0, 1.0]]))[0]
+    assert not g.succ[asm.index("a")]
+    assert g.is_free(nd.mask(["a"]))
+    assert arcs(g, asm) == arcs(dbg_at(asm, np.array([0.0, 0.0, 1.0])), asm)
+
+
+# -- peg in a hole drilled at 37 degrees -------------------------------------------------------
+
+def peg_in_hole(rot: np.ndarray | None = None) -> tuple[Assembly, np.ndarray]:
+    r = trimesh.transformations.rotation_matrix(np.radians(37.0), [1, 0, 0])
+    peg = Manifold.cylinder(6.0, 1.0, 1.0, 16, True).transform(r[:3, :])
+    hole = Manifold.cylinder(20.0, 1.0, 1.0, 16, True).transform(r[:3, :])
+    block = Manifold.cube([8.0, 8.0, 4.0], True) - hole
+    asm = Assembly("peg", (mpart("block", block, rot), mpart("peg", peg, rot)))
+    axis = r[:3, 2] if rot is None else rot[:3, :3] @ r[:3, 2]
+    return asm, axis
+
+
+def check_peg(asm: Assembly, axis: np.ndarray) -> None:
+    nd = build_infinite(asm)
+    free = free_directions(nd, nd.mask(["peg"]))
+    eta = nd.stats["angular_tolerance"]
+    assert free, "the peg must come out along its axis"
+    for dim, d in free:
+        assert dim in (0, 1)
+        assert np.degrees(np.arccos(min(1.0, abs(np.dot(d, axis))))) < np.degrees(eta)
+    signs = {int(np.sign(np.dot(d, axis))) for _, d in free}
+    assert signs == {1, -1}
+    # Both ways along the axis are free; 2 degrees off it the peg is blocked.
+    for d in (axis, -axis):
+        assert dbg_at(asm, d).arcs() == []
+        assert lookup(nd, d[None], exact=True)[0].arcs() == []
+    off = unit(axis + 0.035 * np.cross(axis, [1.0, 0, 0]))
+    assert (1, 0) in lookup(nd, off[None])[0].arcs()
+    assert (1, 0) in dbg_at(asm, off).arcs()
+
+
+def test_peg_in_tilted_hole_comes_out_along_its_axis_only():
+    asm, axis = peg_in_hole()
+    check_peg(asm, axis)
+
+
+def test_rotating_the_assembly_changes_no_answer():
+    rot = trimesh.transformations.random_rotation_matrix(np.random.default_rng(7).random(3))
+    asm, axis = peg_in_hole(rot)
+    check_peg(asm, axis)
+
+
+# -- a block in a narrow slot at an odd angle ----------------------------------------------------
+
+def test_block_in_slanted_slot_has_one_free_direction():
+    r = (trimesh.transformations.rotation_matrix(np.radians(23.0), [0, 0, 1])
+         @ trimesh.transformations.rotation_matrix(np.radians(11.0), [1, 0, 0]))
+    channel = Manifold.cube([0.6, 20.0, 0.4], True).transform(r[:3, :])
+    wall = Manifold.cube([6.0, 1.0, 6.0], True) - channel
+    block = Manifold.cube([0.6, 1.2, 0.4], True).transform(r[:3, :])
+    asm = Assembly("slot", (mpart("wall", wall), mpart("block", block)))
+    s = r[:3, 1]
+    nd = build_infinite(asm)
+    free = free_directions(nd, nd.mask(["block"]))
+    assert free
+    eta = nd.stats["angular_tolerance"]
+    for dim, d in free:
+        assert dim in (0, 1)
+        assert np.arccos(min(1.0, abs(np.dot(d, s)))) < eta
+    assert {int(np.sign(np.dot(d, s))) for _, d in free} == {1, -1}
+
+
+# -- the lookup against the direct test ------------------------------------------------------
+
+def small_assembly() -> Assembly:
+    """A base, a box on it, a tilted peg block and a bridge: several distant and touching
+    pairs."""
+    base = box("base", [-4, -4, -1], [4, 4, 0])
+    a = box("a", [-3, -3, 0], [-1, -1, 1.5])
+    b = box("b", [0.5, -3, 0], [2.5, -2, 1])
+    rot = trimesh.transformations.rotation_matrix(0.4, unit([1, 2, 0.5]))
+    rot[:3, 3] = [1.5, 2.0, 2.0]
+    c = box("c", [-0.7, -0.5, -0.5], [0.7, 0.5, 0.5], rot)
+    pillar = Manifold.cube([0.5, 0.5, 3.0]).translate([-3.5, 2.5, 0])
+    arm = Manifold.cube([3.0, 0.5, 0.5]).translate([-3.5, 2.5, 3.0])
+    return Assembly("small", (base, a, b, c, mpart("bridge", pillar + arm)))
+
+
+def test_lookup_matches_direct_check_on_random_directions():
+    asm = small_assembly()
+    nd = build_infinite(asm)
+    dirs = random_directions(10_000, seed=3)
+    got = lookup(nd, dirs)  # vectorised point location: 10,000 directions in well under 1 s
+    assert len(got) == 10_000
+    # The direct test costs milliseconds per direction: check the first 300 directions that
+    # are not within 1e-3 (chart units) of a B_ij boundary, where the tolerance decides.
+    robust = np.nonzero(boundary_distance(nd, dirs[:400]) > 1e-3)[0][:300]
+    assert len(robust) > 250
+    sc = SweepChecker(asm)
+    for k in robust:
+        assert got[k].succ == sc.dbg(dirs[k]).succ, dirs[k]
+
+
+def test_region_representatives_match_direct_check():
+    asm = small_assembly()
+    nd = build_infinite(asm)
+    sc = SweepChecker(asm)
+    twod = [r for r in nd.regions if r.dimension == 2]
+    for r in twod[:: max(1, len(twod) // 40)]:
+        assert r.dbg.succ == sc.dbg(np.array(r.direction)).succ, r.direction
+
+
+def test_section_and_text():
+    asm = Assembly("pair", (box("a", [0, 0, 0], [1, 1, 1]), box("b", [1, 0, 0], [2, 1, 1])))
+    nd = build_infinite(asm)
+    parts, truncated = partitionings(nd)
+    sec = infinite_section(asm, nd, parts, truncated)
+    assert sec["regions"] == len(sec["region_list"]) == sum(sec["regions_by_dimension"].values())
+    assert sec["distinct_dbgs"] == len(sec["dbgs"]) == 3
+    moved = sorted(tuple(p["moved"]) for p in sec["partitionings"])
+    assert moved == [("a",), ("b",)]
+    for p in sec["partitionings"]:
+        assert p["family"] == "infinite_translation" and p["directions"]
+    assert infinite_text(sec)[0].startswith("infinite translations:")
+    import json
+    from importlib import resources
+
+    import jsonschema
+
+    from ndbg_cli.report import clean
+
+    schema = json.loads(resources.files("ndbg_cli").joinpath(
+        "schemas/fragments/infinite.json").read_text())
+    jsonschema.Draft202012Validator(schema).validate(clean(sec))
+
+
+# -- 2D --------------------------------------------------------------------------------------
+
+def test_2d_peg_in_slot():
+    from ndbg_cli.validate import make_polygon_part
+
+    u = make_polygon_part("u", [(0, 0), (3, 0), (3, 2), (2, 2), (2, 1), (1, 1), (1, 2),
+                                (0, 2)])[0]
+    peg = make_polygon_part("peg", [(1, 1), (2, 1), (2, 3), (1, 3)])[0]
+    asm = Assembly("u2d", (u, peg), dimension=2)
+    nd = build_infinite(asm)
+    free = free_directions(nd, nd.mask(["peg"]))
+    # The peg slides out of the slot only straight up (a single direction of S^1).
+    assert free and all(dim == 0 and abs(d[0]) < 1e-3 and d[1] > 0 for dim, d in free)
+    # Straight up the peg is free and the U is blocked by it (it would push the peg up).
+    assert lookup(nd, np.array([[0.0, 1.0]]), exact=True)[0].arcs() == [(0, 1)]
+    assert dbg_at(asm, np.array([0.0, 1.0])).arcs() == [(0, 1)]
+    assert (1, 0) in lookup(nd, np.array([[0.1, 1.0]]))[0].arcs()
+    assert (1, 0) in dbg_at(asm, np.array([0.1, 1.0])).arcs()
+
+
+# -- burrs (external data) ---------------------------------------------------------------------
+
+@pytest.mark.external
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["six-piece-000", "six-piece-257"])
+def test_burr_has_a_group_removable_by_one_translation(name):
+    asm = ndbg_cli.load(shared("burr", name))
+    nd = build_infinite(asm)
+    parts, _ = partitionings(nd)
+    assert parts
+    # Every partitioning is confirmed by the direct test along one of its directions (thin
+    # free bands of width about eps / L around an axis are free only within the tolerance;
+    # the axis itself is among the regions).
+    sc = SweepChecker(asm)
+    for p in parts:
+        dirs = [np.array(nd.regions[k].direction) for k in p.regions]
+        assert any(sc.dbg(d).is_free(p.moved) for d in dirs)
+
+
+@pytest.mark.external
+@pytest.mark.slow
+def test_pelikan_no_group_comes_out_along_an_axis():
+    # README fact: in the Pelikan burr no group can be removed by a single axis translation.
+    asm = ndbg_cli.load(shared("burr", "pelikan"))
+    nd = build_infinite(asm)
+    axes = np.concatenate([np.eye(3), -np.eye(3)])
+    sc = SweepChecker(asm)
+    for d, g in zip(axes, lookup(nd, axes, exact=True)):
+        assert g.succ == sc.dbg(d).succ
+        assert len(g.arcs()) and not list(free_subsets(g))

@@ -1,0 +1,608 @@
+"""Assembly planning, AND/OR graph, complexity classes, interlocking LP and grasps, checked
+against hand-built NDBGs whose answers are worked out by hand, and against brute force."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ndbg_cli.andor import AndOrGraph, Budget, node_splits
+from ndbg_cli.classes import (
+    andor_section,
+    classes_section,
+    classes_text,
+    classify,
+    min_depth_search,
+    min_directions,
+    sink_decompose,
+)
+from ndbg_cli.dbg import DBG, bits, mask_of
+from ndbg_cli.grasp import grasp
+from ndbg_cli.interlock import interlock
+from ndbg_cli.ndbg import NDBG, Region
+from ndbg_cli.planning import STRATEGIES, plan, plan_section, plan_text, remove
+
+UP, DOWN = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
+PX, NX, PY, NY = (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0)
+
+
+def mk(ids, regions, family="infinitesimal_translation") -> NDBG:
+    n = len(ids)
+    return NDBG(family, tuple(ids),
+                tuple(Region(2, d, DBG.from_arcs(n, arcs)) for d, arcs in regions))
+
+
+def both(*pairs):
+    return [a for i, j in pairs for a in ((i, j), (j, i))]
+
+
+def complete(n):
+    return [(i, j) for i in range(n) for j in range(n) if i != j]
+
+
+# ------------------------------------------------------------------------- hand examples
+def stack3():
+    """A (0) under B (1) under C (2); pinned laterally, so only +-z separate anything."""
+    lateral = both((0, 1), (1, 2))
+    return mk("ABC", [(UP, [(0, 1), (1, 2)]), (DOWN, [(1, 0), (2, 1)]),
+                      (PX, lateral), (NX, lateral), (PY, lateral), (NY, lateral)])
+
+
+def test_stack3_by_hand():
+    nd = stack3()
+    g = AndOrGraph(nd).build()
+    # root splits {C | AB} (+z) and {A | BC} (-z); nodes ABC, AB, BC, A, B, C
+    assert g.complete and g.node_count == 6 and g.hyperarc_count == 4
+    assert g.min_depth() == 2
+    assert g.tree_count() == 2          # (C | (A | B)) and (A | (B | C))
+    assert g.linear_count() == 4        # ABC, BAC, CBA, BCA
+    assert g.min_nonlinear() == 0
+    c = classify(nd)
+    assert c["one_handed_monotone"]["value"] is True
+    assert c["linearizable"]["value"] is True
+    assert c["stack_product"]["value"] is True and c["stack_product"]["region"] == 0
+    assert c["min_directions"]["value"] == 1 and c["min_directions"]["exact"]
+
+
+def test_free_parts_counts_are_the_textbook_formulas():
+    # n parts, no arcs: every split is free. Trees = (2n-3)!!, linear = n!, depth ceil(log2 n)
+    for n in range(1, 7):
+        nd = mk([f"P{i}" for i in range(n)], [(UP, [])])
+        g = AndOrGraph(nd).build()
+        assert g.tree_count() == math.prod(range(1, 2 * n - 2, 2))
+        assert g.linear_count() == math.factorial(n)
+        assert g.min_depth() == (n - 1).bit_length()
+        assert g.node_count == 2 ** n - 1
+
+
+def latch():
+    """Fig. 10: three parts, every DBG strongly connected."""
+    cyc = [(0, 1), (1, 2), (2, 0)]
+    rev = [(j, i) for i, j in cyc]
+    return mk("ABC", [(PX, cyc), (NX, rev), (PY, both((0, 1), (1, 2))),
+                      (NY, both((0, 1), (1, 2))), (UP, complete(3)), (DOWN, complete(3))])
+
+
+def test_latch_not_one_handed_monotone():
+    nd = latch()
+    c = classify(nd)
+    assert c["one_handed_monotone"]["value"] is False
+    assert "{A, B, C}" in c["one_handed_monotone"]["why"]
+    assert c["linearizable"]["value"] is False
+    assert c["min_depth"]["value"] is None
+    assert c["prismatic"]["value"] is False
+    g = AndOrGraph(nd).build()
+    assert g.min_depth() is None and g.tree_count() == 0 and g.linear_count() == 0
+    p = plan(nd, "shortest")
+    assert not p.found and p.stuck == 0b111
+    assert plan_section(p)["sequence"] == []
+
+
+def latch_normals():
+    """Normals (out of a into b) realising the latch: A-B allows v_B - v_A = (t,0,0), t >= 0;
+    A-C allows v_C - v_A = (0,t,0); B-C allows v_C - v_B along (-1,1,0) only; z is blocked."""
+    s = 1 / math.sqrt(2)
+    z = [(0, 0, 1), (0, 0, -1)]
+    return {(0, 1): np.array([(1, 0, 0), (0, 1, 0), (0, -1, 0)] + z, float),
+            (0, 2): np.array([(0, 1, 0), (1, 0, 0), (-1, 0, 0)] + z, float),
+            (1, 2): np.array([(s, s, 0), (-s, -s, 0)] + z, float)}
+
+
+def test_latch_not_interlocked_but_needs_two_hands():
+    normals = latch_normals()
+    # no single part (or pair: the complement) translates alone: check the one-part motions
+    for moving in range(3):
+        for d in itertools.product((-1, 0, 1), repeat=3):
+            if d == (0, 0, 0):
+                continue
+            v = np.zeros((3, 3))
+            v[moving] = d
+            ok = all(float(n @ (v[b] - v[a])) >= -1e-12
+                     for (a, b), ns in normals.items() for n in ns)
+            assert not ok
+    # exactly: merging the other two parts into one fixed body leaves a boxed-in part
+    for moving in range(3):
+        merged = {}
+        for (a, b), ns in normals.items():
+            if moving in (a, b):
+                sign = 1.0 if b == moving else -1.0   # normals out of the fixed body
+                merged.setdefault((0, 1), []).extend(sign * ns)
+        assert interlock(2, {k: np.array(v) for k, v in merged.items()})["value"] is True
+    r = interlock(3, normals, fixed=0)
+    assert r["value"] is False and r["kind"] == "separating"
+    assert r["hands"] == 2 and r["fixed_set"] == [0] and r["moved_sets"] == [[1], [2]]
+    v = np.array(r["velocities"])
+    for (a, b), ns in normals.items():
+        assert np.all(ns @ (v[b] - v[a]) >= -1e-9)
+
+
+def test_interlock_two_boxes_and_boxed_part_and_peg():
+    r = interlock(2, {(0, 1): np.array([[0, 0, 1.0]])})
+    assert r["value"] is False and r["moved_sets"] == [[1]] and r["velocities"][1][2] == 1.0
+    box = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], float)
+    r = interlock(2, {(0, 1): box})
+    assert r["value"] is True and r["kind"] is None
+    # fixing the inner part instead changes nothing
+    assert interlock(2, {(0, 1): box}, fixed=1)["value"] is True
+    # peg in a through-hole: radial normals only; it slides along z without separating
+    ang = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    radial = np.stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)], axis=1)
+    r = interlock(2, {(0, 1): radial})
+    assert r["value"] is False and r["kind"] == "sliding"
+    assert abs(r["velocities"][1][2]) == 1.0 and r["velocities"][1][:2] == [0.0, 0.0]
+
+
+def fig11():
+    """Fig. 11: {A,B} comes off {C,D} (+z) and each pair splits (+-x), no single part can
+    leave the whole product."""
+    cyc4 = [(0, 1), (1, 2), (2, 3), (3, 0)]
+    up = both((0, 1), (2, 3)) + [(2, 0), (3, 1)]
+    return mk("ABCD", [(UP, up), (DOWN, [(j, i) for i, j in up]), (PX, cyc4),
+                       (NX, [(j, i) for i, j in cyc4])])
+
+
+def test_fig11_one_handed_not_linearizable():
+    nd = fig11()
+    c = classify(nd)
+    assert c["one_handed_monotone"]["value"] is True
+    assert c["linearizable"]["value"] is False
+    assert c["min_nonlinear"]["value"] == 1 and c["min_nonlinear"]["assembly_lines"] == 2
+    g = AndOrGraph(nd).build()
+    assert [(h.left, h.right) for h in g.arcs[0b1111]] == [(0b0011, 0b1100)]
+    assert g.tree_count() == 1 and g.linear_count() == 0 and g.min_depth() == 2
+    p = plan(nd, "linear")
+    assert p.found and p.nonlinear() == 1
+
+
+def sandwich(k):
+    """Fig. 2: plates P (0) and Q (1) around k >= 2 interlocked middles M1..Mk (2..k+1).
+
+    +z: P blocked by every middle, every middle by Q, middles in a cycle; -z reversed. +-x:
+    everything blocks everything. +y: plates and middles block each other both ways, middles
+    form a chain M1 -> M2 -> ... (so alone they come apart along y); -y reversed chain."""
+    n = k + 2
+    mids = list(range(2, n))
+    cyc = [(mids[i], mids[(i + 1) % k]) for i in range(k)]
+    up = [(0, m) for m in mids] + [(m, 1) for m in mids] + cyc
+    chain = [(mids[i], mids[i + 1]) for i in range(k - 1)]
+    pm = both(*[(p, m) for p in (0, 1) for m in mids])
+    return mk(["P", "Q"] + [f"M{i}" for i in range(1, k + 1)],
+              [(UP, up), (DOWN, [(j, i) for i, j in up]), (PX, complete(n)),
+               (NX, complete(n)), (PY, pm + chain), (NY, pm + [(j, i) for i, j in chain])])
+
+
+def catalan(m):
+    return math.comb(2 * m, m) // (m + 1)
+
+
+@pytest.mark.parametrize("k", [2, 3, 4, 5, 6])
+def test_sandwich_two_decompositions(k):
+    nd = sandwich(k)
+    full = (1 << (k + 2)) - 1
+    arcs, _ = node_splits(nd, full)
+    assert sorted((h.left, h.right) for h in arcs) == sorted(
+        [(0b1, full & ~0b1), (full & ~0b10, 0b10)])   # {P | rest} and {Q | rest}
+    g = AndOrGraph(nd).build()
+    # nodes: the k(k+1)/2 intervals of middles, the product, P+middles, Q+middles, P, Q
+    assert g.node_count == k * (k + 1) // 2 + 5
+    # T = 2 * Catalan(k-1) (the middles split as an ordered chain), L = 2 * 2^(k-1)
+    assert g.tree_count() == 2 * catalan(k - 1)
+    assert g.linear_count() == 2 ** k
+    assert g.min_depth() == 2 + (k - 1).bit_length()
+
+
+def test_min_directions_two():
+    # +z: only C leaves; +x (on A, B): B leaves; -z: A,B leave together (cycle), -x: cycle
+    nd = mk("ABC", [(UP, both((0, 1)) + [(0, 2), (1, 2)]),
+                    (DOWN, both((0, 1)) + [(2, 0), (2, 1)]),
+                    (PX, [(0, 1)] + both((2, 0), (2, 1))),
+                    (NX, [(1, 0)] + both((2, 0), (2, 1)))])
+    md = min_directions(nd)
+    assert md["value"] == 2 and md["exact"] and md["lower_bound"] == 2
+    assert classify(nd)["stack_product"]["value"] is False
+    p = plan(nd, "fewest-directions")
+    assert p.found and len(p.regions_used()) == 2
+
+
+def test_stack_product_four_parts():
+    up = [(0, 1), (1, 2), (2, 3)]
+    nd = mk("ABCD", [(UP, up), (DOWN, [(j, i) for i, j in up]),
+                     (PX, complete(4)), (NX, complete(4))], family="infinite_translation")
+    c = classify(nd)
+    assert c["stack_product"]["value"] is True
+    assert c["min_directions"]["value"] == 1
+    assert c["prismatic"]["value"] is True
+    p = plan(nd, "fewest-directions")
+    assert len(p.regions_used()) == 1
+
+
+# ----------------------------------------------------------------------------- brute force
+def random_ndbg(rng: random.Random, n: int, regions: int, prob: float) -> NDBG:
+    regs = []
+    for _ in range(regions):
+        arcs = [(i, j) for i in range(n) for j in range(n) if i != j and rng.random() < prob]
+        regs.append(((1.0, 0.0, 0.0), arcs))
+    return mk([f"p{i}" for i in range(n)], regs)
+
+
+def hier_ndbg(rng: random.Random, n: int, regions: int, noise: float) -> NDBG:
+    """A random hierarchical product: a random binary tree over the parts; at every internal
+    node ``X | Y`` one random region lets ``X`` leave (arcs ``Y -> X`` only), every other region
+    locks ``X`` and ``Y`` both ways; then a fraction ``noise`` of the arcs is dropped. Gives
+    nonlinear and non-linearizable cases that uniform random DBGs rarely produce."""
+    arcs: list[set] = [set() for _ in range(regions)]
+
+    def build(parts: list[int]) -> None:
+        if len(parts) == 1:
+            return
+        k = rng.randint(1, len(parts) - 1)
+        xs, ys = parts[:k], parts[k:]
+        rv = rng.randrange(regions)
+        for i in xs:
+            for j in ys:
+                for r in range(regions):
+                    arcs[r].update({(j, i)} if r == rv else {(i, j), (j, i)})
+        build(xs)
+        build(ys)
+
+    parts = list(range(n))
+    rng.shuffle(parts)
+    build(parts)
+    for r in range(regions):
+        for a in sorted(arcs[r]):
+            if rng.random() < noise:
+                arcs[r].discard(a)
+    return mk([f"p{i}" for i in range(n)], [((1.0, 0.0, 0.0), sorted(a)) for a in arcs])
+
+
+def split_ok(nd: NDBG, mask: int, s: int, base: int | None) -> bool:
+    """Generate-and-test: is {s, mask - s} a candidate partitioning (direct DBG test)?"""
+    r = mask & ~s
+    for moved in (s, r):
+        if base is not None and (mask >> base) & 1 and (moved >> base) & 1:
+            continue
+        if any(reg.dbg.is_free(moved, mask) for reg in nd.regions):
+            return True
+    return False
+
+
+def all_trees(mask: int, memo: dict) -> list:
+    """Every binary tree over the parts of ``mask`` (unordered children), as nested tuples."""
+    if mask in memo:
+        return memo[mask]
+    if mask.bit_count() == 1:
+        memo[mask] = [mask]
+        return memo[mask]
+    low = mask & -mask
+    rest = mask & ~low
+    out = []
+    sub = rest
+    while True:
+        s = low | sub
+        if s != mask:
+            for a in all_trees(s, memo):
+                for b in all_trees(mask & ~s, memo):
+                    out.append((mask, s, a, b))
+        if sub == 0:
+            break
+        sub = (sub - 1) & rest
+    memo[mask] = out
+    return out
+
+
+def tree_valid(nd, t, base) -> bool:
+    if isinstance(t, int):
+        return True
+    mask, s, a, b = t
+    return split_ok(nd, mask, s, base) and tree_valid(nd, a, base) and tree_valid(nd, b, base)
+
+
+def tree_depth(t) -> int:
+    return 0 if isinstance(t, int) else 1 + max(tree_depth(t[2]), tree_depth(t[3]))
+
+
+def tree_nonlinear(t) -> int:
+    if isinstance(t, int):
+        return 0
+    mask, s, a, b = t
+    nl = 0 if min(s.bit_count(), (mask & ~s).bit_count()) == 1 else 1
+    return nl + tree_nonlinear(a) + tree_nonlinear(b)
+
+
+def brute_linear(nd, n, base) -> int:
+    count = 0
+    for perm in itertools.permutations(range(n)):
+        ok = True
+        for k in range(1, n):
+            m = mask_of(perm[:k + 1])
+            if not split_ok(nd, m, 1 << perm[k], base):
+                ok = False
+                break
+        count += ok
+    return count
+
+
+@pytest.mark.parametrize("kind", ["uniform", "hierarchical"])
+@pytest.mark.parametrize("seed", range(40))
+def test_bruteforce_against_andor(seed, kind):
+    rng = random.Random(seed)
+    n = rng.randint(2, 7)
+    if kind == "uniform":
+        nd = random_ndbg(rng, n, rng.randint(1, 4), rng.choice([0.15, 0.3, 0.45]))
+    else:
+        nd = hier_ndbg(rng, n, rng.randint(1, 3), rng.choice([0.0, 0.05, 0.15]))
+    base = rng.choice([None, rng.randrange(n)])
+    full = (1 << n) - 1
+    valid = [t for t in all_trees(full, {}) if tree_valid(nd, t, base)]
+    g = AndOrGraph(nd, base=base).build()
+    assert g.tree_count() == len(valid)
+    assert g.min_depth() == (min(map(tree_depth, valid)) if valid else None)
+    assert g.min_nonlinear() == (min(map(tree_nonlinear, valid)) if valid else None)
+    assert g.linear_count() == brute_linear(nd, n, base)
+    assert min_depth_search(nd, base=base).depth == g.min_depth()
+    c = classify(nd, base=base)
+    assert c["one_handed_monotone"]["value"] == bool(valid)
+    assert c["linearizable"]["value"] == any(tree_nonlinear(t) == 0 for t in valid)
+    # min_directions against brute force over region subsets
+    if valid:
+        best = None
+        for k in range(1, len(nd.regions) + 1):
+            for combo in itertools.combinations(range(len(nd.regions)), k):
+                sub = NDBG(nd.family, nd.ids, tuple(nd.regions[i] for i in combo))
+                if any(tree_valid(sub, t, base) for t in valid):
+                    best = k
+                    break
+            if best:
+                break
+        assert c["min_directions"]["value"] == best
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_bruteforce_eight_parts(seed):
+    rng = random.Random(1000 + seed)
+    nd = random_ndbg(rng, 8, 3, 0.12)
+    full = 255
+    valid = [t for t in all_trees(full, {}) if tree_valid(nd, t, None)]
+    g = AndOrGraph(nd).build()
+    assert g.tree_count() == len(valid)
+    assert g.min_depth() == (min(map(tree_depth, valid)) if valid else None)
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_base_part_never_moved(seed):
+    rng = random.Random(500 + seed)
+    n = rng.randint(3, 7)
+    nd = random_ndbg(rng, n, 3, 0.2)
+    base = rng.randrange(n)
+    feasible = AndOrGraph(nd, base=base).build().min_depth() is not None
+    for strategy in STRATEGIES:
+        p = plan(nd, strategy, base=base)
+        assert p.found == feasible
+        for s in p.steps.values():
+            assert not (s.moved >> base) & 1
+            assert nd.regions[s.region].dbg.is_free(s.moved, s.mask)
+            assert s.moved | s.rest == s.mask and not s.moved & s.rest
+        if p.found:
+            assert len(p.steps) == n - 1
+            covered = set()
+            for st in p.sequence():
+                covered.add(st.mask)
+            assert (1 << n) - 1 in covered
+
+
+def test_plan_shortest_is_optimal_and_sequence_order():
+    nd = sandwich(4)
+    p = plan(nd, "shortest")
+    assert p.depth() == 4 and p.exact
+    sec = plan_section(p)
+    seq = sec["sequence"]
+    assert [s["step"] for s in seq] == list(range(1, 6))
+    assert sorted(seq[-1]["produces"]) == sorted(nd.ids)
+    # every step's inputs exist before it: leaves or the output of an earlier step
+    made = {frozenset([i]) for i in nd.ids}
+    for s in seq:
+        assert frozenset(s["moved"]) in made and frozenset(s["onto"]) in made
+        made.add(frozenset(s["produces"]))
+    assert sec["tree"]["depth"] == 4
+    assert plan_text(p)[0].startswith("Assembly sequence (shortest")
+
+
+# ------------------------------------------------------------------------------- remove
+def test_remove_buried_part():
+    """B (0, base with an overhang), X (1) under Y (2) under Z (3); Z is under the overhang, so
+    it must slide out along +x first, then Y lifts (+z), then X is free (+z)."""
+    up = [(1, 2), (2, 3), (3, 0)]
+    nd = mk("BXYZ", [(UP, up), (DOWN, [(1, 0), (2, 1), (3, 2)]),
+                     (PX, [(1, 0), (2, 0)]), (NX, [(1, 0), (2, 0), (3, 0)]),
+                     (PY, both((0, 1), (0, 2), (0, 3))), (NY, both((0, 1), (0, 2), (0, 3)))])
+    r = remove(nd, 0b0010, base=0)
+    assert r.found and r.exact
+    assert r.withdrawn == 0b1100
+    assert r.steps == [(0b1000, 2), (0b0100, 0)]
+    assert r.final_region == 0
+    sec = r.section(nd)
+    assert sec["withdrawn"] == ["Y", "Z"] and sec["steps"][0]["withdraw"] == ["Z"]
+    # the subassembly {X, Y} only needs Z out of the way (sideways), then lifts along +z
+    r2 = remove(nd, 0b0110, base=0)
+    assert r2.exact and r2.withdrawn == 0b1000 and r2.steps == [(0b1000, 2)]
+    assert r2.final_region == 0
+    # a part that is free from the start needs nothing
+    assert remove(nd, 0b1000, base=0).withdrawn == 0
+    # the heuristic (tiny budget) returns a valid plan with the stated lower bound
+    h = remove(nd, 0b0010, base=0, budget=Budget(max_nodes=1))
+    assert h.found and not h.exact and h.lower_bound == 1
+    assert h.withdrawn.bit_count() >= 2
+
+
+# -------------------------------------------------------------------------------- grasp
+def test_grasp_two_stacked_boxes_needs_ten_fingers():
+    # bottom box 0 under top box 1; regions: the six axis directions
+    nd = mk("LT", [(UP, [(0, 1)]), (DOWN, [(1, 0)]), (PX, []), (NX, []), (PY, []), (NY, [])])
+    faces = []
+    for part, z in ((0, 0.5), (1, 1.5)):
+        for nrm in (PX, NX, PY, NY):
+            faces.append((part, nrm, (nrm[0] * 0.5, nrm[1] * 0.5, z)))
+    faces.append((0, DOWN, (0, 0, 0)))
+    faces.append((1, UP, (0, 0, 2)))
+    r = grasp(nd, faces)
+    # requirements: up {T}, down {L}, and both parts separately for +-x, +-y: 10, one each
+    assert r["complete"] and r["value"] == 10
+    parts = sorted((f["part"], tuple(f["normal"])) for f in r["fingers"])
+    assert ("T", UP) in parts and ("L", DOWN) in parts
+    # without the top face the up-requirement cannot be covered
+    r2 = grasp(nd, faces[:-1])
+    assert not r2["complete"] and r2["uncovered"] == [{"region": 0, "parts": ["T"]}]
+
+
+# ------------------------------------------------------------------------------- sections
+def test_sections_json_and_schema():
+    import jsonschema
+
+    nd = sandwich(3)
+    g = AndOrGraph(nd).build()
+    sec = andor_section(g)
+    assert sec["trees"] == 4 and sec["linear_sequences"] == 8 and not sec["truncated"]
+    cs = classes_section([nd, stack3()], interlock=interlock(2, {(0, 1): np.eye(3)}))
+    ps = plan_section(plan(nd))
+    schema = json.loads((Path(__file__).parents[1] / "ndbg_cli/schemas/fragments/planning.json")
+                        .read_text())
+    defs = schema["$defs"]
+    for name, doc in (("andor", sec), ("classes", cs), ("plan", ps)):
+        jsonschema.validate(json.loads(json.dumps(doc)),
+                            {"$defs": defs, "$ref": f"#/$defs/{name}"})
+    assert any("1-handed monotone" in line for line in classes_text(cs))
+
+
+def test_truncated_graph_reports_bounds():
+    nd = mk([f"P{i}" for i in range(12)], [(UP, [])])
+    g = AndOrGraph(nd, budget=Budget(max_nodes=50)).build()
+    assert g.truncated
+    sec = andor_section(g)
+    # counts need the whole graph; the depth comes from iterative deepening (greedy = log2 12)
+    assert sec["trees"] is None and sec["linear_sequences"] is None
+    assert sec["min_depth"] == 4 and sec["min_depth_exact"]
+    assert sec["min_depth_lower_bound"] == sec["min_depth_upper_bound"] == 4
+    p = plan(nd, "shortest", budget=Budget(max_nodes=50))
+    assert p.found and p.exact and p.depth() == 4
+    # a budget too small for the search keeps bounds only
+    r = min_depth_search(sandwich(6), budget=Budget(max_nodes=3))
+    assert not r.exact and r.depth is None and r.lower == 3 and r.upper is None
+
+
+@pytest.mark.parametrize("k", [2, 3, 5, 9, 12])
+def test_min_depth_search_on_sandwich(k):
+    # optimum 2 + ceil(log2 k) (hand), above ceil(log2(k + 2)): the search must refute depths
+    r = min_depth_search(sandwich(k))
+    assert r.exact and r.depth == 2 + (k - 1).bit_length()
+    g = AndOrGraph(sandwich(k), budget=Budget(max_nodes=2)).build()
+    assert g.truncated
+    p = plan(sandwich(k), "shortest", graph=g)
+    assert p.exact and p.depth() == r.depth
+
+
+def test_big_counts_are_exact_ints():
+    # a 41-part stack (+z chain, -z reversed): nodes are the 41*42/2 intervals, every split of
+    # an interval is a cut point, so trees = Catalan(40) (> 2^53), linear = 2^40
+    n = 41
+    up = [(i, i + 1) for i in range(n - 1)]
+    nd = mk([f"P{i:02d}" for i in range(n)], [(UP, up), (DOWN, [(j, i) for i, j in up])])
+    g = AndOrGraph(nd).build()
+    assert g.node_count == n * (n + 1) // 2
+    sec = andor_section(g)
+    assert sec["trees"] == catalan(40) and sec["trees_str"] == str(catalan(40))
+    assert sec["linear_sequences"] == 2 ** 40 and "linear_sequences_str" not in sec
+    assert sec["min_depth"] == 6
+
+
+def test_sink_decompose_matches_graph():
+    for seed in range(30):
+        rng = random.Random(seed)
+        nd = random_ndbg(rng, rng.randint(2, 7), 2, 0.3)
+        _, stuck = sink_decompose(nd)
+        assert (stuck is None) == (AndOrGraph(nd).build().min_depth() is not None)
+        if stuck is not None:
+            assert not node_splits(nd, stuck)[0]
+            assert all(b in bits((1 << nd.n) - 1) for b in bits(stuck))
+
+
+def test_node_splits_agree_with_shared_partitionings():
+    from ndbg_cli.ndbg import ConnectivityTest, partitionings
+
+    for seed in range(40):
+        rng = random.Random(seed)
+        n = rng.randint(2, 8)
+        nd = random_ndbg(rng, n, rng.randint(1, 4), rng.choice([0.1, 0.25, 0.4]))
+        mask = rng.randrange(1, 1 << n) | 1
+        neigh = [rng.randrange(1 << n) & ~(1 << i) for i in range(n)]
+        for i in range(n):
+            for j in bits(neigh[i]):
+                neigh[j] |= 1 << i
+        for conn in (None, ConnectivityTest(neigh)):
+            parts, _ = partitionings(nd, mask, connected=conn)
+            want = {(p.moved, p.regions) for p in parts}
+            arcs, trunc = node_splits(nd, mask, connected=conn)
+            got = {(m, regs) for h in arcs for m, regs in h.moves}
+            assert not trunc and got == want
+
+
+def test_insertion_direction_is_opposite_of_removal():
+    p = plan(stack3(), "shortest")
+    for s in plan_section(p)["sequence"]:
+        assert s["direction"] == [-x if x else 0.0 for x in s["removal_direction"]]
+        moved_mask = p.ndbg.mask(s["moved"])
+        produced = p.ndbg.mask(s["produces"])
+        assert p.ndbg.regions[s["region"]].dbg.is_free(moved_mask, produced)
+
+
+def test_generalized_motions_are_reported():
+    screw = {"type": "screw", "axis": [0.0, 0.0, 1.0], "point": [0.0, 0.0, 0.0], "pitch": 1.5}
+    nd = NDBG("generalized", ("nut", "bolt"),
+              (Region(-1, None, DBG.from_arcs(2, [(1, 0)]), motion=screw),))
+    p = plan(nd, "shortest")
+    (step,) = plan_section(p)["sequence"]
+    assert step["moved"] == ["nut"] and step["direction"] is None and step["motion"] == screw
+    c = classes_section({"generalized": nd})
+    assert c["generalized"]["one_handed_monotone"]["value"] is True
+    assert c["generalized"]["stack_product"]["value"] is None
+    assert grasp(nd, [(0, UP, None)])["value"] == 0
+
+
+def test_connected_filter_in_plans():
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    # 4 free parts in a path contact graph 0-1-2-3: only splits into two sub-paths are allowed,
+    # i.e. the trees of an ordered chain: Catalan(3) = 5 trees, linear orders 2^3 = 8
+    nd = mk("ABCD", [(UP, [])])
+    conn = ConnectivityTest([0b0010, 0b0101, 0b1010, 0b0100])
+    g = AndOrGraph(nd, connected=conn).build()
+    assert g.tree_count() == 5 and g.linear_count() == 8 and g.min_depth() == 2
+    for strategy in STRATEGIES:
+        p = plan(nd, strategy, connected=conn)
+        for s in p.steps.values():
+            assert conn(s.moved) and conn(s.rest)
