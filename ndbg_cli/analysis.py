@@ -18,6 +18,7 @@ from .loaders import load
 from .report import REPORT_SCHEMA
 
 MOTIONS = ("all", "translation", "infinite", "generalized")
+STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,14 @@ class Options:
     allow_outside_paths: bool = False
     interference: str = "warn"  # error | warn | ignore
     timings: bool = False
+    strategy: str = "shortest"  # shortest | linear | fewest-directions | balanced
+    threads_as_cylinders: bool = False
+    connected: bool = False  # partitionings: both sides connected in the contact graph
+    max_partitions: int = 1000  # partitionings listed per family (the report says truncated)
+    region_limit: int | None = 2000  # regions listed per family (counts stay complete)
+    max_nodes: int = 20_000  # AND/OR graph budget: expanded subassemblies
+    time_limit: float = 10.0  # AND/OR graph budget: seconds per search
+    infinite_budget: int = 20_000_000  # facing triangle pairs beyond which `infinite` is skipped
 
 
 def read_config(path: str | Path) -> dict:
@@ -56,6 +65,8 @@ def read_config(path: str | Path) -> dict:
         raise InputError(f"motion must be one of {', '.join(MOTIONS)}", file=str(path))
     if data.get("interference", "warn") not in ("error", "warn", "ignore"):
         raise InputError("interference must be error, warn or ignore", file=str(path))
+    if data.get("strategy", "shortest") not in STRATEGIES:
+        raise InputError(f"strategy must be one of {', '.join(STRATEGIES)}", file=str(path))
     return data
 
 
@@ -86,9 +97,17 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
         "schema": REPORT_SCHEMA,
         "tool": {"name": "ndbg", "version": __version__},
         "assembly": assembly_section(asm),
-        "options": {"motion": options.motion, "interference": options.interference},
+        "options": {"motion": options.motion, "interference": options.interference,
+                    "strategy": options.strategy,
+                    "threads_as_cylinders": options.threads_as_cylinders,
+                    "connected": options.connected, "max_partitions": options.max_partitions},
         "warnings": [d.record() for d in asm.diagnostics],
     }
+    from .pipeline import run_stages
+
+    sections, more = run_stages(asm, options, timings)
+    report.update(sections)
+    report["warnings"] += [d.record() for d in more]
     report["timings"] = timings if options.timings else {}
     return report
 

@@ -16,11 +16,19 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .analysis import MOTIONS, Options, analyze_path, error_record, read_config
-from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, InputError, NdbgError
+from .analysis import MOTIONS, STRATEGIES, Options, analyze_path, error_record, read_config
+from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
 from .progress import progress
-from .report import BATCH_SCHEMA, dumps, report_schema, write_atomic
+from .report import (
+    BATCH_SCHEMA,
+    CONTACTS_SCHEMA,
+    QUERY_SCHEMA,
+    REMOVE_SCHEMA,
+    dumps,
+    report_schema,
+    write_atomic,
+)
 from .text import render
 
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
@@ -99,10 +107,27 @@ def _common_load_options(f):
               "(makes it differ from run to run).")
 @click.option("--config", "config", type=click.Path(), help="YAML settings file (see "
               "configs/default.yaml); options given on the command line win.")
+@click.option("--strategy", type=click.Choice(STRATEGIES), default="shortest",
+              show_default=True, help="How the reported assembly tree is chosen.")
+@click.option("--threads-as-cylinders", is_flag=True,
+              help="Read declared screw joints as plain cylinders (threads ignored).")
+@click.option("--connected", is_flag=True, help="Only partitionings whose two sides are each "
+              "connected in the contact graph (lists and plan; classes keep the paper's "
+              "definitions).")
+@click.option("--max-partitions", type=click.IntRange(1), default=1000, show_default=True,
+              help="Partitionings listed per motion family (the report says when it cut).")
+@click.option("--max-nodes", type=click.IntRange(1), default=20_000, show_default=True,
+              help="AND/OR graph budget: subassemblies expanded per search.")
+@click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=10.0,
+              show_default=True, help="AND/OR graph budget: seconds per search.")
+@click.option("--infinite-budget", type=click.IntRange(0), default=20_000_000,
+              show_default=True, help="Facing triangle pairs beyond which the infinite-"
+              "translation NDBG is skipped (with a warning).")
 @_common_load_options
 @click.pass_context
-def analyze(ctx, paths, fmt, out, motion, interference, timings, config, units, tolerance,
-            allow_outside_paths) -> None:
+def analyze(ctx, paths, fmt, out, motion, interference, timings, config, strategy,
+            threads_as_cylinders, connected, max_partitions, max_nodes, time_limit,
+            infinite_budget, units, tolerance, allow_outside_paths) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
     A folder holding manifests is a batch (one report each); a folder holding only meshes is
@@ -114,7 +139,10 @@ def analyze(ctx, paths, fmt, out, motion, interference, timings, config, units, 
     """
     options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
                        allow_outside_paths=allow_outside_paths, interference=interference,
-                       timings=timings)
+                       timings=timings, strategy=strategy,
+                       threads_as_cylinders=threads_as_cylinders, connected=connected,
+                       max_partitions=max_partitions, max_nodes=max_nodes,
+                       time_limit=time_limit, infinite_budget=infinite_budget)
     targets: list[Path] = []
     for p in paths:
         if not Path(p).exists():
@@ -213,6 +241,189 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
     if not STATE.quiet:
         click.echo(f"wrote {manifest} ({len(asm)} parts, units {asm.units})", err=True)
     click.echo(str(manifest))
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("assembly", type=click.Path())
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True)
+@click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
+              show_default=True, help="What interpenetrating parts are.")
+@_common_load_options
+def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths) -> None:
+    """Print the contact table: touching pairs, kind, area, normals, and interferences.
+
+    Normals point out of part A into part B, in the assembly frame and unit.
+
+    \b
+    Example:
+      ndbg contacts ../shared/data/as1/as1-oc-214.stp --format json
+    """
+    from .contacts import analyze_contacts, contacts_section, contacts_text
+    from .interference import check_interference_policy
+    from .loaders import load
+
+    asm = load(assembly, units=units, tolerance=tolerance,
+               allow_outside_paths=allow_outside_paths)
+    if asm.dimension != 3:
+        fail(f"{assembly}: contacts of 2D assemblies are listed by `ndbg analyze`", EXIT_INPUT)
+    result = analyze_contacts(asm, tolerance=tolerance)
+    warnings = check_interference_policy(asm, result, interference)
+    if fmt == "json":
+        doc = {"schema": CONTACTS_SCHEMA, "tool": {"name": "ndbg", "version": __version__},
+               "assembly": {"name": asm.name, "source": asm.source, "units": asm.units},
+               **contacts_section(asm, result),
+               "warnings": [d.record() for d in list(asm.diagnostics) + warnings]}
+        doc["contact_stats"].pop("timings_s", None)
+        click.echo(dumps(doc), nl=False)
+    else:
+        click.echo("\n".join(contacts_text(asm, result)))
+        if not STATE.quiet:
+            for w in warnings:
+                click.echo(f"ndbg: warning: {w.message}", err=True)
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("assembly", type=click.Path())
+@click.option("--direction", "direction", required=True,
+              help="Translation direction as x,y,z (x,y in 2D); need not be unit length.")
+@click.option("--motion", type=click.Choice(["all", "translation", "infinite"]), default="all",
+              show_default=True)
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True)
+@_common_load_options
+def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_paths) -> None:
+    """Print the DBG for one translation direction, computed directly from the geometry.
+
+    translation: from the contacts (local blocking); infinite: a sweep test of every part
+    pair (part j blocks i if i's sweep to infinity along d meets j's interior).
+
+    \b
+    Example:
+      ndbg query assemblies/hover.yaml --direction 0,0,1
+    """
+    import numpy as np
+
+    from .loaders import load
+
+    asm = load(assembly, units=units, tolerance=tolerance,
+               allow_outside_paths=allow_outside_paths)
+    try:
+        d = np.array([float(x) for x in direction.split(",")])
+    except ValueError:
+        d = np.zeros(0)
+    if len(d) != asm.dimension or not np.all(np.isfinite(d)) or np.linalg.norm(d) == 0:
+        fail(f"--direction must be {asm.dimension} comma-separated numbers, not all zero "
+             f"(got '{direction}')", EXIT_INPUT)
+    d = d / np.linalg.norm(d)
+    doc: dict = {"schema": QUERY_SCHEMA, "assembly": asm.name, "direction": d.tolist(),
+                 "dbgs": {}}
+    if motion in ("all", "translation"):
+        from .infinitesimal import DEFAULT_ANGLE_TOL, contact_pairs, dbg_at
+
+        if asm.dimension == 3:
+            from .contacts import analyze_contacts
+
+            ca = analyze_contacts(asm, tolerance=tolerance)
+            g = dbg_at(len(asm), contact_pairs(asm, ca), d, ca.angle_tolerance)
+        else:
+            g = dbg_at(len(asm), contact_pairs(asm), d, DEFAULT_ANGLE_TOL)
+        doc["dbgs"]["infinitesimal_translation"] = _dbg_record(asm, g)
+    if motion in ("all", "infinite"):
+        from .sweep import dbg_at as sweep_dbg
+
+        doc["dbgs"]["infinite_translation"] = _dbg_record(asm, sweep_dbg(asm, d))
+    if fmt == "json":
+        click.echo(dumps(doc), nl=False)
+        return
+    click.echo(f"{asm.name}: direction ({', '.join(f'{x:+.4f}' for x in d)})")
+    for fam, rec in doc["dbgs"].items():
+        click.echo(f"  {fam.replace('_', ' ')}: {len(rec['arcs'])} arcs "
+                   "(i -> j: j blocks i)")
+        for i, j in rec["arcs"]:
+            click.echo(f"    {i} -> {j}")
+        free = ", ".join("{" + ", ".join(s) + "}" for s in rec["free_sets"][:10])
+        click.echo(f"    free along d: {free or 'nothing'}"
+                   + (" ..." if len(rec["free_sets"]) > 10 else ""))
+
+
+def _dbg_record(asm, g) -> dict:
+    from .dbg import bits, minimal_free_subsets
+
+    full = (1 << len(asm)) - 1
+    return {"arcs": [[asm.ids[i], asm.ids[j]] for i, j in g.arcs()],
+            "free_sets": [[asm.ids[i] for i in bits(s)]
+                          for s in minimal_free_subsets(g, full) if s != full]}
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("assembly", type=click.Path())
+@click.argument("parts", nargs=-1, required=True)
+@click.option("--motion", type=click.Choice(["auto", "translation", "infinite"]),
+              default="auto", show_default=True, help="Blocking graphs to plan with: auto = "
+              "infinite translations when within --infinite-budget, else infinitesimal.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True)
+@click.option("--max-nodes", type=click.IntRange(1), default=20_000, show_default=True,
+              help="Exact search budget (remaining assemblies explored).")
+@click.option("--infinite-budget", type=click.IntRange(0), default=20_000_000,
+              show_default=True)
+@_common_load_options
+def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tolerance,
+           allow_outside_paths) -> None:
+    """Which parts must be withdrawn, and in what order, before PARTS can be removed.
+
+    Exact (fewest parts withdrawn, then fewest steps) when the search fits --max-nodes;
+    otherwise a goal-directed heuristic, with a lower bound on the minimum.
+
+    \b
+    Example:
+      ndbg remove assemblies/bell.yaml gong_post
+    """
+    from .andor import Budget
+    from .infinite import build_infinite, triangle_pairs
+    from .infinitesimal import infinitesimal_ndbg
+    from .loaders import load
+    from .planning import remove as remove_parts
+
+    asm = load(assembly, units=units, tolerance=tolerance,
+               allow_outside_paths=allow_outside_paths)
+    unknown = [p for p in parts if p not in asm.ids]
+    if unknown:
+        fail(f"{assembly}: no part '{unknown[0]}' (parts: {', '.join(asm.ids[:12])}"
+             + (" ..." if len(asm) > 12 else "") + ")", EXIT_INPUT)
+    if motion == "auto":
+        motion = ("infinite" if asm.dimension == 2 or triangle_pairs(asm) <= infinite_budget
+                  else "translation")
+    nd = build_infinite(asm) if motion == "infinite" else infinitesimal_ndbg(asm)
+    target = nd.mask(parts)
+    base = asm.index(asm.base) if asm.base is not None and asm.base not in parts else None
+    res = remove_parts(nd, target, base=base, budget=Budget(max_nodes=max_nodes))
+    sec = {"schema": REMOVE_SCHEMA, "assembly": asm.name, "family": nd.family,
+           **res.section(nd)}
+    if fmt == "json":
+        click.echo(dumps(sec), nl=False)
+    else:
+        click.echo(_removal_text(sec))
+    sys.exit(EXIT_OK if res.found else EXIT_VIOLATION)
+
+
+def _removal_text(sec: dict) -> str:
+    def along(s: dict) -> str:
+        d = s.get("removal_direction")
+        return "along (" + ", ".join(f"{x:+.3g}" for x in d) + ")" if d else "by its motion"
+
+    target = ", ".join(sec["target"])
+    kind = "minimum" if sec["exact"] else f"heuristic; at least {sec['lower_bound']}"
+    lines = [f"{sec['assembly']}: to remove {{{target}}} ({sec['family'].replace('_', ' ')})"]
+    if not sec["found"]:
+        lines.append("  no withdrawal sequence frees it")
+        return "\n".join(lines)
+    lines.append(f"  withdraw {sec['count']} part(s) first ({kind}):")
+    for s in sec["steps"]:
+        lines.append(f"  {s['step']}. remove {{{', '.join(s['withdraw'])}}} {along(s)}")
+    lines.append(f"  then remove {{{target}}} {along(sec['final'])}")
+    return "\n".join(lines)
 
 
 @cli.command(context_settings=CONTEXT)

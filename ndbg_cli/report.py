@@ -2,8 +2,9 @@
 
 Determinism: the same input gives byte-identical JSON. Keys are sorted, lists are built in a
 stable order by the stages, floats are rounded to :data:`FLOAT_DIGITS` significant digits
-(and ``-0.0`` becomes ``0.0``), and wall-clock timings are left out unless asked for
-(``timings`` is then ``{}``), since they differ on every run.
+(and magnitudes below :data:`ZERO`, ``-0.0`` included, become ``0.0``), and wall-clock
+timings are left out unless asked for (``timings`` is then ``{}``), since they differ on every
+run.
 """
 
 from __future__ import annotations
@@ -21,18 +22,42 @@ import numpy as np
 #: Version of the report format; bumped on any incompatible change.
 REPORT_SCHEMA = "ndbg.report/1"
 BATCH_SCHEMA = "ndbg.batch/1"
+CONTACTS_SCHEMA = "ndbg.contacts/1"
+QUERY_SCHEMA = "ndbg.query/1"
+REMOVE_SCHEMA = "ndbg.remove/1"
 #: Significant digits kept for every float in a report.
 FLOAT_DIGITS = 9
+#: Floats of smaller magnitude are written as 0.0 (numerical noise such as 1e-22 in a unit
+#: vector; far below any length, area or volume tolerance in any supported unit).
+ZERO = 1e-15
 
 _SCHEMA: dict | None = None
 
 
+#: Stage fragments (``schemas/fragments/NAME.json``) embedded in the report schema.
+FRAGMENTS = ("infinitesimal", "infinite", "generalized", "planning")
+
+
+def _read_schema(name: str) -> dict:
+    return json.loads(resources.files("ndbg_cli").joinpath(f"schemas/{name}").read_text())
+
+
 def report_schema() -> dict:
-    """The report's JSON Schema, shipped in ``ndbg_cli/schemas/report.schema.json``."""
+    """The report's JSON Schema: ``schemas/report.schema.json`` with the stages' fragments
+    (``schemas/fragments/*.json``) embedded under ``$defs`` as resources with ids
+    ``urn:ndbg:report:1:NAME``, so that ``ndbg schema`` prints one self-contained document."""
     global _SCHEMA
     if _SCHEMA is None:
-        text = resources.files("ndbg_cli").joinpath("schemas/report.schema.json").read_text()
-        _SCHEMA = json.loads(text)
+        doc = _read_schema("report.schema.json")
+        contacts = _read_schema("fragments/contacts.json")
+        for key, sub in contacts.items():
+            doc["$defs"][key] = sub
+        for name in FRAGMENTS:
+            frag = _read_schema(f"fragments/{name}.json")
+            frag.pop("$schema", None)
+            frag["$id"] = f"urn:ndbg:report:1:{name}"
+            doc["$defs"][f"fragment_{name}"] = frag
+        _SCHEMA = doc
     return _SCHEMA
 
 
@@ -60,7 +85,7 @@ def clean(value: Any) -> Any:
         if not math.isfinite(x):
             return None
         x = float(f"{x:.{FLOAT_DIGITS}g}")
-        return 0.0 if x == 0 else x
+        return 0.0 if abs(x) < ZERO else x
     return value
 
 

@@ -42,5 +42,85 @@ def render(report: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-#: Renderers of the analysis stages, each ``report -> list of lines`` (stages append theirs).
-TEXT_SECTIONS: list = []
+def _vec(v) -> str:
+    return "(" + ", ".join(f"{x:+.3g}" for x in v) + ")"
+
+
+def contacts_lines(report: dict) -> list[str]:
+    """Contact summary: touching pairs by kind, interferences."""
+    if "contacts" not in report:
+        return []
+    stats = report.get("contact_stats", {})
+    kinds: dict[str, int] = {}
+    for c in report["contacts"]:
+        kinds[c["kind"]] = kinds.get(c["kind"], 0) + 1
+    by_kind = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items())) or "none"
+    lines = ["", f"contacts: {len(stats.get('touching_pairs', []))} touching pairs, "
+             f"{len(report['contacts'])} contacts ({by_kind})"]
+    for x in report.get("interferences", []):
+        lines.append(f"  INTERFERENCE {x['a']} / {x['b']}: volume {_fmt(x['volume'])}, "
+                     f"depth {_fmt(x['depth'])}")
+    return lines
+
+
+def classes_lines(report: dict) -> list[str]:
+    """The complexity classes, one block per motion family."""
+    if "classes" not in report:
+        return []
+    from .classes import classes_text
+
+    return ["", "classes (paper section 7)"] + ["  " + x for x in classes_text(report["classes"])]
+
+
+def ndbg_lines(report: dict) -> list[str]:
+    """One summary per blocking-graph family."""
+    lines: list[str] = []
+    for fam, sec in sorted(report.get("ndbg", {}).items()):
+        if sec.get("skipped"):
+            lines += ["", f"{fam.replace('_', ' ')}: skipped ({sec['why']})"]
+            continue
+        if fam == "infinitesimal_translation":
+            from .infinitesimal import infinitesimal_text
+
+            parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
+            lines += infinitesimal_text({**sec, "partitionings": parts}, limit=6)
+        elif fam == "infinite_translation":
+            from .infinite_report import infinite_text
+
+            parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
+            lines += [""] + infinite_text({**sec, "partitionings": parts[:6]})[:8]
+            if len(parts) > 6:
+                lines[-1:] = [lines[-1], f"  ... {len(parts)} in all (see the JSON report)"]
+        elif fam == "generalized":
+            from .generalized import generalized_text
+
+            lines += [""] + generalized_text(sec)[:14]
+    return lines
+
+
+def plan_lines(report: dict) -> list[str]:
+    """The chosen assembly sequence as numbered steps."""
+    p = report.get("plan")
+    if p is None:
+        return []
+    if not p.get("found"):
+        return ["", "assembly sequence: none found - " + "; ".join(p.get("notes", []))]
+    fam = (p.get("family") or "").replace("_", " ")
+    exact = "" if p.get("exact", True) else " (not proven optimal)"
+    lines = ["", f"assembly sequence ({p['strategy']}, {fam}): {len(p['sequence'])} steps, "
+             f"tree depth {p['depth']}{exact}"]
+    for s in p["sequence"]:
+        if s.get("direction") is not None:
+            how = "along " + _vec(s["direction"])
+        elif s.get("motion"):
+            m = s["motion"]
+            how = f"by reverse {m.get('type')} about {_vec(m.get('axis') or [])}"
+        else:
+            how = f"(region {s.get('region')})"
+        lines.append(f"  {s['step']:>3}. insert {{{', '.join(s['moved'])}}} into "
+                     f"{{{', '.join(s['onto'])}}} {how}")
+    return lines
+
+
+#: Renderers of the analysis stages, each ``report -> list of lines``, in report order.
+TEXT_SECTIONS: list = [contacts_lines, classes_lines, plan_lines, ndbg_lines]

@@ -1,0 +1,297 @@
+"""The analysis stages in order: contacts -> blocking graphs -> planning -> measures.
+
+:func:`run_stages` takes a loaded :class:`~ndbg_cli.assembly.Assembly` and the options, and
+returns the report's analysis sections as plain dicts (JSON-ready after
+:func:`ndbg_cli.report.clean`). Each stage consumes only the previous stages' results: the
+blocking graphs are built once from the contacts (infinitesimal, generalized) or the meshes
+(infinite), and planning, classes and measures run on the DBGs alone (induced subgraphs for
+subassemblies), never on geometry again.
+
+Families (``--motion``): ``translation`` = infinitesimal translations (paper 4-5.1),
+``infinite`` = infinite translations (5.3), ``generalized`` = the paper's hybrid of all
+translations plus suggested rotations/screws (5.2, 6), ``all`` = every one.
+
+Which plan is reported: the first family, in the order infinite translation (guaranteed
+removable by one translation), infinitesimal translation (candidate), generalized (candidate,
+LP-checked), that was computed and admits an assembly tree.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from .assembly import Assembly, Diagnostic
+from .ndbg import NDBG, ConnectivityTest
+
+INFINITESIMAL = "infinitesimal_translation"
+INFINITE = "infinite_translation"
+GENERALIZED = "generalized"
+
+FAMILIES_OF = {
+    "all": (INFINITESIMAL, INFINITE, GENERALIZED),
+    "translation": (INFINITESIMAL,),
+    "infinite": (INFINITE,),
+    "generalized": (GENERALIZED,),
+}
+#: Order in which families are tried for the reported plan (most guaranteed first).
+PLAN_ORDER = (INFINITE, INFINITESIMAL, GENERALIZED)
+
+
+class _Clock:
+    def __init__(self, timings: dict[str, float]) -> None:
+        self.timings = timings
+
+    def __call__(self, name: str, fn: Callable[[], Any]) -> Any:
+        t0 = time.perf_counter()
+        out = fn()
+        self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
+        return out
+
+
+def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[dict, list]:
+    """All analysis sections of the report for ``asm`` and the extra warnings
+    (:class:`Diagnostic`). ``options`` is an :class:`ndbg_cli.analysis.Options`; ``timings``
+    receives seconds per stage. Raises :class:`~ndbg_cli.errors.InputError` (e.g. an
+    interference under ``--interference error``)."""
+    clock = _Clock(timings)
+    families = FAMILIES_OF[options.motion]
+    warnings: list[Diagnostic] = []
+    out: dict = {}
+
+    # -- contacts ----------------------------------------------------------------------
+    if asm.dimension == 3:
+        from .contacts import analyze_contacts, contacts_section
+        from .interference import check_interference_policy
+
+        ca = clock("contacts_s", lambda: analyze_contacts(asm, tolerance=options.tolerance))
+        warnings += check_interference_policy(asm, ca, options.interference)
+        sec = contacts_section(asm, ca)
+        # wall-clock phases go to the report's timings (kept out unless asked for)
+        for k, v in sec["contact_stats"].pop("timings_s", {}).items():
+            timings[f"contacts_{k}"] = v
+        out.update(contacts=sec["contacts"], interferences=sec["interferences"],
+                   contact_stats=sec["contact_stats"])
+        touching = ca.pairs()
+    else:
+        from .contacts2d import find_contacts_2d
+
+        ca = clock("contacts_s", lambda: find_contacts_2d(asm, options.tolerance))
+        out.update(contacts=contacts_2d_section(asm, ca), interferences=[],
+                   contact_stats={"units": asm.units, "tolerance": asm.length_tolerance,
+                                  "touching_pairs": [[asm.ids[c.a], asm.ids[c.b]]
+                                                     for c in ca.contacts],
+                                  "contacts": len(ca.contacts)})
+        touching = [(c.a, c.b) for c in ca.contacts]
+    neighbours = [0] * len(asm)
+    for a, b in touching:
+        neighbours[a] |= 1 << b
+        neighbours[b] |= 1 << a
+    connected = ConnectivityTest(neighbours) if options.connected else None
+
+    # -- blocking graphs ---------------------------------------------------------------
+    from .generalized import block_threads, threaded_pairs
+
+    threaded = threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
+    ndbgs: dict[str, NDBG] = {}
+    sections: dict[str, dict] = {}
+    partitionings: list[dict] = []
+    inf = None
+    if INFINITESIMAL in families or GENERALIZED in families:
+        from .infinitesimal import infinitesimal_ndbg
+
+        inf = clock("infinitesimal_s", lambda: infinitesimal_ndbg(asm, ca))
+        inf = block_threads(inf, threaded)
+    if INFINITESIMAL in families:
+        from .infinitesimal import candidate_partitionings, infinitesimal_section
+
+        ndbgs[INFINITESIMAL] = inf
+        parts, trunc = clock("partitionings_s", lambda: candidate_partitionings(
+            inf, max_partitions=options.max_partitions, connected=options.connected,
+            contacts=touching))
+        sec = infinitesimal_section(asm, inf, parts, trunc, region_limit=options.region_limit)
+        partitionings += sec.pop("partitionings")
+        sec.pop("assembly", None)
+        sections[INFINITESIMAL] = sec
+    if INFINITE in families:
+        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected))
+        if got is None:
+            sections[INFINITE] = {"family": INFINITE, "skipped": True,
+                                  "why": _infinite_skip_reason(asm, options)}
+            warnings.append(Diagnostic("warning", "infinite-skipped",
+                                       "infinite-translation NDBG skipped: "
+                                       + sections[INFINITE]["why"], file=asm.source or None))
+        else:
+            nd, sec, parts = got
+            ndbgs[INFINITE] = nd
+            sections[INFINITE] = sec
+            partitionings += parts
+    if GENERALIZED in families and asm.dimension == 3:
+        gen, sec, parts = clock("generalized_s", lambda: _generalized(asm, ca, inf, options))
+        ndbgs[GENERALIZED] = gen
+        sections[GENERALIZED] = sec
+        partitionings += parts
+    elif GENERALIZED in families:
+        sections[GENERALIZED] = {"family": GENERALIZED, "skipped": True,
+                                 "why": "generalized motions are analysed for 3D assemblies"}
+    out["ndbg"] = sections
+    out["partitionings"] = partitionings
+
+    # -- planning and measures ---------------------------------------------------------
+    from .andor import Budget
+    from .classes import classes_section
+    from .planning import plan, plan_section
+
+    budget = Budget(max_nodes=options.max_nodes, time_limit=options.time_limit)
+    base = asm.index(asm.base) if asm.base is not None else None
+    extra = clock("interlock_s", lambda: _interlock_and_grasp(asm, ca, ndbgs))
+    out["classes"] = clock("classes_s", lambda: classes_section(
+        ndbgs, base=base, budget=budget, interlock=extra[0], grasps=extra[1]))
+    if threaded and not options.threads_as_cylinders:
+        for fam in (INFINITESIMAL, INFINITE):
+            if fam in out["classes"]:
+                out["classes"][fam]["threads"] = {
+                    "value": sorted([list(p) for p in threaded]),
+                    "why": "declared screw joints are threads: these pairs cannot translate "
+                           "apart; --threads-as-cylinders treats them as plain cylinders"}
+    chosen = None
+    for fam in PLAN_ORDER:
+        if fam not in ndbgs:
+            continue
+        p = clock("plan_s", lambda nd=ndbgs[fam]: plan(nd, options.strategy, base=base,
+                                                       connected=connected, budget=budget))
+        if chosen is None or (p.found and not chosen.found):
+            chosen = p
+        if p.found:
+            break
+    if chosen is not None:
+        out["plan"] = {"family": chosen.ndbg.family, **plan_section(chosen)}
+    else:
+        out["plan"] = {"family": None, "strategy": options.strategy, "found": False,
+                       "exact": True, "depth": None, "tree": None, "sequence": [],
+                       "notes": ["no motion family computed"]}
+    return out, warnings
+
+
+def contacts_2d_section(asm: Assembly, found) -> list[dict]:
+    """2D contacts for the report: pair, kinds, normals out of ``a`` and contact points."""
+    return [{"a": asm.ids[c.a], "b": asm.ids[c.b],
+             "kind": "edge" if "edge-edge" in c.kinds else "point",
+             "blocking": "any", "normals": np.asarray(c.normals).tolist(),
+             "points": np.asarray(c.points).tolist(), "length": float(c.length)}
+            for c in found.contacts]
+
+
+def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
+    from .infinite import triangle_pairs
+
+    return (f"{triangle_pairs(asm)} facing triangle pairs exceed the budget of "
+            f"{options.infinite_budget} (raise it with --infinite-budget)")
+
+
+def _infinite(asm: Assembly, options: Any, threaded: set, connected
+              ) -> tuple[NDBG, dict, list[dict]] | None:
+    from .generalized import block_threads
+    from .infinite import build_infinite, triangle_pairs
+    from .infinite_report import infinite_section
+    from .ndbg import partitionings
+
+    if asm.dimension == 3 and triangle_pairs(asm) > options.infinite_budget:
+        return None
+    nd = block_threads(build_infinite(asm), threaded)
+    parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
+    sec = infinite_section(asm, nd, parts, trunc)
+    if options.region_limit is not None and len(sec["region_list"]) > options.region_limit:
+        sec["region_list"] = sec["region_list"][:options.region_limit]
+        sec["region_list_truncated"] = True
+    parts_out = sec.pop("partitionings")
+    return nd, sec, parts_out
+
+
+def _generalized(asm: Assembly, ca, inf: NDBG, options: Any) -> tuple[NDBG, dict, list[dict]]:
+    from .generalized import generalized_ndbg, generalized_section, hybrid, motion_dbg, threads
+    from .ndbg import Region
+    from .twist import contact_rows
+
+    rows = contact_rows(asm, ca.contacts)
+    suggested = generalized_ndbg(asm, ca.contacts, rows=rows,
+                                 threads_as_cylinders=options.threads_as_cylinders)
+    sec = generalized_section(asm, suggested, rows,
+                              threads_as_cylinders=options.threads_as_cylinders)
+    # Motions the exact LP found for subassemblies that need a rotation (paper Fig. 5) join
+    # the suggested ones, so the generalized classes see them (a candidate-level verdict).
+    found = []
+    thr = threads(asm, options.threads_as_cylinders)
+    for e in sec["needs_rotation"]:
+        rec = dict(e["motion"], sense=1, source="lp: frees " + ", ".join(e["parts"]))
+        found.append(Region(-1, None, motion_dbg(rows, np.asarray(rec["twist"]), thr),
+                            motion=rec))
+    if found:
+        suggested = dataclasses.replace(suggested, regions=suggested.regions + tuple(found))
+    gen = hybrid(inf, suggested)
+    sec["family"] = GENERALIZED
+    sec["regions"] = {"translational": len(inf.regions), "suggested": len(suggested.regions)}
+    parts = [{"moved": c["moved"], "rest": c["rest"], "family": GENERALIZED,
+              "motion": c["motion"]} for c in sec["candidates"]]
+    return gen, sec, parts
+
+
+def _interlock_and_grasp(asm: Assembly, ca, ndbgs: dict[str, NDBG]) -> tuple[dict | None, dict]:
+    """Infinitesimal interlocking (LP over part velocities, any number of hands) and the
+    prismatic form-closure grasps of the translational families."""
+    from .grasp import grasp
+    from .interlock import interlock
+
+    dim = asm.dimension
+    normals: dict[tuple[int, int], list[np.ndarray]] = {}
+    for c in ca.contacts:
+        normals.setdefault((c.a, c.b), []).append(np.asarray(c.normals, float).reshape(-1, dim))
+    pair_normals = {k: np.concatenate(v) for k, v in sorted(normals.items())}
+    fixed = asm.index(asm.base) if asm.base is not None else 0
+    lock = None
+    if INFINITESIMAL in ndbgs or INFINITE in ndbgs:
+        lock = interlock(len(asm), pair_normals, fixed, dim=dim, ids=asm.ids)
+        lock.pop("velocities", None)
+        edge_point = sum(1 for c in ca.contacts if getattr(c, "blocking", "any") == "all")
+        if edge_point:
+            lock["why"] += (f" ({edge_point} edge/point contacts read as every normal of their "
+                            "cone: conservative, may call a product interlocked that is not)")
+    grasps = {}
+    faces = exterior_faces(asm)
+    for fam in (INFINITESIMAL, INFINITE):
+        if fam in ndbgs:
+            grasps[fam] = grasp(ndbgs[fam], faces)
+    return lock, grasps
+
+
+def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
+    """Candidate finger placements for the form-closure grasp: for every part, each distinct
+    outward face normal (3D: triangle normals rounded to ``digits``; 2D: edge normals) with a
+    point on a face of that orientation (the largest one's centroid)."""
+    out = []
+    for k, part in enumerate(asm.parts):
+        if asm.dimension == 2:
+            poly = part.polygon
+            xy = np.asarray(poly.exterior.coords)[:-1]
+            ccw = poly.exterior.is_ccw
+            for a, b in zip(xy, np.roll(xy, -1, axis=0)):
+                e = b - a
+                nrm = np.array([e[1], -e[0]]) if ccw else np.array([-e[1], e[0]])
+                length = np.linalg.norm(nrm)
+                if length > 0:
+                    out.append((k, (nrm / length).tolist(), ((a + b) / 2).tolist()))
+            continue
+        mesh = part.mesh
+        normals = np.round(np.asarray(mesh.face_normals), digits)
+        areas = np.asarray(mesh.area_faces)
+        keys, inverse = np.unique(normals, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        for q, key in enumerate(keys):
+            sel = np.flatnonzero(inverse == q)
+            f = sel[np.argmax(areas[sel])]
+            out.append((k, key.tolist(), np.asarray(mesh.triangles_center[f]).tolist()))
+    return out
