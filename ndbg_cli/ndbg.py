@@ -101,31 +101,47 @@ def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = No
     (moved, rest) pair, collecting the regions where ``moved`` is free. With ``connected``,
     both sides must be connected (e.g. in the contact graph). Returns ``(list, truncated)``;
     ``truncated`` is True when ``limit`` stopped the enumeration.
+
+    When ``limit`` cuts, the most useful sets are kept: a first pass takes, in every distinct
+    DBG, the smallest free set containing each part (its successor closure), so single parts
+    and minimal subassemblies that come out are always listed; the output-sensitive
+    enumeration of all free sets fills the rest of the budget. The regions listed for a set
+    are complete when nothing was cut.
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
-    found: dict[int, list[int]] = {}
-    order: list[int] = []
+    found: dict[int, set[int]] = {}
     truncated = False
     seen_dbgs: dict[tuple[int, ...], list[int]] = {}
     for k, r in enumerate(ndbg.regions):
         key = tuple(s & m for s in (r.dbg.succ[i] for i in bits(m)))
         seen_dbgs.setdefault(key, []).append(k)
-    for region_ids in seen_dbgs.values():
-        dbg = ndbg.regions[region_ids[0]].dbg
-        for s in free_subsets(dbg, m):
-            if connected is not None and not (connected(s) and connected(m & ~s)):
-                continue
-            if s not in found:
-                if limit is not None and len(order) >= limit:
+    groups = [(ndbg.regions[ids[0]].dbg, ids) for ids in seen_dbgs.values()]
+
+    def take(s: int, region_ids: list[int]) -> bool:
+        """Record ``s``; False when the limit is reached."""
+        if s in found:
+            found[s].update(region_ids)
+            return True
+        if connected is not None and not (connected(s) and connected(m & ~s)):
+            return True
+        if limit is not None and len(found) >= limit:
+            return False
+        found[s] = set(region_ids)
+        return True
+
+    if limit is not None:
+        for dbg, region_ids in groups:
+            for i in bits(m):
+                c = dbg.closure(1 << i, m)
+                if c != m and not take(c, region_ids):
                     truncated = True
-                    break
-                found[s] = []
-                order.append(s)
-            found[s].extend(region_ids)
-        if truncated:
-            break
+    for dbg, region_ids in groups:
+        for s in free_subsets(dbg, m):
+            if not take(s, region_ids):
+                truncated = True
+                break
     out = [Partitioning(moved=s, rest=m & ~s, family=ndbg.family,
-                        regions=tuple(sorted(set(found[s])))) for s in order]
+                        regions=tuple(sorted(regs))) for s, regs in found.items()]
     out.sort(key=lambda p: (p.moved.bit_count(), p.moved))
     return out, truncated
 
