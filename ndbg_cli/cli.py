@@ -16,7 +16,8 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .analysis import MOTIONS, STRATEGIES, Options, analyze_path, error_record, read_config
+from .analysis import MOTIONS, STRATEGIES, Options, read_config
+from .batch import Interrupted, default_jobs, run_batch
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
 from .progress import progress
@@ -25,6 +26,7 @@ from .report import (
     CONTACTS_SCHEMA,
     QUERY_SCHEMA,
     REMOVE_SCHEMA,
+    clean,
     dumps,
     report_schema,
     write_atomic,
@@ -95,10 +97,15 @@ def _common_load_options(f):
 
 @cli.command(context_settings=CONTEXT)
 @click.argument("paths", nargs=-1, required=True, type=click.Path())
-@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
-              show_default=True, help="Report format on stdout.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json", "jsonl"]), default="text",
+              show_default=True, help="Report format on stdout; jsonl: one compact report per "
+              "line, streamed in input order.")
 @click.option("--out", type=click.Path(), help="Write reports here instead of stdout: a file "
               "for one assembly, a directory (one NAME.json each) for several.")
+@click.option("--out-dir", type=click.Path(file_okay=False), help="Write one NAME.json per "
+              "assembly (atomically, as each completes) plus index.json into this folder.")
+@click.option("-j", "--jobs", type=click.IntRange(1), default=None,
+              help="Worker processes for a batch (default: the number of cores).")
 @click.option("--motion", type=click.Choice(MOTIONS), default="all", show_default=True,
               help="Motion family of the blocking graphs.")
 @click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
@@ -125,7 +132,7 @@ def _common_load_options(f):
               "translation NDBG is skipped (with a warning).")
 @_common_load_options
 @click.pass_context
-def analyze(ctx, paths, fmt, out, motion, interference, timings, config, strategy,
+def analyze(ctx, paths, fmt, out, out_dir, jobs, motion, interference, timings, config, strategy,
             threads_as_cylinders, connected, max_partitions, max_nodes, time_limit,
             infinite_budget, units, tolerance, allow_outside_paths) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
@@ -149,19 +156,36 @@ def analyze(ctx, paths, fmt, out, motion, interference, timings, config, strateg
             fail(f"{p}: no such file or directory", EXIT_INPUT)
         targets.extend(discover(p))
     batch = len(targets) > 1 or any(Path(p).is_dir() and discover(p) != [Path(p)] for p in paths)
-    reports = []
-    for target in progress(targets, len(targets), "analyzing", quiet=STATE.quiet):
-        reports.append(_analyze_one(target, options))
-    code = max([_exit_code(r) for r in reports] + [EXIT_OK])
-    for r in reports:
-        if "error" in r:
-            click.echo(f"ndbg: error: {r['error']['message']}", err=True)
-    if out:
-        _write_reports(Path(out), reports, batch)
+    out_dir = Path(out_dir) if out_dir else (Path(out) if out and batch else None)
+    jobs = jobs or default_jobs()
+    reports: list[dict] = []
+    names: set[str] = set()
+    code = EXIT_OK
+    stream = run_batch(targets, options, jobs, debug=STATE.debug)
+    try:
+        for r in progress(stream, len(targets), "analyzing", quiet=STATE.quiet):
+            code = max(code, _exit_code(r))
+            if "error" in r:
+                click.echo(f"ndbg: error: {r['error']['message']}", err=True)
+            if out_dir is not None:
+                write_atomic(out_dir / f"{_report_name(r, names)}.json", dumps(r))
+                reports.append(_index_entry(r))
+            elif fmt == "jsonl":
+                click.echo(json.dumps(clean(r), sort_keys=True, separators=(",", ":"),
+                                      ensure_ascii=False))
+            else:
+                reports.append(r)
+    except Interrupted:
+        click.echo("ndbg: terminated; reports written so far are complete", err=True)
+        sys.exit(143)
+    if out_dir is not None:
+        write_atomic(out_dir / "index.json", dumps(_batch_doc(reports)))
+    elif out:
+        write_atomic(Path(out), dumps(reports[0]) if fmt != "text" else render(reports[0]))
     elif fmt == "json":
         doc = _batch_doc(reports) if batch else reports[0]
         click.echo(dumps(doc), nl=False)
-    else:
+    elif fmt == "text":
         click.echo("\n".join(render(r) for r in reports), nl=False)
     sys.exit(code)
 
@@ -174,17 +198,6 @@ def _options(ctx: click.Context, config: str | None, **given) -> Options:
         if source is not None and source.name != "DEFAULT" or name not in settings:
             settings[name] = value
     return Options(**settings)
-
-
-def _analyze_one(target: Path, options: Options) -> dict:
-    try:
-        return analyze_path(target, options)
-    except Exception as exc:  # a bug: record it and go on with the batch
-        if STATE.debug:
-            traceback.print_exc()
-        err = NdbgError(f"internal error: {exc.__class__.__name__}: {exc} "
-                        "(run with --debug for a traceback)", file=str(target))
-        return error_record(target, err)
 
 
 def _exit_code(report: dict) -> int:
@@ -201,24 +214,24 @@ def _batch_doc(reports: list[dict]) -> dict:
             "reports": reports}
 
 
-def _write_reports(out: Path, reports: list[dict], batch: bool) -> None:
-    if not batch:
-        write_atomic(out, dumps(reports[0]))
-        return
-    names: set[str] = set()
-    for r in reports:
-        stem = r["assembly"]["name"] if "assembly" in r else Path(r["source"]).stem
-        stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "assembly"
-        name, k = stem, 1
-        while name in names:
-            k += 1
-            name = f"{stem}-{k}"
-        names.add(name)
-        write_atomic(out / f"{name}.json", dumps(r))
-    write_atomic(out / "index.json", dumps(_batch_doc(
-        [{k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
-         | ({"assembly": {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}}
-            if "assembly" in r else {}) for r in reports])))
+def _report_name(r: dict, names: set[str]) -> str:
+    """A file stem for a report, unique within the batch (``bell``, ``bell-2``, ...)."""
+    stem = r["assembly"]["name"] if "assembly" in r else Path(r["source"]).stem
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "assembly"
+    name, k = stem, 1
+    while name in names:
+        k += 1
+        name = f"{stem}-{k}"
+    names.add(name)
+    return name
+
+
+def _index_entry(r: dict) -> dict:
+    """What ``index.json`` keeps of a report: identity and error, not the analysis."""
+    out = {k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
+    if "assembly" in r:
+        out["assembly"] = {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}
+    return out
 
 
 @cli.command(context_settings=CONTEXT)

@@ -1,0 +1,97 @@
+"""Batches: JSON Lines in input order, worker processes, error records, atomic report files
+that survive a SIGTERM."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from helpers import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "assemblies"
+SMALL = ["hover", "stack", "fig3-2d", "fig5-rotation", "fig11-nonlinear", "peg-37"]
+
+
+def make_batch(folder: Path, copies: int = 1, broken: int = 0) -> list[str]:
+    """Copies of small examples (with their meshes) plus ``broken`` bad manifests; returns
+    the manifest stems in the order ``ndbg`` discovers them (sorted paths)."""
+    shutil.copytree(EX / "meshes", folder / "meshes")
+    for k in range(copies):
+        for name in SMALL:
+            text = (EX / f"{name}.yaml").read_text()
+            (folder / f"{name}-{k:02d}.yaml").write_text(text)
+    for k in range(broken):
+        (folder / f"zz-broken-{k}.yaml").write_text("name: x\nparts: [\n")
+    return sorted(p.stem for p in folder.glob("*.yaml"))
+
+
+def test_jsonl_in_input_order_and_identical_across_jobs(tmp_path):
+    stems = make_batch(tmp_path, broken=1)
+    one = run_cli("analyze", tmp_path, "--format", "jsonl", "--motion", "translation",
+                  "--jobs", "1")
+    two = run_cli("analyze", tmp_path, "--format", "jsonl", "--motion", "translation",
+                  "--jobs", "2")
+    assert one.returncode == two.returncode == 2  # the broken manifest is an input error
+    assert one.stdout == two.stdout
+    lines = one.stdout.splitlines()
+    assert len(lines) == len(stems)
+    sources = [Path(json.loads(x).get("source") or json.loads(x)["assembly"]["source"]).stem
+               for x in lines]
+    assert sources == stems
+    errors = [json.loads(x) for x in lines if "error" in json.loads(x)]
+    assert len(errors) == 1 and errors[0]["error"]["code"] == 2
+    assert "Traceback" not in one.stderr + two.stderr
+
+
+def test_examples_folder_gives_one_line_per_manifest():
+    r = run_cli("analyze", EX, "--format", "jsonl", "--motion", "translation")
+    assert r.returncode == 0, r.stderr
+    assert len(r.stdout.splitlines()) == len(list(EX.glob("*.yaml")))
+
+
+def test_out_dir_reports_and_index(tmp_path):
+    src = tmp_path / "src"
+    src.mkdir()
+    stems = make_batch(src, broken=2)
+    out = tmp_path / "out"
+    r = run_cli("analyze", src, "--out-dir", out, "--motion", "translation", "-q")
+    assert r.returncode == 2
+    files = sorted(p.stem for p in out.glob("*.json") if p.name != "index.json")
+    # named after the assembly (the manifest's name), made unique; error records by file stem
+    assert len(files) == len(stems)
+    assert set(SMALL) | {"zz-broken-0", "zz-broken-1"} == set(files)
+    index = json.loads((out / "index.json").read_text())
+    assert index["summary"] == {"assemblies": len(stems), "ok": len(stems) - 2, "errors": 2}
+
+
+@pytest.mark.slow
+def test_sigterm_leaves_only_complete_reports(tmp_path):
+    src = tmp_path / "src"
+    src.mkdir()
+    make_batch(src, copies=4)
+    out = tmp_path / "out"
+    env = dict(os.environ)
+    proc = subprocess.Popen([sys.executable, "-m", "ndbg_cli", "analyze", str(src), "--out-dir",
+                             str(out), "--jobs", "2", "-q"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(list(out.glob("*.json"))) < 3:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err
+    written = list(out.glob("*.json"))
+    assert 3 <= len(written) < 4 * len(SMALL)  # stopped midway
+    for f in written:
+        json.loads(f.read_text())  # complete JSON, never truncated
+    assert not list(out.glob(".*.tmp"))
