@@ -119,6 +119,17 @@ def test_fig3_local_freedom_facts():
         return out
     # d1 = +y is a 0-dimensional region (a cone boundary): exactly the paper's facts
     assert {frozenset(s) for s in e["locally_free_d1"]} <= free_at(d1)
+    # d2 lies inside an open arc: look its region up and list what is free there
+    from ndbg_cli.dbg import free_subsets
+    from ndbg_cli.infinitesimal import infinitesimal_ndbg, locate_region
+    from ndbg_cli.loaders import load
+
+    asm = load(EX / "fig3-2d.yaml")
+    nd = infinitesimal_ndbg(asm)
+    for d, want in ((d1, e["locally_free_d1"]), (d2, e["locally_free_d2"])):
+        g = nd.regions[locate_region(nd, d)].dbg
+        got = {frozenset(nd.names(s)) for s in free_subsets(g)}
+        assert got == {frozenset(w) for w in want}
 
 
 def test_fig5_rotation_frees_the_key_and_no_translation_does():
@@ -160,7 +171,6 @@ def test_fig2_sandwich_two_top_level_decompositions():
 
 
 def test_stack_is_a_stack_product_with_the_hand_sequence():
-    e = expect("stack")
     for fam in ("infinitesimal_translation", "infinite_translation"):
         c = classes("stack", fam)
         assert c["stack_product"] is True and c["linearizable"] is True
