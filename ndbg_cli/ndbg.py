@@ -103,17 +103,20 @@ def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = No
     ``truncated`` is True when ``limit`` stopped the enumeration.
 
     When ``limit`` cuts, the most useful sets are kept: a first pass takes, in every distinct
-    DBG, the smallest free set containing each part (its successor closure), so single parts
-    and minimal subassemblies that come out are always listed; the output-sensitive
+    DBG, the single parts that are free (no outgoing arc inside ``mask``: ``O(n)`` per DBG),
+    so every part that comes out on its own is listed; the output-sensitive
     enumeration of all free sets fills the rest of the budget. The regions listed for a set
-    are complete when nothing was cut.
+    are complete when nothing was cut (after a cut, the remaining DBGs are not visited).
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
     found: dict[int, set[int]] = {}
     truncated = False
     seen_dbgs: dict[tuple[int, ...], list[int]] = {}
+    full = m == (1 << ndbg.n) - 1
+    members = list(bits(m))
     for k, r in enumerate(ndbg.regions):
-        key = tuple(s & m for s in (r.dbg.succ[i] for i in bits(m)))
+        succ = r.dbg.succ
+        key = succ if full else tuple(succ[i] & m for i in members)
         seen_dbgs.setdefault(key, []).append(k)
     groups = [(ndbg.regions[ids[0]].dbg, ids) for ids in seen_dbgs.values()]
 
@@ -131,11 +134,13 @@ def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = No
 
     if limit is not None:
         for dbg, region_ids in groups:
-            for i in bits(m):
-                c = dbg.closure(1 << i, m)
-                if c != m and not take(c, region_ids):
-                    truncated = True
+            singles = [1 << i for i in members if not dbg.succ[i] & m and 1 << i != m]
+            if not all(take(c, region_ids) for c in singles):
+                truncated = True
+                break
     for dbg, region_ids in groups:
+        if truncated:
+            break
         for s in free_subsets(dbg, m):
             if not take(s, region_ids):
                 truncated = True
