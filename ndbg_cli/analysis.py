@@ -37,8 +37,8 @@ class Options:
     max_partitions: int = 1000  # partitionings listed per family (the report says truncated)
     region_limit: int | None = 2000  # regions listed per family (counts stay complete)
     max_nodes: int = 20_000  # AND/OR graph budget: expanded subassemblies
-    time_limit: float = 10.0  # AND/OR graph budget: seconds per search
-    infinite_budget: int = 20_000_000  # facing triangle pairs beyond which `infinite` is skipped
+    time_limit: float = 2.0  # AND/OR graph budget: seconds per search
+    infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
 
 
 def read_config(path: str | Path) -> dict:

@@ -44,7 +44,7 @@ class Budget:
 
     max_nodes: int = 200_000
     time_limit: float | None = 30.0
-    split_limit: int | None = 100_000
+    split_limit: int | None = 5_000
 
 
 @dataclass(frozen=True)
@@ -198,11 +198,14 @@ def _condense_dense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int
     return comps, comp_succ
 
 
-def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None) -> list[int]:
+def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None,
+              avoid: int = 0) -> list[int]:
     """Every successor-closed union of components (free set), the empty set and the whole
     included, by binary branching on the lowest *available* component (all its successors
     already taken): both branches always lead to outputs, so the search visits fewer than two
-    nodes per output."""
+    nodes per output. With ``avoid`` (a part bitmask, e.g. the fixed base), only the sets
+    disjoint from it are enumerated (its components and all their ancestors are never taken),
+    so a ``limit`` counts useful sets only."""
     k = len(comps)
     comp_pred = [0] * k
     sinks = 0
@@ -211,8 +214,17 @@ def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None) 
             sinks |= 1 << a
         for b in bits(comp_succ[a]):
             comp_pred[b] |= 1 << a
+    banned = 0
+    if avoid:
+        frontier = sum(1 << a for a in range(k) if comps[a] & avoid)
+        while frontier:
+            banned |= frontier
+            nxt = 0
+            for a in bits(frontier):
+                nxt |= comp_pred[a]
+            frontier = nxt & ~banned
     out: list[int] = []
-    stack = [(0, 0, sinks)]
+    stack = [(0, 0, sinks & ~banned)]
     while stack:
         chosen, parts, avail = stack.pop()
         if not avail:
@@ -225,7 +237,7 @@ def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None) 
         rest = avail ^ c
         stack.append((chosen, parts, rest))
         taken = chosen | c
-        for p in bits(comp_pred[ci]):
+        for p in bits(comp_pred[ci] & ~banned):
             if comp_succ[p] & ~taken == 0:
                 rest |= 1 << p
         stack.append((taken, parts | comps[ci], rest))
@@ -234,11 +246,12 @@ def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None) 
 
 def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                 connected: ConnectivityTest | None = None,
-                limit: int | None = None) -> tuple[list[Hyperarc], bool]:
+                limit: int | None = None, avoid: int = 0) -> tuple[list[Hyperarc], bool]:
     """The hyperarcs of subassembly ``mask``: candidate partitionings ``{S, mask - S}`` (``S``
     free in the DBG of some region induced on ``mask``) merged by unordered pair, regions
     grouped by identical induced DBG. With ``base`` (a part index) in ``mask``, only
-    orientations whose moved side leaves the base out are kept; with ``connected`` both sides
+    orientations whose moved side leaves the base (and every part of ``avoid``) out are kept;
+    with ``connected`` both sides
     must pass the test. At most ``limit`` distinct moved sets are collected. Returns
     ``(hyperarcs sorted by (balance, left), truncated)``."""
     if mask.bit_count() < 2:
@@ -247,7 +260,8 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     for k, r in enumerate(ndbg.regions):
         succ = r.dbg.succ
         groups.setdefault(tuple([succ[i] & mask for i in bits(mask)]), []).append(k)
-    base_bit = 0 if base is None else (1 << base) & mask
+    # parts that never move: the base, and ``avoid`` (e.g. a target kept in place)
+    base_bit = ((0 if base is None else 1 << base) | avoid) & mask
     found: dict[int, list[int]] = {}
     truncated = False
     for regs in groups.values():
@@ -258,7 +272,7 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
         if len(comps) < 2:
             continue
         room = None if limit is None else limit - len(found) + 2
-        sets = free_sets(comps, comp_succ, room)
+        sets = free_sets(comps, comp_succ, room, avoid=base_bit)
         for s in sets:
             if s == 0 or s == mask or s & base_bit:
                 continue
@@ -328,7 +342,13 @@ class AndOrGraph:
                 self.truncated = True
                 break
             m = stack.pop()
-            for h in self.expand(m):
+            arcs = self.expand(m)
+            if self.split_truncated:
+                # A node's partitionings were cut: the graph cannot be complete, so the exact
+                # counts are out of reach; stop now and leave the rest to the anytime searches.
+                self.truncated = True
+                break
+            for h in arcs:
                 for child in (h.right, h.left):
                     if child not in seen:
                         seen.add(child)

@@ -43,6 +43,8 @@ from .andor import (
 from .dbg import bits
 from .ndbg import NDBG, ConnectivityTest
 
+#: AND/OR graph budget when none is given (the CLI's --max-nodes / --time-limit defaults).
+DEFAULT_BUDGET = Budget(max_nodes=20_000, time_limit=2.0)
 
 # ------------------------------------------------------------- exact min depth, no full graph
 @dataclass
@@ -388,8 +390,8 @@ def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -
 def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
              graph: AndOrGraph | None = None) -> dict:
     """All NDBG-based measures of one motion family (see the module docstring). The default
-    budget keeps the AND/OR graph to 20,000 nodes / 10 s (bounds are reported beyond)."""
-    budget = budget or Budget(max_nodes=20_000, time_limit=10.0)
+    budget keeps the AND/OR graph to 20,000 nodes / 2 s (bounds are reported beyond)."""
+    budget = budget or DEFAULT_BUDGET
     fam = ndbg.family
     full = (1 << ndbg.n) - 1
     out: dict = {}
@@ -440,14 +442,18 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
         out["min_depth"] = {"value": d, "exact": True, "lower_bound": d, "upper_bound": d,
                             "why": f"exact over {graph.node_count} AND/OR nodes"}
     else:
-        g_lin = greedy_tree(ndbg, full, base=base, chooser=_linear_first, budget=budget)
         r = min_depth_search(ndbg, full, base=base, budget=budget, arcs=graph.expand)
-        ub_p = g_lin.nonlinear() if g_lin.found else None
-        out["min_nonlinear"] = {"value": ub_p, "exact": lin_stuck is None and ub_p == 0,
-                                "lower_bound": 0 if lin_stuck is None else 1,
-                                "assembly_lines": None if ub_p is None else ub_p + 1,
-                                "why": "upper bound from a greedy linear-first tree (AND/OR "
-                                "graph truncated)"}
+        if lin_stuck is None:
+            out["min_nonlinear"] = {"value": 0, "exact": True, "lower_bound": 0,
+                                    "assembly_lines": 1,
+                                    "why": "exact: linearizable (a linear tree exists)"}
+        else:
+            g_lin = greedy_tree(ndbg, full, base=base, chooser=_linear_first, budget=budget)
+            ub_p = g_lin.nonlinear() if g_lin.found else None
+            out["min_nonlinear"] = {"value": ub_p, "exact": False, "lower_bound": 1,
+                                    "assembly_lines": None if ub_p is None else ub_p + 1,
+                                    "why": "upper bound from a greedy linear-first tree (AND/OR "
+                                    "graph truncated)"}
         out["min_depth"] = {"value": r.upper, "exact": r.exact, "lower_bound": r.lower,
                             "upper_bound": r.upper,
                             "why": ("exact" if r.exact else "upper bound (best tree found), "
@@ -493,15 +499,20 @@ def _linear_order(ndbg: NDBG, choice: dict[int, tuple[int, int]], mask: int) -> 
 
 
 def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = None,
-                    interlock: dict | None = None, grasps: dict | None = None) -> dict:
+                    interlock: dict | None = None, grasps: dict | None = None,
+                    graphs: dict | None = None) -> dict:
     """``{family: {measure: {"value", "why", ...}}}`` for every NDBG in ``ndbgs`` (a list or a
     family-keyed mapping). ``interlock`` (an :func:`interlock.interlock` result section) is
     added under ``infinitesimal_translation`` (created if absent); ``grasps`` maps family to a
-    :func:`grasp.grasp_section` result."""
+    :func:`grasp.grasp_section` result. ``graphs``, when given, receives each family's AND/OR
+    graph (built once, reused by the planner)."""
     items = ndbgs.values() if isinstance(ndbgs, dict) else ndbgs
     out: dict = {}
     for nd in sorted(items, key=lambda x: x.family):
-        out[nd.family] = classify(nd, base=base, budget=budget)
+        graph = AndOrGraph(nd, base=base, budget=budget or DEFAULT_BUDGET).build()
+        if graphs is not None:
+            graphs[nd.family] = graph
+        out[nd.family] = classify(nd, base=base, budget=budget, graph=graph)
     if interlock is not None:
         out.setdefault("infinitesimal_translation", {})["interlocked"] = interlock
     for fam, g in (grasps or {}).items():

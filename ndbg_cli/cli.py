@@ -125,9 +125,9 @@ def _common_load_options(f):
               help="Partitionings listed per motion family (the report says when it cut).")
 @click.option("--max-nodes", type=click.IntRange(1), default=20_000, show_default=True,
               help="AND/OR graph budget: subassemblies expanded per search.")
-@click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=10.0,
+@click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=2.0,
               show_default=True, help="AND/OR graph budget: seconds per search.")
-@click.option("--infinite-budget", type=click.IntRange(0), default=20_000_000,
+@click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
               show_default=True, help="Facing triangle pairs beyond which the infinite-"
               "translation NDBG is skipped (with a warning).")
 @_common_load_options
@@ -379,7 +379,7 @@ def _dbg_record(asm, g) -> dict:
               show_default=True)
 @click.option("--max-nodes", type=click.IntRange(1), default=20_000, show_default=True,
               help="Exact search budget (remaining assemblies explored).")
-@click.option("--infinite-budget", type=click.IntRange(0), default=20_000_000,
+@click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
               show_default=True)
 @_common_load_options
 def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tolerance,
@@ -437,6 +437,114 @@ def _removal_text(sec: dict) -> str:
         lines.append(f"  {s['step']}. remove {{{', '.join(s['withdraw'])}}} {along(s)}")
     lines.append(f"  then remove {{{target}}} {along(sec['final'])}")
     return "\n".join(lines)
+
+
+@cli.command(context_settings=CONTEXT)
+@click.argument("paths", nargs=-1, required=True, type=click.Path())
+@click.option("--rules", "rules_file", required=True, type=click.Path(),
+              help="YAML rules file (see configs/rules-*.yaml).")
+@click.option("--junit", type=click.Path(dir_okay=False), help="Also write a JUnit XML "
+              "report here (one test case per assembly).")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True)
+@click.option("-j", "--jobs", type=click.IntRange(1), default=None,
+              help="Worker processes (default: the number of cores).")
+@click.option("--motion", type=click.Choice(MOTIONS), default="all", show_default=True)
+@click.option("--config", "config", type=click.Path(), help="YAML analysis settings file.")
+@click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
+              show_default=True, help="As for analyze.")
+@_common_load_options
+@click.pass_context
+def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_budget, units,
+          tolerance, allow_outside_paths) -> None:
+    """CI gate: analyse PATHS (or read saved .json reports) and check design rules.
+
+    Exit code 0 when every rule holds, 1 when any is violated (one line per violation:
+    assembly, rule, measured value, expected, why), 2 for bad input or a bad rules file.
+
+    \b
+    Example:
+      ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
+    """
+    from .diff import read_reports
+    from .junit import junit_xml
+    from .rules import evaluate, load_rules
+
+    ruleset = load_rules(rules_file)
+    options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
+                       allow_outside_paths=allow_outside_paths,
+                       infinite_budget=infinite_budget)
+    saved, targets = [], []
+    for p in paths:
+        if not Path(p).exists():
+            fail(f"{p}: no such file or directory", EXIT_INPUT)
+        if Path(p).suffix.lower() in (".json", ".jsonl"):
+            saved.extend(read_reports(p).values())
+        else:
+            targets.extend(discover(p))
+    outcomes = [evaluate(r, ruleset) for r in saved]
+    stream = run_batch(targets, options, jobs or default_jobs(), debug=STATE.debug)
+    for r in progress(stream, len(targets), "checking", quiet=STATE.quiet):
+        outcomes.append(evaluate(r, ruleset))
+    if junit:
+        write_atomic(Path(junit), junit_xml(outcomes))
+    failed = [o for oc in outcomes for o in oc if not o.passed]
+    if fmt == "json":
+        doc = {"schema": "ndbg.check/1", "rules": rules_file,
+               "summary": {"assemblies": len(outcomes), "rules_checked": sum(map(len, outcomes)),
+                           "violations": len(failed),
+                           "failed_assemblies": len({o.assembly for o in failed})},
+               "outcomes": [[{"assembly": o.assembly, "source": o.source, "rule": o.rule,
+                              "expected": o.expected, "measured": o.measured, "ok": o.ok,
+                              "passed": o.passed, "reason": o.reason} for o in oc]
+                            for oc in outcomes]}
+        click.echo(dumps(doc), nl=False)
+    else:
+        for o in failed:
+            click.echo(o.line())
+        n = len(outcomes)
+        bad = len({o.assembly for o in failed})
+        click.echo(f"ndbg check: {n - bad} of {n} assemblies pass "
+                   f"({sum(map(len, outcomes))} rules checked, {len(failed)} violation(s))",
+                   err=bool(failed))
+    if any(o.rule == "analysis" for o in failed):
+        sys.exit(max(EXIT_VIOLATION, EXIT_INPUT))
+    sys.exit(EXIT_VIOLATION if failed else EXIT_OK)
+
+
+@cli.command("diff", context_settings=CONTEXT)
+@click.argument("old", type=click.Path())
+@click.argument("new", type=click.Path())
+@click.option("--fail-on", type=click.Choice(["worse", "any", "never"]), default="worse",
+              show_default=True, help="Exit 1 when something got worse, changed at all, "
+              "or never.")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
+              show_default=True)
+@_global_options
+def diff_cmd(old, new, fail_on, fmt) -> None:
+    """What changed between two analyses that a designer cares about.
+
+    OLD and NEW are reports from `ndbg analyze` (a JSON report, a batch JSON, a JSON Lines
+    stream or an --out-dir folder). Classes lost or gained, measures that got worse, parts
+    added, removed or modified, new interferences.
+
+    \b
+    Example:
+      ndbg diff main/bell.json branch/bell.json --fail-on worse
+    """
+    from .diff import diff_sets, fails, read_reports
+
+    changes = diff_sets(read_reports(old), read_reports(new))
+    if fmt == "json":
+        click.echo(dumps({"schema": "ndbg.diff/1", "old": old, "new": new,
+                          "worse": sum(c.grade == "worse" for c in changes),
+                          "changes": [c.record() for c in changes]}), nl=False)
+    else:
+        for c in changes:
+            click.echo(c.line())
+        if not changes:
+            click.echo("no change a designer cares about")
+    sys.exit(EXIT_VIOLATION if fails(changes, fail_on) else EXIT_OK)
 
 
 @cli.command(context_settings=CONTEXT)

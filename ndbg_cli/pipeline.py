@@ -149,8 +149,9 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     budget = Budget(max_nodes=options.max_nodes, time_limit=options.time_limit)
     base = asm.index(asm.base) if asm.base is not None else None
     extra = clock("interlock_s", lambda: _interlock_and_grasp(asm, ca, ndbgs))
+    graphs: dict = {}
     out["classes"] = clock("classes_s", lambda: classes_section(
-        ndbgs, base=base, budget=budget, interlock=extra[0], grasps=extra[1]))
+        ndbgs, base=base, budget=budget, interlock=extra[0], grasps=extra[1], graphs=graphs))
     if threaded and not options.threads_as_cylinders:
         for fam in (INFINITESIMAL, INFINITE):
             if fam in out["classes"]:
@@ -162,8 +163,10 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     for fam in PLAN_ORDER:
         if fam not in ndbgs:
             continue
-        p = clock("plan_s", lambda nd=ndbgs[fam]: plan(nd, options.strategy, base=base,
-                                                       connected=connected, budget=budget))
+        # The classes' AND/OR graph has the same base and no connectivity filter: reuse it.
+        graph = graphs.get(fam) if connected is None else None
+        p = clock("plan_s", lambda nd=ndbgs[fam], g=graph: plan(
+            nd, options.strategy, base=base, connected=connected, budget=budget, graph=g))
         if chosen is None or (p.found and not chosen.found):
             chosen = p
         if p.found:

@@ -362,7 +362,10 @@ def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget |
 
     Each withdrawal moves a free set of the current assembly avoiding the target (and the base)
     out along one region. Exact search: Dijkstra over remaining assemblies ordered by (parts
-    withdrawn, steps), up to ``budget.max_nodes`` states, which returns a minimum set. Beyond
+    withdrawn, steps), up to ``budget.max_nodes`` states, moving one part's closure in one DBG
+    per step (``O(n R)`` moves per state, no enumeration of all free sets), which returns a
+    minimum set of withdrawn parts; consecutive withdrawals one region frees together are then
+    merged into one step (few steps, not proven fewest). Beyond
     the budget, a greedy (withdraw the smallest free set containing a blocker) gives an upper
     bound; ``lower_bound`` is then ``min over regions of |direct blockers of target|`` (the
     final region must have every direct blocker gone).
@@ -371,6 +374,7 @@ def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget |
     full = (1 << ndbg.n) - 1
     keep = target | (0 if base is None else 1 << base)
     lower = min((r.dbg.blockers(target, full).bit_count() for r in ndbg.regions), default=0)
+    groups = [(dbg, regs) for dbg, regs in ndbg.distinct()]
     start = full
     heap: list[tuple[int, int, int]] = [(0, 0, start)]
     prev: dict[int, tuple[int, int, int] | None] = {start: None}
@@ -392,22 +396,44 @@ def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget |
                 steps.append((w, r))
                 cur = p_mask
             steps.reverse()
-            return Removal(target, True, full & ~m, steps, fr, True, max(lower, cost), explored)
-        parts, _ = node_splits(ndbg, m, limit=budget.split_limit)
-        for h in parts:
-            for moved, regions in h.moves:
-                if moved & keep:
+            return Removal(target, True, full & ~m, _merge_steps(ndbg, full, steps), fr, True,
+                           max(lower, cost), explored)
+        # Moves: the closure of one part in one DBG (everything it drags along). Any free set
+        # is the union of its parts' closures, withdrawn one after the other along the same
+        # region, so these moves reach every state with the same number of parts withdrawn.
+        moves: dict[int, list[int]] = {}
+        for dbg, regs in groups:
+            for p in bits(m & ~keep):
+                c = dbg.closure(1 << p, m)
+                if c & keep or c in moves and moves[c][0] <= regs[0]:
                     continue
-                nm = m & ~moved
-                key = (cost + moved.bit_count(), nsteps + 1)
-                if nm not in best or key < best[nm]:
-                    best[nm] = key
-                    prev[nm] = (m, moved, pick_region(ndbg, regions))
-                    heapq.heappush(heap, (key[0], key[1], nm))
+                moves[c] = regs
+        for moved in sorted(moves):
+            nm = m & ~moved
+            key = (cost + moved.bit_count(), nsteps + 1)
+            if nm not in best or key < best[nm]:
+                best[nm] = key
+                prev[nm] = (m, moved, pick_region(ndbg, moves[moved]))
+                heapq.heappush(heap, (key[0], key[1], nm))
     exhausted = not heap
     if exhausted:
         return Removal(target, False, 0, [], None, True, lower, explored)
     return _remove_greedy(ndbg, target, keep, lower, explored)
+
+
+def _merge_steps(ndbg: NDBG, full: int, steps: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Merge consecutive withdrawals that one region frees together (fewer hand motions)."""
+    out: list[tuple[int, int]] = []
+    m = full
+    before = full
+    for w, r in steps:
+        if out and ndbg.regions[out[-1][1]].dbg.is_free(out[-1][0] | w, before):
+            out[-1] = (out[-1][0] | w, out[-1][1])
+        else:
+            before = m
+            out.append((w, r))
+        m &= ~w
+    return out
 
 
 def _remove_greedy(ndbg: NDBG, target: int, keep: int, lower: int, explored: int) -> Removal:

@@ -1,0 +1,180 @@
+"""CI gates: `ndbg check` with rules files and JUnit output, `ndbg diff` between analyses."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+import trimesh
+
+from ndbg_cli.rules import RuleSet, evaluate, load_rules
+
+from helpers import run_cli
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "assemblies"
+CONFIGS = ROOT / "configs"
+
+
+@pytest.fixture(scope="module")
+def bell_report(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("bell") / "bell.json"
+    r = run_cli("analyze", EX / "bell.yaml", "--format", "json", "--out", out)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_check_passes_the_bell_rules(bell_report):
+    r = run_cli("check", EX / "bell.yaml", "--rules", CONFIGS / "rules-bell.yaml")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "1 of 1 assemblies pass" in r.stdout + r.stderr
+
+
+def test_check_fails_a_tightened_rule_with_one_line_each(bell_report, tmp_path):
+    junit = tmp_path / "ndbg.xml"
+    r = run_cli("check", bell_report, "--rules", CONFIGS / "rules-strict.yaml", "--junit", junit)
+    assert r.returncode == 1
+    lines = r.stdout.strip().splitlines()
+    # The bell's shortest tree has depth 5 (ceil(log2 22) = 5, reached), so <= 4 fails.
+    assert any(line.startswith("bell: max_depth: measured 5, expected <= 4") for line in lines)
+    assert any(line.startswith("bell: max_fingers:") for line in lines)
+    assert not any("linearizable" in line for line in lines)  # the bell is linearizable
+    root = ET.parse(junit).getroot()
+    cases = root.findall(".//testcase")
+    assert [c.get("name") for c in cases] == ["bell"]
+    failure = cases[0].find("failure")
+    assert failure is not None and "max_depth" in failure.get("message")
+
+
+def test_check_json_and_saved_reports(bell_report):
+    r = run_cli("check", bell_report, "--rules", CONFIGS / "rules-bell.yaml", "--format", "json")
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    assert doc["summary"] == {"assemblies": 1, "rules_checked": 9, "violations": 0,
+                              "failed_assemblies": 0}
+
+
+def test_check_reports_a_broken_assembly_and_goes_on(tmp_path):
+    batch = tmp_path / "batch"
+    shutil.copytree(EX / "meshes", batch / "meshes")
+    shutil.copy(EX / "hover.yaml", batch / "hover.yaml")
+    (batch / "zz-broken.yaml").write_text("name: x\nparts: [\n")
+    rules = tmp_path / "rules.yaml"
+    rules.write_text("rules:\n  no_interference: true\n")
+    r = run_cli("check", batch, "--rules", rules, "--motion", "translation")
+    assert r.returncode == 2
+    assert "zz-broken: analysis:" in r.stdout
+    assert "1 of 2 assemblies pass" in r.stderr
+
+
+@pytest.mark.parametrize("text, message", [
+    ("rules:\n  max_depht: 3\n", "unknown rule 'max_depht'"),
+    ("rules:\n  max_depth: yes\n", "needs a non-negative integer"),
+    ("rules:\n  linearizable: 1\n", "needs true or false"),
+    ("family: sideways\nrules:\n  linearizable: true\n", "family must be one of"),
+    ("rules: [\n", "malformed YAML"),
+    ("rules: {}\n", "states no rule"),
+])
+def test_bad_rules_files_are_input_errors(tmp_path, text, message):
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(text)
+    r = run_cli("check", EX / "hover.yaml", "--rules", rules)
+    assert r.returncode == 2
+    assert message in r.stderr and "Traceback" not in r.stderr
+
+
+def _report(**classes) -> dict:
+    return {"schema": "ndbg.report/1", "assembly": {"name": "x", "source": "a/x.yaml"},
+            "interferences": [], "warnings": [], "plan": {"found": True},
+            "ndbg": {"infinite_translation": {"skipped": True}},
+            "classes": {"infinitesimal_translation": classes}}
+
+
+def test_bounds_decide_max_rules_and_undecided_follows_the_policy():
+    rep = _report(min_depth={"value": None, "exact": False, "lower_bound": 4,
+                             "upper_bound": 6})
+    strict = RuleSet(rules=(("max_depth", 6), ("max_depth", 5)))
+    # a tree of depth 6 exists: <= 6 holds; <= 5 is neither proven nor refuted
+    got = [evaluate(rep, RuleSet(rules=(("max_depth", k),)))[0] for k in (6, 5, 3)]
+    assert [g.ok for g in got] == [True, None, False]
+    assert [g.passed for g in got] == [True, False, False]
+    assert evaluate(rep, RuleSet(rules=(("max_depth", 5),), undecided="pass"))[0].passed
+    assert got[1].measured == "between 4 and 6"
+    assert strict.rules_for("x", "a/x.yaml") == {"max_depth": 5}
+
+
+def test_per_assembly_rules_match_name_or_path_glob(tmp_path):
+    rules = tmp_path / "r.yaml"
+    rules.write_text("rules:\n  linearizable: true\nassemblies:\n  'fig11-*':\n"
+                     "    linearizable: false\n  '*/sub/*.yaml':\n    max_depth: 2\n")
+    rs = load_rules(rules)
+    assert rs.rules_for("fig11-nonlinear", "x.yaml") == {"linearizable": False}
+    assert rs.rules_for("bell", "a/sub/bell.yaml") == {"linearizable": True, "max_depth": 2}
+    rep = _report(linearizable={"value": False}, one_handed_monotone={"value": True})
+    (o,) = evaluate(rep, RuleSet(rules=(("linearizable", True),)))
+    assert o.ok is False and o.line().startswith("x: linearizable: measured false, expected "
+                                                 "true")
+    (h,) = evaluate(rep, RuleSet(rules=(("max_hands", 1),)))
+    assert h.ok is True and h.measured == 1
+
+
+def _fig11_without_flange(folder: Path) -> Path:
+    """Fig. 11 with the hook's flange over the lid cut off: the lid then lifts off first, the
+    hook next, the slider last, so the product becomes linearizable."""
+    sys.path.insert(0, str(EX))
+    try:
+        from build import box
+    finally:
+        sys.path.pop(0)
+    shutil.copytree(EX / "meshes" / "fig11-nonlinear", folder / "meshes" / "fig11-nonlinear")
+    shutil.copy(EX / "fig11-nonlinear.yaml", folder / "fig11-nonlinear.yaml")
+    bump = box(15, -4, 12, 25, 4, 14)
+    hook = (box(0, -10, 12, 40, 10, 20) - bump + box(40, -8, 12, 46, 8, 30)).to_mesh()
+    trimesh.Trimesh(hook.vert_properties[:, :3], hook.tri_verts).export(
+        folder / "meshes" / "fig11-nonlinear" / "hook.stl")
+    return folder / "fig11-nonlinear.yaml"
+
+
+def test_diff_flags_a_lost_class_when_a_part_changes(tmp_path):
+    old_manifest = _fig11_without_flange(tmp_path / "old")
+    old, new = tmp_path / "old.json", tmp_path / "new.json"
+    for src, dst in ((old_manifest, old), (EX / "fig11-nonlinear.yaml", new)):
+        r = run_cli("analyze", src, "--motion", "translation", "--format", "json", "--out", dst)
+        assert r.returncode == 0, r.stderr
+    assert json.loads(old.read_text())["classes"]["infinitesimal_translation"][
+        "linearizable"]["value"] is True
+    r = run_cli("diff", old, new)
+    assert r.returncode == 1
+    lines = r.stdout.splitlines()
+    assert ("fig11-nonlinear: worse: classes.infinitesimal_translation.linearizable: "
+            "true -> false (class lost: linearizable)") in lines
+    assert any(line.startswith("fig11-nonlinear: changed: parts.modified: none -> [hook]")
+               for line in lines)
+    back = run_cli("diff", new, old, "--format", "json")
+    assert back.returncode == 0  # the reverse change only made things better
+    grades = {c["what"]: c["grade"] for c in json.loads(back.stdout)["changes"]}
+    assert grades["classes.infinitesimal_translation.linearizable"] == "better"
+    assert run_cli("diff", new, old, "--fail-on", "any").returncode == 1
+    assert run_cli("diff", old, new, "--fail-on", "never").returncode == 0
+    same = run_cli("diff", new, new)
+    assert same.returncode == 0 and "no change" in same.stdout
+
+
+def test_diff_of_batches_matches_by_name_and_rejects_non_reports(tmp_path):
+    a = tmp_path / "a.jsonl"
+    r = run_cli("analyze", EX / "hover.yaml", EX / "stack.yaml", "--format", "jsonl",
+                "--motion", "translation", "--jobs", "1")
+    a.write_text(r.stdout)
+    b = tmp_path / "b.jsonl"
+    b.write_text(r.stdout.splitlines()[1] + "\n")
+    got = run_cli("diff", a, b)
+    assert got.returncode == 0 and "hover: changed: assembly: present -> none (removed)" \
+        in got.stdout
+    junk = tmp_path / "junk.json"
+    junk.write_text('{"hello": 1}')
+    bad = run_cli("diff", junk, b)
+    assert bad.returncode == 2 and "not an ndbg report" in bad.stderr
