@@ -39,6 +39,7 @@ class Options:
     max_nodes: int = 20_000  # AND/OR graph budget: expanded subassemblies
     time_limit: float = 2.0  # AND/OR graph budget: seconds per search
     infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
+    cache: str | None = None  # per-part-pair result cache directory (None: no cache)
 
 
 def read_config(path: str | Path) -> dict:

@@ -264,6 +264,23 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     base_bit = ((0 if base is None else 1 << base) | avoid) & mask
     found: dict[int, list[int]] = {}
     truncated = False
+
+    def ok(s: int) -> bool:
+        return connected is None or (connected(s) and connected(mask & ~s))
+
+    if limit is not None:
+        # A cut enumeration keeps at least every part's minimal free set (its closure) in
+        # every DBG, so the greedy and deepening searches always have the linear moves.
+        for regs in groups.values():
+            dbg = ndbg.regions[regs[0]].dbg
+            for i in bits(mask & ~base_bit):
+                c = dbg.closure(1 << i, mask)
+                if c == mask or c & base_bit:
+                    continue
+                if c in found:
+                    found[c].extend(regs)
+                elif len(found) < limit and ok(c):
+                    found[c] = list(regs)
     for regs in groups.values():
         succ = ndbg.regions[regs[0]].dbg.succ
         if strongly_connected(succ, mask):
@@ -271,14 +288,15 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
         comps, comp_succ = condense(succ, mask)
         if len(comps) < 2:
             continue
-        room = None if limit is None else limit - len(found) + 2
+        # sets failing the connectivity test do not count against the limit, up to 8x
+        room = None if limit is None else (limit - len(found) + 2) * (8 if connected else 1)
         sets = free_sets(comps, comp_succ, room, avoid=base_bit)
         for s in sets:
             if s == 0 or s == mask or s & base_bit:
                 continue
             got = found.get(s)
             if got is None:
-                if connected is not None and not (connected(s) and connected(mask & ~s)):
+                if not ok(s):
                     continue
                 if limit is not None and len(found) >= limit:
                     truncated = True

@@ -17,7 +17,7 @@ import click
 
 from . import __version__
 from .analysis import MOTIONS, STRATEGIES, Options, read_config
-from .batch import Interrupted, default_jobs, run_batch
+from .batch import Interrupted, default_jobs, run_batch, run_batch_dask
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
 from .progress import progress
@@ -84,6 +84,24 @@ def _global_options(f):
     return f
 
 
+def _cache_options(f):
+    """``--cache DIR`` / ``--no-cache``: the per-part-pair result cache (kept in ``ctx.meta``,
+    read by :func:`_options`)."""
+    def remember(ctx, param, value):
+        if value is not None:
+            ctx.meta.setdefault("ndbg_cache", value)
+        return value
+
+    f = click.option("--no-cache", "no_cache", is_flag=True, default=None, expose_value=False,
+                     callback=lambda ctx, p, v: remember(ctx, p, "" if v else None),
+                     help="Do not read or write the per-part-pair result cache.")(f)
+    f = click.option("--cache", "cache_dir", type=click.Path(file_okay=False),
+                     expose_value=False, callback=remember,
+                     help="Per-part-pair result cache directory (default: $NDBG_CACHE_DIR, "
+                     "else ~/.cache/ndbg): unchanged part pairs are not recomputed.")(f)
+    return f
+
+
 def _common_load_options(f):
     f = _global_options(f)
     f = click.option("--units", help="Unit of the input (mm, cm, m, in): converts files that "
@@ -106,6 +124,10 @@ def _common_load_options(f):
               "assembly (atomically, as each completes) plus index.json into this folder.")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
               help="Worker processes for a batch (default: the number of cores).")
+@click.option("--scheduler", metavar="ADDRESS", help="Run the batch on a dask.distributed "
+              "cluster: tcp://HOST:PORT of a running scheduler (its workers must see the input "
+              "files at the same paths), or 'local' to start one on this machine with --jobs "
+              "worker processes. Same reports, same order. Needs pip install 'ndbg-cli[dask]'.")
 @click.option("--motion", type=click.Choice(MOTIONS), default="all", show_default=True,
               help="Motion family of the blocking graphs.")
 @click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
@@ -119,8 +141,8 @@ def _common_load_options(f):
 @click.option("--threads-as-cylinders", is_flag=True,
               help="Read declared screw joints as plain cylinders (threads ignored).")
 @click.option("--connected", is_flag=True, help="Only partitionings whose two sides are each "
-              "connected in the contact graph (lists and plan; classes keep the paper's "
-              "definitions).")
+              "connected in the contact graph in the lists (the plan always prefers them; "
+              "classes keep the paper's definitions).")
 @click.option("--max-partitions", type=click.IntRange(1), default=1000, show_default=True,
               help="Partitionings listed per motion family (the report says when it cut).")
 @click.option("--max-nodes", type=click.IntRange(1), default=20_000, show_default=True,
@@ -131,9 +153,10 @@ def _common_load_options(f):
               show_default=True, help="Facing triangle pairs beyond which the infinite-"
               "translation NDBG is skipped (with a warning).")
 @_common_load_options
+@_cache_options
 @click.pass_context
-def analyze(ctx, paths, fmt, out, out_dir, jobs, motion, interference, timings, config, strategy,
-            threads_as_cylinders, connected, max_partitions, max_nodes, time_limit,
+def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
+            strategy, threads_as_cylinders, connected, max_partitions, max_nodes, time_limit,
             infinite_budget, units, tolerance, allow_outside_paths) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
@@ -141,8 +164,9 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, motion, interference, timings, 
     one assembly. One bad assembly in a batch gives an error record; the others complete.
 
     \b
-    Example:
+    Examples:
       ndbg analyze assemblies/bell.yaml --format json
+      ndbg analyze assemblies/ --format jsonl --scheduler tcp://10.0.0.5:8786
     """
     options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
                        allow_outside_paths=allow_outside_paths, interference=interference,
@@ -161,7 +185,10 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, motion, interference, timings, 
     reports: list[dict] = []
     names: set[str] = set()
     code = EXIT_OK
-    stream = run_batch(targets, options, jobs, debug=STATE.debug)
+    if scheduler:
+        stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
+    else:
+        stream = run_batch(targets, options, jobs, debug=STATE.debug)
     try:
         for r in progress(stream, len(targets), "analyzing", quiet=STATE.quiet):
             code = max(code, _exit_code(r))
@@ -192,11 +219,18 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, motion, interference, timings, 
 
 def _options(ctx: click.Context, config: str | None, **given) -> Options:
     """Options from the config file, overridden by the options given on the command line."""
+    from .cache import default_dir
+
     settings = read_config(config) if config else {}
     for name, value in given.items():
         source = ctx.get_parameter_source(name)
         if source is not None and source.name != "DEFAULT" or name not in settings:
             settings[name] = value
+    chosen = ctx.meta.get("ndbg_cache")  # "" is --no-cache
+    if chosen is not None:
+        settings["cache"] = chosen or None
+    elif "cache" not in settings:
+        settings["cache"] = str(default_dir())
     return Options(**settings)
 
 
@@ -454,6 +488,7 @@ def _removal_text(sec: dict) -> str:
 @click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
               show_default=True, help="As for analyze.")
 @_common_load_options
+@_cache_options
 @click.pass_context
 def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_budget, units,
           tolerance, allow_outside_paths) -> None:

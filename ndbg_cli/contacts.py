@@ -36,6 +36,7 @@ nested) are found by overlap volume when both are closed.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -43,6 +44,7 @@ import fcl
 import numpy as np
 
 from .assembly import Assembly
+from .cache import PairCache
 from .contact_features import classify_pairs, curved_contacts, edge_point_contacts, planar_contacts
 from .errors import InputError
 from .facets import PartGeometry, fcl_model, fcl_object, manifold_model, part_geometry, sat_gap
@@ -115,12 +117,15 @@ class ContactAnalysis:
 
 
 def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
-                     angle_tolerance: float = DEFAULT_ANGLE_TOLERANCE) -> ContactAnalysis:
+                     angle_tolerance: float = DEFAULT_ANGLE_TOLERANCE,
+                     cache: PairCache | None = None) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 
     ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
-    radians. See the module documentation for the tolerance model. Raises :class:`InputError`
-    for a 2D assembly or a non-positive tolerance.
+    radians. See the module documentation for the tolerance model. With ``cache``, each
+    candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
+    tolerances (:mod:`ndbg_cli.cache`). Raises :class:`InputError` for a 2D assembly or a
+    non-positive tolerance.
     """
     if asm.dimension != 3:
         raise InputError("contact analysis needs a 3D assembly", file=asm.source or None)
@@ -144,6 +149,22 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     t_int = 0.0
     for a, b, crossing in pairs:
         ga, gb = geos[a], geos[b]
+        key = None
+        if cache is not None:
+            key = cache.key("contacts", asm.parts[a].hash, asm.parts[b].hash, tol, ang,
+                            bool(crossing))
+            got = cache.get("contacts", key)
+            if got is not None:
+                found, approximate, cs, count = got
+                if approximate:
+                    approx.append((asm.parts[a].id, asm.parts[b].id))
+                if found is not None:
+                    interferences.append(dataclasses.replace(found, a=a, b=b))
+                contacts += [dataclasses.replace(c, a=a, b=b) for c in cs]
+                tri_pairs += count
+                continue
+        found, approximate, before = None, False, len(contacts)
+        count = 0
         if crossing:
             ti = time.perf_counter()
             allowance = tol + min(float(ga.sag.max()), float(gb.sag.max()))
@@ -154,11 +175,14 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                 approx.append((asm.parts[a].id, asm.parts[b].id))
             if found is not None:
                 interferences.append(found)
-                continue
-        i, j = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
-        tri_pairs += len(i)
-        if len(i):
-            contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang)
+        if found is None:
+            i, j = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
+            count = len(i)
+            tri_pairs += count
+            if len(i):
+                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang)
+        if key is not None:
+            cache.put("contacts", key, (found, approximate, contacts[before:], count))
     ti = time.perf_counter()
     interferences += _nested(asm, nested, tol)
     t_int += time.perf_counter() - ti

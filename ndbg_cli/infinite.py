@@ -50,6 +50,7 @@ import shapely
 import trimesh
 
 from .assembly import Assembly
+from .cache import PairCache
 from .cubemap import FACES, clip_halfplanes, cone_normals, face_of
 from .dbg import DBG
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
@@ -324,8 +325,10 @@ def triangle_pairs(asm: Assembly) -> int:
     return int(t.sum() ** 2 - (t ** 2).sum())
 
 
-def blocked_sets(asm: Assembly) -> BlockedSets:
-    """``B_ij`` for every ordered pair of parts, on the cube map."""
+def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
+    """``B_ij`` for every ordered pair of parts, on the cube map. With ``cache``, each ordered
+    pair's cones and chart polygons are looked up by the two parts' content hashes and the
+    tolerance (:mod:`ndbg_cli.cache`)."""
     t0 = time.perf_counter()
     tris = part_triangles(asm)
     eps = asm.length_tolerance
@@ -341,12 +344,25 @@ def blocked_sets(asm: Assembly) -> BlockedSets:
             if i == j:
                 continue
             ta = time.perf_counter()
-            cones, circ = pair_cones(tris[i][0], tris[i][1], tris[j][0], tris[j][1], eps)
-            tb = time.perf_counter()
+            key = got = None
+            if cache is not None:
+                # 2D parts are extruded to the assembly's diagonal: that enters the result.
+                key = cache.key("infinite", asm.parts[i].hash, asm.parts[j].hash, eps,
+                                asm.dimension, asm.diagonal if asm.dimension == 2 else None)
+                got = cache.get("infinite", key)
+            if got is not None:
+                cones, circ, entries = _thaw(got)
+                tb = time.perf_counter()
+            else:
+                cones, circ = pair_cones(tris[i][0], tris[i][1], tris[j][0], tris[j][1], eps)
+                tb = time.perf_counter()
+                entries = cones_to_face_geoms(cones)
+                if key is not None:
+                    cache.put("infinite", key, _freeze(cones, circ, entries))
             all_cones[(i, j)] = cones
             circles.append(circ)
             npieces += len(cones)
-            for face, entry in enumerate(cones_to_face_geoms(cones)):
+            for face, entry in enumerate(entries):
                 if entry is not None:
                     geoms[face][(i, j)] = entry[0]
                     trees[face][(i, j)] = entry[1:]
@@ -362,6 +378,32 @@ def blocked_sets(asm: Assembly) -> BlockedSets:
     stats["contact_circles"] = len(circ)
     return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, trees=trees, circles=circ,
                        space_dimension=asm.dimension, stats=stats)
+
+
+def _freeze(cones: np.ndarray, circ: np.ndarray, entries: list) -> tuple:
+    """A pair's result in cacheable form: arrays and WKB (exact double coordinates)."""
+    faces = []
+    for e in entries:
+        if e is None:
+            faces.append(None)
+            continue
+        union, tree, index = e
+        faces.append((shapely.to_wkb(union), [shapely.to_wkb(g) for g in tree.geometries],
+                      index))
+    return cones, circ, faces
+
+
+def _thaw(value: tuple) -> tuple[np.ndarray, np.ndarray, list]:
+    cones, circ, faces = value
+    entries: list = []
+    for f in faces:
+        if f is None:
+            entries.append(None)
+            continue
+        union, polys, index = f
+        polys = shapely.from_wkb(np.array(polys, dtype=object))
+        entries.append((shapely.from_wkb(union), shapely.STRtree(polys), index))
+    return cones, circ, entries
 
 
 # --------------------------------------------------------------------------------------------
@@ -517,11 +559,12 @@ def equator_cells(bs: BlockedSets) -> list[Cell]:
     return cells
 
 
-def build_infinite(asm: Assembly) -> NDBG:
+def build_infinite(asm: Assembly, cache: PairCache | None = None) -> NDBG:
     """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
-    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG."""
+    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
+    reuses per-pair blocked sets (:func:`blocked_sets`)."""
     t0 = time.perf_counter()
-    bs = blocked_sets(asm)
+    bs = blocked_sets(asm, cache)
     t1 = time.perf_counter()
     cells = equator_cells(bs) if asm.dimension == 2 else arrangement_cells(bs)
     t2 = time.perf_counter()

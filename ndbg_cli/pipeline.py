@@ -58,8 +58,11 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     (:class:`Diagnostic`). ``options`` is an :class:`ndbg_cli.analysis.Options`; ``timings``
     receives seconds per stage. Raises :class:`~ndbg_cli.errors.InputError` (e.g. an
     interference under ``--interference error``)."""
+    from .cache import open_cache
+
     clock = _Clock(timings)
     families = FAMILIES_OF[options.motion]
+    cache = open_cache(getattr(options, "cache", None))
     warnings: list[Diagnostic] = []
     out: dict = {}
 
@@ -68,7 +71,8 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         from .contacts import analyze_contacts, contacts_section
         from .interference import check_interference_policy
 
-        ca = clock("contacts_s", lambda: analyze_contacts(asm, tolerance=options.tolerance))
+        ca = clock("contacts_s", lambda: analyze_contacts(asm, tolerance=options.tolerance,
+                                                          cache=cache))
         warnings += check_interference_policy(asm, ca, options.interference)
         sec = contacts_section(asm, ca)
         # wall-clock phases go to the report's timings (kept out unless asked for)
@@ -118,7 +122,7 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         sec.pop("assembly", None)
         sections[INFINITESIMAL] = sec
     if INFINITE in families:
-        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected))
+        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected, cache))
         if got is None:
             sections[INFINITE] = {"family": INFINITE, "skipped": True,
                                   "why": _infinite_skip_reason(asm, options)}
@@ -139,6 +143,11 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         sections[GENERALIZED] = {"family": GENERALIZED, "skipped": True,
                                  "why": "generalized motions are analysed for 3D assemblies"}
     out["ndbg"] = sections
+    if cache is not None:
+        # hit counts go with the timings (they differ between a cold and a warm run)
+        for stage, st in cache.stats().items():
+            timings[f"cache_{stage}_hits"] = st["hits"]
+            timings[f"cache_{stage}_misses"] = st["misses"]
     out["partitionings"] = partitionings
 
     # -- planning and measures ---------------------------------------------------------
@@ -159,14 +168,23 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
                     "value": sorted([list(p) for p in threaded]),
                     "why": "declared screw joints are threads: these pairs cannot translate "
                            "apart; --threads-as-cylinders treats them as plain cylinders"}
+    # The reported plan keeps both sides of every step connected in the contact graph (a
+    # designer's subassemblies hold together); when no such tree exists (floating parts), it
+    # falls back to any candidate split, reusing the classes' AND/OR graph.
+    plan_conn = ConnectivityTest(neighbours)
     chosen = None
     for fam in PLAN_ORDER:
         if fam not in ndbgs:
             continue
-        # The classes' AND/OR graph has the same base and no connectivity filter: reuse it.
-        graph = graphs.get(fam) if connected is None else None
-        p = clock("plan_s", lambda nd=ndbgs[fam], g=graph: plan(
-            nd, options.strategy, base=base, connected=connected, budget=budget, graph=g))
+        p = clock("plan_s", lambda nd=ndbgs[fam]: plan(
+            nd, options.strategy, base=base, connected=plan_conn, budget=budget))
+        if not p.found:
+            graph = graphs.get(fam)
+            q = clock("plan_s", lambda nd=ndbgs[fam], g=graph: plan(
+                nd, options.strategy, base=base, connected=None, budget=budget, graph=g))
+            if q.found:
+                q.notes.append("no tree with connected subassemblies; any candidate split used")
+                p = q
         if chosen is None or (p.found and not chosen.found):
             chosen = p
         if p.found:
@@ -196,7 +214,7 @@ def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
             f"{options.infinite_budget} (raise it with --infinite-budget)")
 
 
-def _infinite(asm: Assembly, options: Any, threaded: set, connected
+def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None
               ) -> tuple[NDBG, dict, list[dict]] | None:
     from .generalized import block_threads
     from .infinite import build_infinite, triangle_pairs
@@ -205,7 +223,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected
 
     if asm.dimension == 3 and triangle_pairs(asm) > options.infinite_budget:
         return None
-    nd = block_threads(build_infinite(asm), threaded)
+    nd = block_threads(build_infinite(asm, cache), threaded)
     parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
     sec = infinite_section(asm, nd, parts, trunc)
     if options.region_limit is not None and len(sec["region_list"]) > options.region_limit:

@@ -1,0 +1,116 @@
+"""Per-part-pair result cache (the paper's incremental update, section 4.3, in practical form).
+
+The expensive geometry of ndbg is computed pair by pair: the contacts of two parts, and the
+set ``B_ij`` of directions in which one blocks the other's infinite translation. Each pair's
+result depends only on the two parts' placed geometry (:attr:`Part.hash`, a content hash of
+the vertices, faces and placement), the tolerances, and the code that computed it. A
+:class:`PairCache` stores those results on disk under a key made of exactly these, so editing
+one part of a 40-part assembly recomputes only the pairs that involve it, and a second run of
+an unchanged assembly recomputes none. Results are stored exactly (pickled numpy arrays and
+shapely WKB), so a warm run's report is byte-identical to a cold one's.
+
+Layout: ``DIR/<stage>/<key[:2]>/<key>.pkl``, each file written atomically (temporary file and
+rename), so concurrent batch workers and killed runs never leave a torn entry; an unreadable
+entry is treated as a miss and rewritten. The key includes a digest of the source files of the
+modules that compute the stage, so results from another version of ndbg are never reused.
+Default directory: ``$NDBG_CACHE_DIR``, else ``$XDG_CACHE_HOME/ndbg``, else ``~/.cache/ndbg``.
+The cache is the user's own (pickle is only safe for files you wrote yourself).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import tempfile
+from functools import cache as cache_fn
+from pathlib import Path
+from typing import Any
+
+from . import __version__
+
+#: Modules whose code determines each stage's per-pair results.
+STAGE_MODULES = {
+    "contacts": ("contacts", "contact_features", "facets", "interference", "assembly"),
+    "infinite": ("infinite", "cubemap", "assembly"),
+}
+
+
+def default_dir() -> Path:
+    """The cache directory used when none is given (see the module docstring)."""
+    env = os.environ.get("NDBG_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "ndbg"
+
+
+@cache_fn
+def code_digest(stage: str) -> str:
+    """Digest of the package version and the stage's module sources."""
+    h = hashlib.sha256(__version__.encode())
+    here = Path(__file__).resolve().parent
+    for name in STAGE_MODULES[stage]:
+        h.update((here / f"{name}.py").read_bytes())
+    return h.hexdigest()[:16]
+
+
+class PairCache:
+    """A directory of per-pair results; ``hits`` and ``misses`` count lookups per stage."""
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+        self.hits: dict[str, int] = {}
+        self.misses: dict[str, int] = {}
+
+    def key(self, stage: str, *parts: Any) -> str:
+        """The key of a stage's result for ``parts`` (hashes, tolerances: anything with a
+        stable ``repr``)."""
+        text = "\x1f".join([stage, code_digest(stage), *map(repr, parts)])
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def _path(self, stage: str, key: str) -> Path:
+        return self.root / stage / key[:2] / f"{key}.pkl"
+
+    def get(self, stage: str, key: str) -> Any | None:
+        """The stored value, or ``None`` (a miss; unreadable entries are misses too)."""
+        try:
+            with open(self._path(stage, key), "rb") as f:
+                value = pickle.load(f)
+        except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ValueError,
+                ImportError, IndexError, TypeError):
+            self.misses[stage] = self.misses.get(stage, 0) + 1
+            return None
+        self.hits[stage] = self.hits.get(stage, 0) + 1
+        return value
+
+    def put(self, stage: str, key: str, value: Any) -> None:
+        """Store ``value`` atomically; a cache that cannot be written is silently skipped
+        (the analysis never fails because of its cache)."""
+        path = self._path(stage, key)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".pkl")
+            try:
+                with os.fdopen(fd, "wb") as f:
+                    pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
+                os.replace(tmp, path)
+            except BaseException:
+                try:
+                    os.unlink(tmp)
+                except OSError:
+                    pass
+                raise
+        except OSError:
+            pass
+
+    def stats(self) -> dict[str, dict[str, int]]:
+        """``{stage: {"hits": h, "misses": m}}``."""
+        stages = sorted(set(self.hits) | set(self.misses))
+        return {s: {"hits": self.hits.get(s, 0), "misses": self.misses.get(s, 0)}
+                for s in stages}
+
+
+def open_cache(directory: str | Path | None) -> PairCache | None:
+    """A :class:`PairCache` on ``directory``, or ``None`` for no caching (``None`` or ``""``)."""
+    return PairCache(directory) if directory else None

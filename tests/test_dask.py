@@ -1,0 +1,107 @@
+"""``ndbg analyze --scheduler``: batches on a dask.distributed cluster give the same reports,
+in the same order, as a local run; a bad or unreachable scheduler is a one-line input error."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+from ndbg_cli import batch  # noqa: E402
+from ndbg_cli.analysis import Options  # noqa: E402
+
+from helpers import run_cli  # noqa: E402
+
+EX = Path(__file__).resolve().parents[1] / "assemblies"
+THREE = ["hover", "stack", "peg-37"]
+
+
+def make_three(tmp_path: Path) -> tuple[Path, list[Path]]:
+    """``tmp_path/src``: three small examples with their meshes folder (the result cache stays
+    outside it); returns the folder and its manifests in sorted order."""
+    folder = tmp_path / "src"
+    shutil.copytree(EX / "meshes", folder / "meshes")
+    for name in THREE:
+        shutil.copy(EX / f"{name}.yaml", folder / f"{name}.yaml")
+    return folder, sorted(folder.glob("*.yaml"))
+
+
+@pytest.fixture(autouse=True)
+def own_cache(tmp_path, monkeypatch):
+    """Each test (and the CLI runs it starts) uses its own result cache folder."""
+    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def test_local_cluster_is_byte_identical_to_a_local_run(tmp_path, monkeypatch):
+    src, _ = make_three(tmp_path)
+    args = ("analyze", src, "--format", "jsonl", "--motion", "translation")
+    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-plain"))
+    plain = run_cli(*args, "--jobs", "1")
+    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-dask"))  # computed, not read
+    dask = run_cli(*args, "--scheduler", "local", "--jobs", "2")
+    assert plain.returncode == 0, plain.stderr
+    assert dask.returncode == 0, dask.stderr
+    assert len(plain.stdout.splitlines()) == 3
+    assert dask.stdout == plain.stdout
+    assert "Traceback" not in dask.stderr
+
+
+def test_unreachable_scheduler_is_a_one_line_error(tmp_path):
+    src, _ = make_three(tmp_path)
+    r = run_cli("analyze", src, "--format", "jsonl", "--scheduler", "tcp://127.0.0.1:1")
+    assert r.returncode == 2
+    assert r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("ndbg: error: "), r.stderr
+    assert "tcp://127.0.0.1:1" in lines[0]
+    assert "Traceback" not in r.stderr
+
+
+@pytest.mark.parametrize("address", ["nonsense", "foo://host:1"])
+def test_malformed_address_is_a_one_line_error(tmp_path, address):
+    src, _ = make_three(tmp_path)
+    r = run_cli("analyze", src, "--scheduler", address)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"ndbg: error: --scheduler {address}: ")
+
+
+def test_without_distributed_the_cli_says_what_to_install(tmp_path):
+    src, _ = make_three(tmp_path)
+    code = ("import sys; sys.modules['distributed'] = None\n"
+            "from ndbg_cli.cli import main\n"
+            f"main(['analyze', {str(src)!r}, '--scheduler', 'local'])\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    assert r.stderr == f"ndbg: error: {batch.DASK_MISSING}\n"
+
+
+def test_a_task_failing_on_the_cluster_becomes_an_error_record(tmp_path, monkeypatch):
+    """A failure outside analyze_one (a worker died, a result could not be sent) gives the
+    error record analyze_one makes for a bug; the other targets are unaffected."""
+    _, targets = make_three(tmp_path)
+    real = batch.analyze_one
+
+    def flaky(target, options, debug=False):
+        if Path(target).stem == "peg-37":  # the middle one
+            raise RuntimeError("worker lost")
+        return real(target, options, debug)
+
+    monkeypatch.setattr(batch, "analyze_one", flaky)
+    options = Options(motion="translation")
+    # threads in this process, so the workers see the patched function
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  protocol="tcp://", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        out = list(batch.run_batch_dask(targets, options, cluster.scheduler_address, 2))
+    assert [Path(r.get("source") or r["assembly"]["source"]).stem for r in out] == sorted(THREE)
+    bad = out[1]
+    assert bad["error"]["code"] == 3 and bad["error"]["kind"] == "NdbgError"
+    assert bad["error"]["message"].startswith(f"{targets[1]}: internal error: RuntimeError: "
+                                              "worker lost")
+    assert out[0] == real(targets[0], options) and out[2] == real(targets[2], options)
