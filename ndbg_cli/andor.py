@@ -290,7 +290,11 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
             continue
         # sets failing the connectivity test do not count against the limit, up to 8x
         room = None if limit is None else (limit - len(found) + 2) * (8 if connected else 1)
-        sets = free_sets(comps, comp_succ, room, avoid=base_bit)
+        # one set more than room: its presence tells a cut list from one that just fits
+        sets = free_sets(comps, comp_succ, None if room is None else room + 1, avoid=base_bit)
+        cut_here = room is not None and len(sets) > room
+        if cut_here:
+            sets = sets[:room]
         for s in sets:
             if s == 0 or s == mask or s & base_bit:
                 continue
@@ -303,7 +307,7 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                     break
                 found[s] = got = []
             got.extend(regs)
-        if room is not None and len(sets) >= room:
+        if cut_here:
             truncated = True
         if truncated:
             break

@@ -47,11 +47,22 @@ def default_dir() -> Path:
 
 @cache_fn
 def code_digest(stage: str) -> str:
-    """Digest of the package version and the stage's module sources."""
+    """Digest of the package version, the stage's module sources and the versions of the
+    libraries whose numerics enter the results."""
+    from importlib import metadata
+
     h = hashlib.sha256(__version__.encode())
     here = Path(__file__).resolve().parent
     for name in STAGE_MODULES[stage]:
-        h.update((here / f"{name}.py").read_bytes())
+        try:
+            h.update((here / f"{name}.py").read_bytes())
+        except OSError:  # installed without sources: the version stands for them
+            h.update(name.encode())
+    for lib in ("numpy", "shapely", "trimesh", "manifold3d", "python-fcl", "scipy"):
+        try:
+            h.update(f"{lib}={metadata.version(lib)}".encode())
+        except metadata.PackageNotFoundError:
+            h.update(f"{lib}=none".encode())
     return h.hexdigest()[:16]
 
 
@@ -72,13 +83,16 @@ class PairCache:
     def _path(self, stage: str, key: str) -> Path:
         return self.root / stage / key[:2] / f"{key}.pkl"
 
-    def get(self, stage: str, key: str) -> Any | None:
-        """The stored value, or ``None`` (a miss; unreadable entries are misses too)."""
+    def get(self, stage: str, key: str, check: Any = None) -> Any | None:
+        """The stored value, or ``None`` (a miss). An unreadable entry, or one that
+        ``check(value)`` (returning the value to use) rejects by raising, is a miss too: the
+        analysis never fails because of its cache."""
         try:
             with open(self._path(stage, key), "rb") as f:
                 value = pickle.load(f)
-        except (OSError, pickle.UnpicklingError, EOFError, AttributeError, ValueError,
-                ImportError, IndexError, TypeError):
+            if check is not None:
+                value = check(value)
+        except Exception:  # torn, foreign or corrupt entry (any unpickling error)
             self.misses[stage] = self.misses.get(stage, 0) + 1
             return None
         self.hits[stage] = self.hits.get(stage, 0) + 1

@@ -91,10 +91,16 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
             memo[m] = got
         return got
 
+    # ``arcs`` may be an AND/OR graph's ``expand``: its cut partitioning lists count too
+    owner = getattr(arcs, "__self__", None)
+
+    def cut() -> bool:
+        return trunc_splits or bool(getattr(owner, "split_truncated", False))
+
     greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
     lower = lower_bound_depth(root)
     if not greedy.found:
-        exact = not greedy.truncated and not trunc_splits
+        exact = not greedy.truncated and not cut()
         return DepthResult(None, exact, lower, None, {}, len(memo))
     upper = greedy.depth()
     best_choice = dict(greedy.choice)
@@ -135,9 +141,12 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
                 break
             d += 1
     except _Stop:
-        return DepthResult(None, False, d, upper, best_choice, len(memo))
-    exact = not trunc_splits
-    return DepthResult(upper, exact, upper if exact else d, upper, best_choice, len(memo))
+        return DepthResult(None, False, lower if cut() else d, upper, best_choice, len(memo))
+    # Refutations over cut partitioning lists prove nothing: then only ceil(log2 n) bounds
+    # the optimum from below (and proves it when the tree found reaches it).
+    exact = not cut() or upper == lower
+    return DepthResult(upper if exact else None, exact, upper if exact else lower, upper,
+                       best_choice, len(memo))
 
 
 def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:

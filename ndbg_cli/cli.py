@@ -420,7 +420,7 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
            allow_outside_paths) -> None:
     """Which parts must be withdrawn, and in what order, before PARTS can be removed.
 
-    Exact (fewest parts withdrawn, then fewest steps) when the search fits --max-nodes;
+    Exact (fewest parts withdrawn; steps merged greedily) when the search fits --max-nodes;
     otherwise a goal-directed heuristic, with a lower bound on the minimum.
 
     \b
@@ -517,10 +517,16 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
             saved.extend(read_reports(p).values())
         else:
             targets.extend(discover(p))
+    if not saved and not targets:
+        fail("nothing to check: no assembly or report in " + ", ".join(paths), EXIT_INPUT)
+    reports = list(saved)
     outcomes = [evaluate(r, ruleset) for r in saved]
     stream = run_batch(targets, options, jobs or default_jobs(), debug=STATE.debug)
     for r in progress(stream, len(targets), "checking", quiet=STATE.quiet):
+        reports.append(r)
         outcomes.append(evaluate(r, ruleset))
+    for pattern in ruleset.unmatched(reports):
+        click.echo(f"ndbg check: warning: rules for '{pattern}' matched no assembly", err=True)
     if junit:
         write_atomic(Path(junit), junit_xml(outcomes))
     failed = [o for oc in outcomes for o in oc if not o.passed]
@@ -542,8 +548,9 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
         click.echo(f"ndbg check: {n - bad} of {n} assemblies pass "
                    f"({sum(map(len, outcomes))} rules checked, {len(failed)} violation(s))",
                    err=bool(failed))
-    if any(o.rule == "analysis" for o in failed):
-        sys.exit(max(EXIT_VIOLATION, EXIT_INPUT))
+    errors = [_exit_code(r) for r in reports if "error" in r]
+    if errors:
+        sys.exit(max(errors))  # 2 input error, 3 internal error
     sys.exit(EXIT_VIOLATION if failed else EXIT_OK)
 
 

@@ -151,9 +151,9 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
         ga, gb = geos[a], geos[b]
         key = None
         if cache is not None:
-            key = cache.key("contacts", asm.parts[a].hash, asm.parts[b].hash, tol, ang,
-                            bool(crossing))
-            got = cache.get("contacts", key)
+            key = cache.key("contacts", _geometry_key(asm, a), _geometry_key(asm, b), tol,
+                            ang, bool(crossing))
+            got = cache.get("contacts", key, _check_entry)
             if got is not None:
                 found, approximate, cs, count = got
                 if approximate:
@@ -202,6 +202,24 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     })
     return ContactAnalysis(tuple(contacts), tuple(sorted(interferences, key=lambda x: (x.a, x.b))),
                            tol, ang, stats)
+
+
+def _geometry_key(asm: Assembly, k: int) -> str:
+    """Content hash of part ``k``'s validated, placed mesh (what the stages really use)."""
+    from .assembly import content_hash
+
+    mesh = asm.parts[k].mesh
+    return content_hash(np.asarray(mesh.vertices), np.asarray(mesh.faces))
+
+
+def _check_entry(value):
+    """A cached pair result, validated (any mismatch raises: a cache miss)."""
+    found, approximate, cs, count = value
+    if found is not None and not isinstance(found, Interference):
+        raise TypeError("not an interference")
+    if not all(isinstance(c, Contact) for c in cs):
+        raise TypeError("not contacts")
+    return found, bool(approximate), list(cs), int(count)
 
 
 def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float

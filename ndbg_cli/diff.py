@@ -75,9 +75,11 @@ def read_reports(path: str | Path) -> dict[str, dict]:
         docs = _parse(p)
     else:
         raise InputError("no such file or directory", file=str(p))
+    if not docs:
+        raise InputError("no reports in it", file=str(p))
     out: dict[str, dict] = {}
     for d in docs:
-        name = _name(d)
+        name = _key(d)
         key, k = name, 1
         while key in out:
             k += 1
@@ -112,6 +114,13 @@ def _parse(p: Path) -> list[dict]:
 
 def _name(d: dict) -> str:
     return (d.get("assembly") or {}).get("name") or Path(str(d.get("source", "?"))).stem
+
+
+def _key(d: dict) -> str:
+    """Match key: the source file's name (an error record has no assembly name, and the same
+    design analysed in two checkouts has different absolute paths)."""
+    src = (d.get("assembly") or {}).get("source") or d.get("source") or ""
+    return Path(str(src)).name or _name(d)
 
 
 def diff_reports(old: dict, new: dict, name: str | None = None) -> list[Change]:
@@ -168,12 +177,16 @@ def diff_reports(old: dict, new: dict, name: str | None = None) -> list[Change]:
                 note = ("class gained: " if vn == good else "class lost: ") + key
             out.append(Change(a, f"classes.{fam}.{key}", vo, vn, grade, note))
         for key, field in LOWER_BETTER.items():
-            vo = (fo.get(key) or {}).get(field)
-            vn = (fn.get(key) or {}).get(field)
+            eo, en = fo.get(key) or {}, fn.get(key) or {}
+            vo, vn = eo.get(field), en.get(field)
             if vo == vn or (key not in fo and key not in fn):
                 continue
-            if vo is None or vn is None:
-                grade, note = "changed", "now undecided" if vn is None else "now decided"
+            # only proven values are compared: a bound (budget cut, greedy grasp) may move
+            # with the machine's load, not with the design
+            xo = eo.get("exact", key != "grasp") and vo is not None
+            xn = en.get("exact", key != "grasp") and vn is not None
+            if not (xo and xn):
+                grade, note = "changed", "not both proven (bounds)"
             else:
                 grade = "worse" if vn > vo else "better"
                 note = ""
@@ -192,13 +205,14 @@ def diff_reports(old: dict, new: dict, name: str | None = None) -> list[Change]:
 def diff_sets(old: dict[str, dict], new: dict[str, dict]) -> list[Change]:
     """Changes between two sets of reports keyed by assembly name."""
     out: list[Change] = []
-    for name in sorted(set(old) | set(new)):
-        if name not in new:
+    for key in sorted(set(old) | set(new)):
+        name = _name(old[key] if key in old else new[key])
+        if key not in new:
             out.append(Change(name, "assembly", "present", None, "changed", "removed"))
-        elif name not in old:
+        elif key not in old:
             out.append(Change(name, "assembly", None, "present", "changed", "added"))
         else:
-            out.extend(diff_reports(old[name], new[name], name))
+            out.extend(diff_reports(old[key], new[key], name))
     return out
 
 

@@ -49,7 +49,7 @@ import numpy as np
 import shapely
 import trimesh
 
-from .assembly import Assembly
+from .assembly import Assembly, content_hash
 from .cache import PairCache
 from .cubemap import FACES, clip_halfplanes, cone_normals, face_of
 from .dbg import DBG
@@ -339,6 +339,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
     all_cones: dict[tuple[int, int], np.ndarray] = {}
     trees: list[dict[tuple[int, int], tuple]] = [{} for _ in range(6)]
     circles: list[np.ndarray] = []
+    # content hashes of the triangles actually used (validated, placed, 2D extruded)
+    gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
     for i in range(n):
         for j in range(n):
             if i == j:
@@ -347,11 +349,11 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
             key = got = None
             if cache is not None:
                 # 2D parts are extruded to the assembly's diagonal: that enters the result.
-                key = cache.key("infinite", asm.parts[i].hash, asm.parts[j].hash, eps,
-                                asm.dimension, asm.diagonal if asm.dimension == 2 else None)
-                got = cache.get("infinite", key)
+                key = cache.key("infinite", gkeys[i], gkeys[j], eps, asm.dimension,
+                                asm.diagonal if asm.dimension == 2 else None)
+                got = cache.get("infinite", key, _thaw)
             if got is not None:
-                cones, circ, entries = _thaw(got)
+                cones, circ, entries = got
                 tb = time.perf_counter()
             else:
                 cones, circ = pair_cones(tris[i][0], tris[i][1], tris[j][0], tris[j][1], eps)
@@ -394,7 +396,11 @@ def _freeze(cones: np.ndarray, circ: np.ndarray, entries: list) -> tuple:
 
 
 def _thaw(value: tuple) -> tuple[np.ndarray, np.ndarray, list]:
+    """Inverse of :func:`_freeze`; raises on anything malformed (a cache miss)."""
     cones, circ, faces = value
+    if not (isinstance(cones, np.ndarray) and cones.ndim == 3 and isinstance(circ, np.ndarray)
+            and len(faces) == 6):
+        raise ValueError("malformed blocked-set entry")
     entries: list = []
     for f in faces:
         if f is None:

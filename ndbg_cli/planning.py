@@ -326,7 +326,8 @@ def plan_text(p: Plan) -> list[str]:
 class Removal:
     """Parts to withdraw before ``target`` comes out: ``steps`` are ``(withdrawn set, region)``
     in order, then ``final_region`` frees the target. ``exact``: ``withdrawn`` is a minimum
-    (fewest parts, then fewest steps); otherwise ``lower_bound`` bounds the minimum."""
+    (fewest parts; the steps are merged greedily, not proven fewest); otherwise
+    ``lower_bound`` bounds the minimum."""
 
     target: int
     found: bool

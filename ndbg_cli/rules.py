@@ -52,7 +52,8 @@ RULES: dict[str, tuple[str, str]] = {
     "max_depth": ("max", "minimum assembly tree depth"),
     "max_directions": ("max", "minimum number of translation directions"),
     "max_nonlinear": ("max", "minimum number of nonlinear instructions"),
-    "max_fingers": ("max", "fingers of the prismatic form-closure grasp"),
+    "max_fingers": ("max", "fingers of the prismatic form-closure grasp (greedy, so only "
+                           "an upper bound: exceeding the limit is undecided, not a failure)"),
     "max_warnings": ("max", "warnings in the report"),
 }
 
@@ -67,6 +68,16 @@ class RuleSet:
     rules: tuple[tuple[str, Any], ...] = ()
     assemblies: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
     source: str = ""
+
+    def unmatched(self, reports: list[dict]) -> list[str]:
+        """Per-assembly patterns that match none of ``reports`` (likely a typo)."""
+        keys = []
+        for r in reports:
+            a = r.get("assembly") or {}
+            src = str(a.get("source") or r.get("source", ""))
+            keys.append((str(a.get("name") or Path(src).stem), src, Path(src).name))
+        return [p for p, _ in self.assemblies
+                if not any(fnmatch.fnmatchcase(k, p) for ks in keys for k in ks)]
 
     def rules_for(self, name: str, source: str) -> dict[str, Any]:
         """The rules that apply to an assembly (later entries override earlier ones)."""
@@ -218,8 +229,10 @@ def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
     if RULES[rule][0] == "bool":
         return v, v, v, note
     if rule == "max_fingers":
-        ok = e.get("complete", True)
-        return (v, v, v, note) if ok else (None, None, None, note)
+        # a greedy placement: a grasp with that many fingers exists, fewer may do
+        if not e.get("complete", True) or v is None:
+            return None, None, None, note
+        return None, None, v, note + " (greedy: an upper bound)"
     exact = e.get("exact", v is not None)
     lower = e.get("lower_bound", v if exact else None)
     upper = e.get("upper_bound", v)

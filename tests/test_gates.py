@@ -178,3 +178,42 @@ def test_diff_of_batches_matches_by_name_and_rejects_non_reports(tmp_path):
     junk.write_text('{"hello": 1}')
     bad = run_cli("diff", junk, b)
     assert bad.returncode == 2 and "not an ndbg report" in bad.stderr
+
+
+def test_an_assembly_that_stops_analysing_is_worse_even_when_renamed(tmp_path):
+    proj = tmp_path / "proj"
+    shutil.copytree(EX / "meshes" / "hover", proj / "meshes" / "hover")
+    design = proj / "design.yaml"
+    design.write_text((EX / "hover.yaml").read_text().replace("name: hover", "name: hover-mk2"))
+    old, new = tmp_path / "old.json", tmp_path / "new.json"
+    assert run_cli("analyze", design, "--motion", "translation", "--format", "json",
+                   "--out", old).returncode == 0
+    design.write_text("name: hover-mk2\nparts: [\n")
+    run_cli("analyze", design, "--format", "json", "--out", new)
+    r = run_cli("diff", old, new)
+    assert r.returncode == 1 and "hover-mk2: worse: analysis: ok -> error" in r.stdout
+    empty = tmp_path / "empty.jsonl"
+    empty.write_text("")
+    assert run_cli("diff", old, empty).returncode == 2
+    c = run_cli("check", empty, "--rules", CONFIGS / "rules-bell.yaml")
+    assert c.returncode == 2 and "no reports" in c.stderr
+
+
+def test_bounds_are_not_graded_and_greedy_fingers_are_only_upper_bounds(bell_report, tmp_path):
+    doc = json.loads(bell_report.read_text())
+    fam = doc["classes"]["infinitesimal_translation"]
+    worse = json.loads(json.dumps(doc))
+    worse["classes"]["infinitesimal_translation"]["min_depth"] = {
+        "value": fam["min_depth"]["value"] + 1, "exact": False, "lower_bound": 5}
+    changed = tmp_path / "changed.json"
+    changed.write_text(json.dumps(worse))
+    r = run_cli("diff", bell_report, changed, "--format", "json")
+    assert r.returncode == 0  # an unproven bound moving is "changed", not "worse"
+    grades = {c["what"]: c["grade"] for c in json.loads(r.stdout)["changes"]}
+    assert grades["classes.infinitesimal_translation.min_depth"] == "changed"
+    rules = tmp_path / "r.yaml"
+    fingers = fam["grasp"]["value"]
+    rules.write_text(f"undecided: pass\nrules:\n  max_fingers: {fingers - 1}\n")
+    assert run_cli("check", bell_report, "--rules", rules).returncode == 0
+    rules.write_text(f"rules:\n  max_fingers: {fingers}\n")
+    assert run_cli("check", bell_report, "--rules", rules).returncode == 0

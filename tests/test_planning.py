@@ -606,3 +606,23 @@ def test_connected_filter_in_plans():
         p = plan(nd, strategy, connected=conn)
         for s in p.steps.values():
             assert conn(s.moved) and conn(s.rest)
+
+
+def test_cut_partitioning_lists_never_claim_an_exact_depth():
+    """8 mutually free parts, at most 3 partitionings listed per subassembly: the optimum
+    (3 = ceil(log2 8)) may be missed, so nothing may be called exact above that bound."""
+    from ndbg_cli.andor import AndOrGraph, Budget
+    from ndbg_cli.classes import andor_section, classify
+    from ndbg_cli.dbg import DBG
+    from ndbg_cli.ndbg import NDBG, Region
+
+    n = 8
+    nd = NDBG("infinitesimal_translation", tuple(f"p{i}" for i in range(n)),
+              (Region(2, (0.0, 0.0, 1.0), DBG.empty(n)),))
+    b = Budget(split_limit=3, time_limit=None)
+    sec = andor_section(AndOrGraph(nd, budget=b).build())
+    assert sec["min_depth_exact"] is False and sec["min_depth_lower_bound"] == 3
+    got = classify(nd, budget=b)["min_depth"]
+    assert got["exact"] is False and got["lower_bound"] == 3 and got["upper_bound"] >= 3
+    full = AndOrGraph(nd, budget=Budget(split_limit=None)).build()
+    assert full.complete and full.min_depth() == 3
