@@ -88,8 +88,9 @@ def _cache_options(f):
     """``--cache DIR`` / ``--no-cache``: the per-part-pair result cache (kept in ``ctx.meta``,
     read by :func:`_options`)."""
     def remember(ctx, param, value):
-        if value is not None:
-            ctx.meta.setdefault("ndbg_cache", value)
+        # --no-cache ("") wins over --cache DIR whatever their order on the command line
+        if value is not None and ctx.meta.get("ndbg_cache") != "":
+            ctx.meta["ndbg_cache"] = value
         return value
 
     f = click.option("--no-cache", "no_cache", is_flag=True, default=None, expose_value=False,
@@ -513,7 +514,9 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     for p in paths:
         if not Path(p).exists():
             fail(f"{p}: no such file or directory", EXIT_INPUT)
-        if Path(p).suffix.lower() in (".json", ".jsonl"):
+        q = Path(p)
+        if q.suffix.lower() in (".json", ".jsonl") or (
+                q.is_dir() and (q / "index.json").is_file()):  # an --out-dir of reports
             saved.extend(read_reports(p).values())
         else:
             targets.extend(discover(p))

@@ -71,3 +71,13 @@ def test_unreadable_cache_entries_are_misses_not_errors(tmp_path):
     again = run_cli("analyze", manifest, "--cache", cache, "--format", "json")
     assert again.returncode == 0 and again.stdout == ref.stdout
     assert _counts(manifest, cache)["infinite_hits"] == 6  # rewritten by the second run
+
+
+def test_no_cache_wins_whatever_the_order(tmp_path):
+    manifest = _copy_hover(tmp_path / "a")
+    cache = tmp_path / "cache"
+    for args in (("--cache", cache, "--no-cache"), ("--no-cache", "--cache", cache)):
+        r = run_cli("analyze", manifest, *args, "--timings", "--format", "json")
+        assert r.returncode == 0, r.stderr
+        assert not [k for k in json.loads(r.stdout)["timings"] if k.startswith("cache_")]
+    assert not cache.exists()

@@ -217,3 +217,17 @@ def test_bounds_are_not_graded_and_greedy_fingers_are_only_upper_bounds(bell_rep
     assert run_cli("check", bell_report, "--rules", rules).returncode == 0
     rules.write_text(f"rules:\n  max_fingers: {fingers}\n")
     assert run_cli("check", bell_report, "--rules", rules).returncode == 0
+
+
+def test_check_reads_an_out_dir_of_saved_reports(tmp_path):
+    out = tmp_path / "reports"
+    r = run_cli("analyze", EX / "hover.yaml", EX / "stack.yaml", "--motion", "translation",
+                "--out-dir", out, "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    rules = tmp_path / "r.yaml"
+    rules.write_text("rules:\n  linearizable: true\n  max_depth: 1\n")
+    c = run_cli("check", out, "--rules", rules)
+    # hover (3 parts) and stack (5 parts) need depth >= 2 and >= 3: both fail max_depth only
+    assert c.returncode == 1
+    assert sorted(line.split(":")[0] for line in c.stdout.splitlines()) == ["hover", "stack"]
+    assert all(": max_depth: measured" in line for line in c.stdout.splitlines())
