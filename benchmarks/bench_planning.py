@@ -112,7 +112,7 @@ def real_rows() -> list[tuple[str, float, str]]:
         g = AndOrGraph(nd, base=base, budget=budget).build()
         t_build = time.perf_counter() - t0
         t1 = time.perf_counter()
-        r = min_depth_search(nd, base=base, budget=budget, arcs=g.expand)
+        r = min_depth_search(nd, base=base, budget=budget, graph=g)
         t_search = time.perf_counter() - t1
         rows += [(f"{name}: AND/OR nodes expanded (truncated={g.truncated})",
                   float(g.node_count), "nodes"),

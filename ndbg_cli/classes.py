@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import itertools
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from .andor import (
@@ -64,14 +64,16 @@ class DepthResult:
 
 def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
                      connected: ConnectivityTest | None = None, budget: Budget | None = None,
-                     arcs: Callable[[int], list[Hyperarc]] | None = None) -> DepthResult:
+                     graph: AndOrGraph | None = None) -> DepthResult:
     """Exact minimum tree height by iterative deepening without building the whole graph.
 
     ``fits(M, d)``: a tree of height ``<= d`` exists iff some hyperarc has both sides of at most
     ``2^(d-1)`` parts that fit in ``d - 1``; memoized per subassembly as the largest refuted and
     smallest proven height. Starts at ``ceil(log2 n)`` and stops at the greedy balanced tree's
     height (an upper bound), so a proven optimum usually costs far fewer nodes than the full
-    AND/OR graph. Anytime: when the budget runs out, returns the bounds reached.
+    AND/OR graph. Anytime: when the budget runs out, returns the bounds reached. With
+    ``graph`` (same ``base`` and ``connected``), its memoized hyperarcs are used and its cut
+    partitioning lists count as cuts of this search.
     """
     budget = budget or Budget()
     root = (1 << ndbg.n) - 1 if mask is None else mask
@@ -82,8 +84,8 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
         nonlocal trunc_splits
         got = memo.get(m)
         if got is None:
-            if arcs is not None:
-                got = arcs(m)
+            if graph is not None:
+                got = graph.expand(m)
             else:
                 got, t = node_splits(ndbg, m, base=base, connected=connected,
                                      limit=budget.split_limit)
@@ -91,11 +93,8 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
             memo[m] = got
         return got
 
-    # ``arcs`` may be an AND/OR graph's ``expand``: its cut partitioning lists count too
-    owner = getattr(arcs, "__self__", None)
-
     def cut() -> bool:
-        return trunc_splits or bool(getattr(owner, "split_truncated", False))
+        return trunc_splits or (graph is not None and graph.split_truncated)
 
     greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
     lower = lower_bound_depth(root)
@@ -201,7 +200,7 @@ def andor_section(graph: AndOrGraph) -> dict:
             out["linear_sequences_str"] = str(out["linear_sequences"])
     else:
         r = min_depth_search(graph.ndbg, graph.root, base=graph.base, connected=graph.connected,
-                             budget=graph.budget, arcs=graph.expand)
+                             budget=graph.budget, graph=graph)
         out.update(min_depth=r.depth if r.exact else None, min_depth_lower_bound=r.lower,
                    min_depth_upper_bound=r.upper, min_depth_exact=r.exact)
     return out
@@ -451,7 +450,7 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
         out["min_depth"] = {"value": d, "exact": True, "lower_bound": d, "upper_bound": d,
                             "why": f"exact over {graph.node_count} AND/OR nodes"}
     else:
-        r = min_depth_search(ndbg, full, base=base, budget=budget, arcs=graph.expand)
+        r = min_depth_search(ndbg, full, base=base, budget=budget, graph=graph)
         if lin_stuck is None:
             out["min_nonlinear"] = {"value": 0, "exact": True, "lower_bound": 0,
                                     "assembly_lines": 1,

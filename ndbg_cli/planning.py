@@ -160,7 +160,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
             return out
         if strategy == "shortest":
             r = min_depth_search(ndbg, root, base=base, connected=connected, budget=budget,
-                                 arcs=g.expand)
+                                 graph=g)
             if r.upper is not None:
                 out.exact = r.exact
                 out.notes.append(f"AND/OR graph truncated at {g.node_count} nodes; depth by "
@@ -375,7 +375,7 @@ def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget |
     full = (1 << ndbg.n) - 1
     keep = target | (0 if base is None else 1 << base)
     lower = min((r.dbg.blockers(target, full).bit_count() for r in ndbg.regions), default=0)
-    groups = [(dbg, regs) for dbg, regs in ndbg.distinct()]
+    groups = ndbg.distinct()
     start = full
     heap: list[tuple[int, int, int]] = [(0, 0, start)]
     prev: dict[int, tuple[int, int, int] | None] = {start: None}
