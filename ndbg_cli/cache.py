@@ -22,12 +22,12 @@ from __future__ import annotations
 import hashlib
 import os
 import pickle
-import tempfile
 from functools import cache as cache_fn
 from pathlib import Path
 from typing import Any
 
 from . import __version__
+from .report import write_atomic
 
 #: Modules whose code determines each stage's per-pair results.
 STAGE_MODULES = {
@@ -101,20 +101,9 @@ class PairCache:
     def put(self, stage: str, key: str, value: Any) -> None:
         """Store ``value`` atomically; a cache that cannot be written is silently skipped
         (the analysis never fails because of its cache)."""
-        path = self._path(stage, key)
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".pkl")
-            try:
-                with os.fdopen(fd, "wb") as f:
-                    pickle.dump(value, f, protocol=pickle.HIGHEST_PROTOCOL)
-                os.replace(tmp, path)
-            except BaseException:
-                try:
-                    os.unlink(tmp)
-                except OSError:
-                    pass
-                raise
+            write_atomic(self._path(stage, key),
+                         pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), durable=False)
         except OSError:
             pass
 

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import fcl
 import numpy as np
 
-from .assembly import Assembly
+from .assembly import Assembly, content_hash
 from .cache import PairCache
 from .contact_features import classify_pairs, curved_contacts, edge_point_contacts, planar_contacts
 from .errors import InputError
@@ -147,12 +147,14 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     approx: list[tuple[str, str]] = []
     tri_pairs = 0
     t_int = 0.0
+    # content hashes of the validated, placed meshes (what this stage really reads), once each
+    gkeys = ([content_hash(np.asarray(p.mesh.vertices), np.asarray(p.mesh.faces))
+              for p in asm.parts] if cache is not None else [])
     for a, b, crossing in pairs:
         ga, gb = geos[a], geos[b]
         key = None
         if cache is not None:
-            key = cache.key("contacts", _geometry_key(asm, a), _geometry_key(asm, b), tol,
-                            ang, bool(crossing))
+            key = cache.key("contacts", gkeys[a], gkeys[b], tol, ang, bool(crossing))
             got = cache.get("contacts", key, _check_entry)
             if got is not None:
                 found, approximate, cs, count = got
@@ -202,14 +204,6 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     })
     return ContactAnalysis(tuple(contacts), tuple(sorted(interferences, key=lambda x: (x.a, x.b))),
                            tol, ang, stats)
-
-
-def _geometry_key(asm: Assembly, k: int) -> str:
-    """Content hash of part ``k``'s validated, placed mesh (what the stages really use)."""
-    from .assembly import content_hash
-
-    mesh = asm.parts[k].mesh
-    return content_hash(np.asarray(mesh.vertices), np.asarray(mesh.faces))
 
 
 def _check_entry(value):

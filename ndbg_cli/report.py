@@ -94,17 +94,20 @@ def dumps(doc: dict) -> str:
     return json.dumps(clean(doc), sort_keys=True, indent=2, ensure_ascii=False) + "\n"
 
 
-def write_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically: a temporary file in the same folder, fsynced,
-    then renamed over the target, so a reader never sees a half-written report."""
+def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -> None:
+    """Write ``data`` (text as UTF-8, or bytes) to ``path`` atomically: a temporary file in the
+    same folder, renamed over the target, so a reader never sees a half-written file.
+    ``durable`` fsyncs before the rename (reports); a cache entry can skip it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    raw = data.encode("utf-8") if isinstance(data, str) else data
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(raw)
+            if durable:
+                fh.flush()
+                os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:
         try:
