@@ -28,6 +28,7 @@ from .report import (
     REMOVE_SCHEMA,
     clean,
     dumps,
+    identity,
     report_schema,
     write_atomic,
 )
@@ -251,7 +252,7 @@ def _batch_doc(reports: list[dict]) -> dict:
 
 def _report_name(r: dict, names: set[str]) -> str:
     """A file stem for a report, unique within the batch (``bell``, ``bell-2``, ...)."""
-    stem = r["assembly"]["name"] if "assembly" in r else Path(r["source"]).stem
+    stem = identity(r)[0]
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "assembly"
     name, k = stem, 1
     while name in names:

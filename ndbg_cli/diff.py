@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import InputError
+from .report import identity
 
 GOOD_TRUE = ("one_handed_monotone", "prismatic", "linearizable", "stack_product")
 GOOD_FALSE = ("interlocked",)
@@ -113,14 +114,14 @@ def _parse(p: Path) -> list[dict]:
 
 
 def _name(d: dict) -> str:
-    return (d.get("assembly") or {}).get("name") or Path(str(d.get("source", "?"))).stem
+    return identity(d)[0]
 
 
 def _key(d: dict) -> str:
     """Match key: the source file's name (an error record has no assembly name, and the same
     design analysed in two checkouts has different absolute paths)."""
-    src = (d.get("assembly") or {}).get("source") or d.get("source") or ""
-    return Path(str(src)).name or _name(d)
+    name, source = identity(d)
+    return Path(source).name or name
 
 
 def diff_reports(old: dict, new: dict, name: str | None = None) -> list[Change]:

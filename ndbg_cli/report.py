@@ -94,6 +94,14 @@ def dumps(doc: dict) -> str:
     return json.dumps(clean(doc), sort_keys=True, indent=2, ensure_ascii=False) + "\n"
 
 
+def identity(report: dict) -> tuple[str, str]:
+    """``(name, source)`` of a report or error record: the assembly's name and source file,
+    or, for an error record (no assembly), the stem and path of the input it was made for."""
+    a = report.get("assembly") or {}
+    source = str(a.get("source") or report.get("source") or "")
+    return str(a.get("name") or Path(source or "?").stem), source
+
+
 def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -> None:
     """Write ``data`` (text as UTF-8, or bytes) to ``path`` atomically: a temporary file in the
     same folder, renamed over the target, so a reader never sees a half-written file.

@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import InputError
+from .report import identity
 
 INFINITESIMAL = "infinitesimal_translation"
 INFINITE = "infinite_translation"
@@ -69,21 +70,21 @@ class RuleSet:
     assemblies: tuple[tuple[str, tuple[tuple[str, Any], ...]], ...] = ()
     source: str = ""
 
+    @staticmethod
+    def _matches(pattern: str, name: str, source: str) -> bool:
+        """A per-assembly pattern names the assembly, its source path or file name."""
+        return any(fnmatch.fnmatchcase(s, pattern) for s in (name, source, Path(source).name))
+
     def unmatched(self, reports: list[dict]) -> list[str]:
         """Per-assembly patterns that match none of ``reports`` (likely a typo)."""
-        keys = []
-        for r in reports:
-            a = r.get("assembly") or {}
-            src = str(a.get("source") or r.get("source", ""))
-            keys.append((str(a.get("name") or Path(src).stem), src, Path(src).name))
-        return [p for p, _ in self.assemblies
-                if not any(fnmatch.fnmatchcase(k, p) for ks in keys for k in ks)]
+        ids = [identity(r) for r in reports]
+        return [p for p, _ in self.assemblies if not any(self._matches(p, *i) for i in ids)]
 
     def rules_for(self, name: str, source: str) -> dict[str, Any]:
         """The rules that apply to an assembly (later entries override earlier ones)."""
         out = dict(self.rules)
         for pattern, rules in self.assemblies:
-            if any(fnmatch.fnmatchcase(s, pattern) for s in (name, source, Path(source).name)):
+            if self._matches(pattern, name, source):
                 out.update(rules)
         return out
 
@@ -244,8 +245,7 @@ def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
 def evaluate(report: dict, rules: RuleSet) -> list[Outcome]:
     """Check ``rules`` on one report (or error record): one :class:`Outcome` per rule that
     applies, in the rules' order; an error record gives one failed ``analysis`` outcome."""
-    name = (report.get("assembly") or {}).get("name") or Path(report.get("source", "?")).stem
-    source = (report.get("assembly") or {}).get("source") or report.get("source", "")
+    name, source = identity(report)
     if "error" in report:
         err = report["error"]
         return [Outcome(name, source, "analysis", "a report", None, False, False,
