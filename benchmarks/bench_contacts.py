@@ -4,12 +4,14 @@
 and the two-cylinder engine (GLB): load time, python-fcl BVH build time (all parts, cold
 cache), contact analysis time (BVH cached, everything else cold; wall and CPU time of this
 process, the latter less sensitive to other jobs on a shared machine), contact pairs found,
-and the ratio analysis / (load + BVH) (target <= 2; engine analysis target < 2 s).
-Assemblies whose data is missing are skipped. Run it as ``python benchmarks/bench_contacts.py``.
+and the ratio analysis / (load + BVH) (target <= 2; engine analysis target < 2 s). Each time
+is the best of :data:`REPEATS` runs (timings on a shared machine are noisy). Assemblies whose
+data is missing are skipped. Run it as ``python benchmarks/bench_contacts.py [runs]``.
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -22,12 +24,15 @@ CASES = (("as1", DATA / "as1" / "as1-oc-214.stp"),
          ("beam", DATA / "beam" / "assembled"),
          ("engine", DATA / "engine" / "2CylinderEngine.glb"))
 
+#: Runs of each phase; the best is reported.
+REPEATS = 5
 
-def bench_one(name: str, path: Path) -> list[tuple[str, float, str]]:
-    """Rows for one assembly (best of two runs of each phase, cold caches each time)."""
+
+def bench_one(name: str, path: Path, repeats: int = REPEATS) -> list[tuple[str, float, str]]:
+    """Rows for one assembly (best of ``repeats`` runs of each phase, cold caches each time)."""
     loads, bvhs, analyses, cpus = [], [], [], []
     pairs = 0
-    for _ in range(2):
+    for _ in range(repeats):
         clear_caches()
         t0 = time.perf_counter()
         asm = ndbg_cli.load(path)
@@ -52,15 +57,15 @@ def bench_one(name: str, path: Path) -> list[tuple[str, float, str]]:
             (f"{name}.triangles", float(sum(p.check.triangles for p in asm.parts)), "tris")]
 
 
-def run() -> list[tuple[str, float, str]]:
+def run(repeats: int = REPEATS) -> list[tuple[str, float, str]]:
     """All benchmark rows ``(name, value, unit)``."""
     rows: list[tuple[str, float, str]] = []
     for name, path in CASES:
         if path.exists():
-            rows += bench_one(name, path)
+            rows += bench_one(name, path, repeats)
     return rows
 
 
 if __name__ == "__main__":
-    for row_name, value, unit in run():
+    for row_name, value, unit in run(int(sys.argv[1]) if len(sys.argv) > 1 else REPEATS):
         print(f"{row_name:<40} {value:12.4g} {unit}")

@@ -46,50 +46,47 @@ import numpy as np
 import shapely
 from scipy.optimize import nnls
 
-from .facets import PartGeometry, _components, point_triangle_distance, segment_distance
+from .facets import (
+    PartGeometry,
+    _components,
+    box_pairs,
+    max3,
+    min3,
+    point_triangle_distance,
+    segment_distance,
+)
+from .normals import _one_cluster, _unique_rows, cluster_normals
 
 #: Edge/point contacts where more distinct face normals than this meet on one side (messy or
 #: overlapping display meshes) skip the exact normal-cone intersection (see
 #: :func:`edge_point_contacts`).
 MAX_CONE_FACES = 4
 
+#: Largest number of point x triangle box tests :func:`_near_triangles` does with
+#: :func:`box_pairs` (beyond, the part's R-tree answers faster).
+_BOX_PAIRS = 4_000_000
 
-def cluster_normals(normals: np.ndarray, angle_tol: float,
-                    weights: np.ndarray | None = None) -> np.ndarray:
-    """Distinct unit normals ``(k, 3)``: greedy clusters of ``normals`` ``(n, 3)`` whose members
-    lie within ``angle_tol`` (radians) of the cluster's seed, each replaced by its (weighted)
-    mean direction; sorted lexicographically for determinism."""
-    n = np.asarray(normals, dtype=float).reshape(-1, 3)
-    if len(n) == 0:
-        return n
-    w = np.ones(len(n)) if weights is None else np.asarray(weights, dtype=float)
-    # identical normals (the triangles of one flat face) are merged first, weights summed
-    n, inv = np.unique(np.round(n, 9), axis=0, return_inverse=True)
-    w = np.bincount(inv.ravel(), weights=w, minlength=len(n))
-    if len(n) == 1 or (n @ n[0]).min() >= np.cos(angle_tol):
-        m = w @ n
-        return (m / np.linalg.norm(m))[None, :] if np.linalg.norm(m) > 0 else n[:1]
-    free = np.ones(len(n), dtype=bool)
-    out = []
-    cos = np.cos(angle_tol)
-    while free.any():
-        seed = n[np.argmax(free)]
-        member = free & (n @ seed >= cos)
-        m = (n[member] * w[member, None]).sum(axis=0)
-        out.append(m / np.linalg.norm(m) if np.linalg.norm(m) > 0 else seed)
-        free &= ~member
-    out = np.array(out)
-    return out[np.lexsort(np.round(out, 9).T[::-1])]
+#: Rows per batched call of the triangle distance functions (bounds memory to ~50 MB).
+_BATCH = 200_000
 
 
 def classify_pairs(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
-                   tol: float, ang: float) -> tuple[np.ndarray, np.ndarray]:
-    """Boolean masks ``(planar, curved)`` over touching triangle pairs ``(i, j)``."""
+                   tol: float, ang: float,
+                   offsets: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Boolean masks ``(planar, curved)`` over touching triangle pairs ``(i, j)``.
+
+    ``offsets`` ``((p,), (p,))``: how far (unit) B's vertices reach from A's plane and A's
+    from B's, when the caller has measured them already (``ndbg_cli.contacts._plane_filter``,
+    the same arithmetic); otherwise they are computed here."""
     na, nb = ga.normals[i], gb.normals[j]
     c = np.einsum("ij,ij->i", na, nb)
-    ta, tb = ga.triangles[i], gb.triangles[j]
-    sa = np.abs(np.einsum("pvd,pd->pv", tb - ta[:, :1], na)).max(axis=1)
-    sb = np.abs(np.einsum("pvd,pd->pv", ta - tb[:, :1], nb)).max(axis=1)
+    if offsets is None:
+        ta, tb = ga.triangles[i], gb.triangles[j]
+        sa = np.abs(np.einsum("pvd,pd->pv", tb - ta[:, :1], na)).max(axis=1)
+        sb = np.abs(np.einsum("pvd,pd->pv", ta - tb[:, :1], nb)).max(axis=1)
+    else:
+        sa, sb = offsets
     tha, thb = ga.smooth_angle[i], gb.smooth_angle[j]
     coplanar = (c <= -np.cos(ang)) & (sa <= tol) & (sb <= tol)
     both_curved = (tha > 0) & (thb > 0)
@@ -101,7 +98,8 @@ def classify_pairs(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndar
         # facing surfaces, not a rim: the triangles must overlap, seen along their mean
         # normal, by more than the tolerance (a ball's facet above the equator only touches
         # the socket's rim along a line, and must not add its upward-tilted normal)
-        curved[k[facing_overlap(ta[k], tb[k], na[k] - nb[k]) <= tol]] = False
+        curved[k[facing_overlap(ga.triangles[i[k]], gb.triangles[j[k]], na[k] - nb[k])
+                 <= tol]] = False
     return planar, curved
 
 
@@ -115,16 +113,22 @@ def facing_overlap(ta: np.ndarray, tb: np.ndarray, m: np.ndarray) -> np.ndarray:
     u = np.cross(m, helper)
     u /= np.linalg.norm(u, axis=1)[:, None]
     v = np.cross(m, u)
-    pa = np.stack([np.einsum("pvd,pd->pv", ta, u), np.einsum("pvd,pd->pv", ta, v)], axis=2)
-    pb = np.stack([np.einsum("pvd,pd->pv", tb, u), np.einsum("pvd,pd->pv", tb, v)], axis=2)
-    edges = np.concatenate([np.roll(pa, -1, axis=1) - pa, np.roll(pb, -1, axis=1) - pb], axis=1)
-    axes = np.stack([-edges[..., 1], edges[..., 0]], axis=2)
-    axes /= np.maximum(np.linalg.norm(axes, axis=2), 1e-300)[..., None]
-    xa = np.einsum("pkd,pvd->pkv", axes, pa)
-    xb = np.einsum("pkd,pvd->pkv", axes, pb)
-    over = np.minimum(xa.max(axis=2), xb.max(axis=2)) - np.maximum(xa.min(axis=2),
-                                                                   xb.min(axis=2))
-    return over.min(axis=1)
+    # projected vertices (u, v coordinates, each (p, 3)), the six edges (A's, then B's) and
+    # their unit normals in the plane (each (p, 6))
+    au, av = np.einsum("pvd,pd->pv", ta, u), np.einsum("pvd,pd->pv", ta, v)
+    bu, bv = np.einsum("pvd,pd->pv", tb, u), np.einsum("pvd,pd->pv", tb, v)
+    eu = np.concatenate([np.roll(au, -1, axis=1) - au, np.roll(bu, -1, axis=1) - bu], axis=1)
+    ev = np.concatenate([np.roll(av, -1, axis=1) - av, np.roll(bv, -1, axis=1) - bv], axis=1)
+    nx, ny = -ev, eu
+    length = np.maximum(np.sqrt(nx * nx + ny * ny), 1e-300)
+    nx, ny = nx / length, ny / length
+    # projections on the six normals (p, 6, 3): two-term sums, written out (the same numbers
+    # as np.einsum, several times faster at these sizes); minima and maxima over the three
+    # vertices and the six axes column by column (short-axis reductions are slow too)
+    xa = nx[:, :, None] * au[:, None, :] + ny[:, :, None] * av[:, None, :]
+    xb = nx[:, :, None] * bu[:, None, :] + ny[:, :, None] * bv[:, None, :]
+    over = np.minimum(max3(xa), max3(xb)) - np.maximum(min3(xa), min3(xb))
+    return np.minimum.reduce([over[:, k] for k in range(over.shape[1])])
 
 
 def planar_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
@@ -141,13 +145,18 @@ def planar_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.nda
     group = -np.ones(len(i), dtype=np.int64)
     seeds: list[tuple[np.ndarray, float]] = []
     cos = np.cos(ang)
-    for k in range(len(i)):  # loop over planes, each resolved for all pairs at once
-        if group[k] >= 0:
-            continue
+    k = 0
+    while True:  # loop over planes, each resolved for all pairs at once
+        # the next pair not grouped yet (found with numpy: there are many pairs, few planes)
+        rest = np.flatnonzero(group[k:] < 0)
+        if len(rest) == 0:
+            break
+        k += int(rest[0])
         n0, d0 = n_plane[k], d_mid[k]
         member = (group < 0) & (n_plane @ n0 >= cos) & (np.abs(d_mid - d0) <= tol)
         group[member] = len(seeds)
         seeds.append((n0, d0))
+        k += 1
     for g, (n0, d0) in enumerate(seeds):
         sel = group == g
         u, v = _plane_basis(n0)
@@ -217,8 +226,8 @@ def curved_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.nda
         weights = np.concatenate([ga.areas[ta], gb.areas[tb]])
         centroids = np.concatenate([ga.triangles[ta].mean(axis=1), gb.triangles[tb].mean(axis=1)])
         verts = np.concatenate([ga.triangles[ta].reshape(-1, 3), gb.triangles[tb].reshape(-1, 3)])
-        flat_a = len(cluster_normals(ga.normals[ta], ang)) == 1
-        flat_b = len(cluster_normals(gb.normals[tb], ang)) == 1
+        flat_a = _one_cluster(ga.normals[ta], ang)
+        flat_b = _one_cluster(gb.normals[tb], ang)
         if flat_a != flat_b:
             out.append(_flat_on_curved(ga, gb, ta, tb, flat_a, ang, tol))
             continue
@@ -333,11 +342,10 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
     pts, pair = _touch_points(ga, gb, i, j, gap)
     # touch points repeat (each vertex is shared by many pairs): test each distinct one once
     q = max(float(gap.min()) / 4.0, 1e-300)
-    _, first, inv = np.unique(np.round(pts / q), axis=0, return_index=True,
-                              return_inverse=True)
+    first, inv = _unique_rows(np.round(pts / q))
     gmax = np.zeros(len(first))
-    np.maximum.at(gmax, inv.ravel(), gap[pair])
-    keep = ~_near_patches(pts[first], gmax, patches, ga, gb)[inv.ravel()]
+    np.maximum.at(gmax, inv, gap[pair])
+    keep = ~_near_patches(pts[first], gmax, patches, ga, gb)[inv]
     pts, pair = pts[keep], pair[keep]
     live = np.unique(pair)
     if len(live) == 0:
@@ -350,9 +358,12 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
     uj, jj = np.unique(j, return_inverse=True)
     label = _components(len(ui) + len(uj), np.stack([ii, len(ui) + jj], axis=1))[ii]
     lab = label[pair]
-    for comp in np.unique(lab):
-        p = np.unique(pts[lab == comp], axis=0)
-        sel = label == comp
+    # the points and the pairs of each component, grouped once (components in label order)
+    comps, pts_of = _groups(lab)
+    pairs_of = dict(zip(*_groups(label)))
+    point_sets = _distinct_points(pts, pts_of)
+    for comp, p in zip(comps.tolist(), point_sets):
+        sel = pairs_of[comp]
         g = float(gap[sel].max())
         c = p.mean(axis=0)
         if len(p) > 1:
@@ -369,8 +380,9 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
             kind, points = "edge", p
         q = points.mean(axis=0)
         ta, tb = np.unique(i[sel]), np.unique(j[sel])
-        near_a = point_triangle_distance(np.repeat(q[None], len(ta), 0), ga.triangles[ta]) <= g
-        near_b = point_triangle_distance(np.repeat(q[None], len(tb), 0), gb.triangles[tb]) <= g
+        near = point_triangle_distance(np.repeat(q[None], len(ta) + len(tb), 0),
+                                       np.concatenate([ga.triangles[ta], gb.triangles[tb]])) <= g
+        near_a, near_b = near[:len(ta)], near[len(ta):]
         na = cluster_normals(ga.normals[ta[near_a]] if near_a.any() else ga.normals[ta], ang)
         nb = cluster_normals(-(gb.normals[tb[near_b]] if near_b.any() else gb.normals[tb]), ang)
         blocking = "all"
@@ -385,6 +397,25 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
         out.append(dict(kind=kind, normals=normals, points=points, point_normals=pn, area=0.0,
                         blocking=blocking))
     return out
+
+
+def _groups(label: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The distinct values of ``label`` ``(n,)`` (ascending) and, for each, the indices where
+    it occurs (ascending): what ``np.nonzero(label == v)`` gives, from one stable sort."""
+    order = np.argsort(label, kind="stable")
+    values, start = np.unique(label[order], return_index=True)
+    return values, np.split(order, start[1:])
+
+
+def _distinct_points(pts: np.ndarray, groups: list[np.ndarray]) -> list[np.ndarray]:
+    """``np.unique(pts[g], axis=0)`` for each index group ``g``, from one sort of all points.
+    Where a coordinate is -0.0, the representative ``np.unique`` keeps of points equal but
+    for the sign of a zero is not defined by the values, so those go to ``np.unique``."""
+    if np.any(np.signbit(pts) & (pts == 0)):
+        return [np.unique(pts[g], axis=0) for g in groups]
+    first, inv = _unique_rows(pts)
+    rows = pts[first]
+    return [rows[np.unique(inv[g])] for g in groups]
 
 
 def _near_patches(pts: np.ndarray, gap: np.ndarray, patches: list[dict], ga: PartGeometry,
@@ -408,13 +439,19 @@ def _near_patches(pts: np.ndarray, gap: np.ndarray, patches: list[dict], ga: Par
 
 def _near_triangles(pts: np.ndarray, gap: np.ndarray, geo: PartGeometry,
                     ids: np.ndarray) -> np.ndarray:
-    """Mask ``(n,)`` of points within ``gap`` ``(n,)`` of any triangle ``ids`` of ``geo``."""
-    member = np.zeros(len(geo.normals), dtype=bool)
-    member[ids] = True
-    hits, counts = geo.tree.intersection_v(pts - gap[:, None], pts + gap[:, None])
-    k = np.repeat(np.arange(len(pts)), np.asarray(counts, dtype=np.int64))
-    t = np.asarray(hits, dtype=np.int64)
-    k, t = k[member[t]], t[member[t]]
+    """Mask ``(n,)`` of points within ``gap`` ``(n,)`` of any triangle ``ids`` (distinct) of
+    ``geo``: the triangles whose boxes meet each point's box ``+- gap``
+    (:func:`box_pairs`, or the part's R-tree when there are many), then their distances."""
+    if len(pts) * len(ids) <= _BOX_PAIRS:
+        k, t = box_pairs(pts - gap[:, None], pts + gap[:, None], geo.lo[ids], geo.hi[ids])
+        t = ids[t]
+    else:
+        member = np.zeros(len(geo.normals), dtype=bool)
+        member[ids] = True
+        hits, counts = geo.tree.intersection_v(pts - gap[:, None], pts + gap[:, None])
+        k = np.repeat(np.arange(len(pts)), np.asarray(counts, dtype=np.int64))
+        t = np.asarray(hits, dtype=np.int64)
+        k, t = k[member[t]], t[member[t]]
     d = point_triangle_distance(pts[k], geo.triangles[t])
     near = np.zeros(len(pts), dtype=bool)
     near[k[d <= gap[k]]] = True
@@ -426,26 +463,47 @@ def _touch_points(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
     """Points where triangle pairs ``(i, j)`` come within ``gap`` ``(p,)``: vertices near the
     other triangle and midpoints of close edge pairs, with the index of their pair. Each
     distinct (vertex, triangle) combination is measured once (a vertex is shared by about six
-    triangles)."""
+    triangles). Order: A's corners near B's triangles, B's near A's (corner-major), then the
+    nine edge pairs (A's edge ``k``, B's edge ``m``, ``k``-major), each in pair order.
+
+    The distance functions work row by row, so they are called on batches (both sides'
+    corners at once; the nine edge pairs at once, :data:`_BATCH` rows a call): the same
+    numbers with far fewer numpy calls."""
     pair = np.arange(len(i))
     pts, labs = [], []
+    sides = []
     for gx, gy, ix, iy in ((ga, gb, i, j), (gb, ga, j, i)):
         vid = gx.faces[ix].T.ravel()  # corner k of every pair, k = 0, 1, 2
         tri = np.tile(iy, 3)
         key = vid * np.int64(len(gy.faces)) + tri
         _, first, inv = np.unique(key, return_index=True, return_inverse=True)
-        d = point_triangle_distance(gx.vertices[vid[first]], gy.triangles[tri[first]])
-        near = d[inv.ravel()] <= np.tile(gap, 3)
+        sides.append((gx, vid, inv, gx.vertices[vid[first]], gy.triangles[tri[first]]))
+    d = point_triangle_distance(np.concatenate([sides[0][3], sides[1][3]]),
+                                np.concatenate([sides[0][4], sides[1][4]]))
+    for (gx, vid, inv, _, _), ds in zip(sides, np.split(d, [len(sides[0][3])])):
+        near = ds[inv.ravel()] <= np.tile(gap, 3)
         pts.append(gx.vertices[vid[near]])
         labs.append(np.tile(pair, 3)[near])
     ta, tb = ga.triangles[i], gb.triangles[j]
-    for k in range(3):
-        for m in range(3):
-            d, mid = segment_distance(ta[:, k], ta[:, (k + 1) % 3], tb[:, m], tb[:, (m + 1) % 3])
-            near = d <= gap
-            pts.append(mid[near])
-            labs.append(pair[near])
+    k, m = np.repeat(np.arange(3), 3), np.tile(np.arange(3), 3)
+    dist, mid = np.empty((9, len(i))), np.empty((9, len(i), 3))
+    step = max(1, _BATCH // 9)
+    for s in range(0, len(i), step):
+        ca, cb = ta[s:s + step], tb[s:s + step]
+        d, c = segment_distance(_corner_rows(ca, k), _corner_rows(ca, (k + 1) % 3),
+                                _corner_rows(cb, m), _corner_rows(cb, (m + 1) % 3))
+        dist[:, s:s + step] = d.reshape(9, -1)
+        mid[:, s:s + step] = c.reshape(9, -1, 3)
+    near = dist <= gap
+    pts.append(mid[near])
+    labs.append(np.broadcast_to(pair, dist.shape)[near])
     return np.concatenate(pts), np.concatenate(labs)
+
+
+def _corner_rows(t: np.ndarray, corner: np.ndarray) -> np.ndarray:
+    """Corners ``corner`` ``(c,)`` of triangles ``t`` ``(p, 3, 3)`` as rows ``(c * p, 3)``,
+    corner-major."""
+    return t[:, corner].transpose(1, 0, 2).reshape(-1, 3)
 
 
 def _in_cone(gens: np.ndarray, r: np.ndarray, eps: float = 1e-7) -> bool:

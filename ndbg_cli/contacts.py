@@ -26,9 +26,12 @@ Tolerance model (all lengths in the assembly unit):
 Phases (timed in ``stats``, seconds): ``bvh_s`` (python-fcl BVH, R-tree and triangle data
 per part, cached by part hash: :func:`ndbg_cli.facets.fcl_model`,
 :func:`ndbg_cli.facets.part_geometry`), ``broad_s`` (bounding-box pruning, then
-``fcl.collide`` / ``fcl.distance`` per candidate pair), ``narrow_s`` (triangle pairs from the
-parts' R-trees, plane and separating-axis tests, features: :mod:`ndbg_cli.contact_features`),
-``interference_s`` (manifold3d overlap volumes, or the open-mesh fallback).
+``fcl.collide`` and, unless the triangle boxes already prove the parts apart, ``fcl.distance``
+per candidate pair), ``narrow_s`` (triangle pairs whose boxes meet, listed in the parts'
+R-tree order; plane and separating-axis tests; features: :mod:`ndbg_cli.contact_features`),
+``interference_s`` (manifold3d overlap volumes, or the open-mesh fallback). The numpy
+shortcuts taken for speed (dense box tests, batched distance calls, vectorised clustering)
+reproduce the straightforward computation exactly, numbers and order included.
 
 Pairs that interfere get no contacts. Parts wholly inside another (surfaces apart, boxes
 nested) are found by overlap volume when both are closed.
@@ -38,6 +41,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import weakref
 from dataclasses import dataclass, field
 
 import fcl
@@ -45,9 +49,24 @@ import numpy as np
 
 from .assembly import Assembly, content_hash
 from .cache import PairCache
-from .contact_features import classify_pairs, curved_contacts, edge_point_contacts, planar_contacts
+from .contact_features import (
+    classify_pairs,
+    curved_contacts,
+    edge_point_contacts,
+    planar_contacts,
+)
 from .errors import InputError
-from .facets import PartGeometry, fcl_model, fcl_object, manifold_model, part_geometry, sat_gap
+from .facets import (
+    PartGeometry,
+    box_pairs,
+    fcl_model,
+    fcl_object,
+    manifold_model,
+    max3,
+    min3,
+    part_geometry,
+    sat_gap,
+)
 from .interference import Interference, check_interference_policy, interference, meshes_intersect
 
 __all__ = ["Contact", "Interference", "ContactAnalysis", "analyze_contacts", "contacts_section",
@@ -58,6 +77,20 @@ DEFAULT_ANGLE_TOLERANCE = float(np.radians(1.0))
 
 #: Triangle pairs processed per numpy batch (bounds memory to ~100 MB).
 _CHUNK = 200_000
+
+#: Triangle pairs per batch of the 11-axis separating test (its arrays are 11 times bigger;
+#: smaller batches stay in cache).
+_SAT_CHUNK = 16_384
+
+#: Candidate search (:func:`_triangle_candidates`): largest number of query x target triangle
+#: box tests done densely with numpy (about 6 ns each; an R-tree query costs about 0.5 us a
+#: hit); bigger pairs of parts query the R-tree.
+_DENSE_PAIRS = 16_000_000
+
+#: Per part geometry: the R-tree traversal rank of each triangle (:func:`_tree_rank`) and the
+#: box of the triangles (:func:`_tri_box`).
+_TREE_RANK: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_TRI_BOX: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 @dataclass(frozen=True)
@@ -178,11 +211,11 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
             if found is not None:
                 interferences.append(found)
         if found is None:
-            i, j = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
+            i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
             count = len(i)
             tri_pairs += count
             if len(i):
-                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang)
+                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang, offsets)
         if key is not None:
             cache.put("contacts", key, (found, approximate, contacts[before:], count))
     ti = time.perf_counter()
@@ -222,11 +255,15 @@ def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
     ``tol + max sag_a + max sag_b``: their bounding boxes inflated by ``tol + max sag`` overlap
     (numpy), then python-fcl confirms: ``fcl.collide`` (``crossing``: the surfaces meet, touching
     included) or else ``fcl.distance``. Also returns the pairs farther apart whose boxes nest
-    (one part may lie wholly inside the other)."""
+    (one part may lie wholly inside the other).
+
+    Before ``fcl.distance``, :func:`_apart` proves most distant pairs apart from the triangle
+    boxes alone (a lower bound of the distance, so the answer is the same)."""
     n = len(asm)
     if n < 2:
         return [], []
     reach = np.array([tol + (g.sag.max() if len(g.sag) else 0.0) for g in geos])
+    tri_box = [_tri_box(g) if len(g.lo) else None for g in geos]
     b = np.array([p.bounds for p in asm.parts])
     lo, hi = b[:, 0] - reach[:, None], b[:, 1] + reach[:, None]
     overlap = np.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), axis=2)
@@ -237,63 +274,139 @@ def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
         if meshes_intersect(asm.parts[a], asm.parts[c]):
             out.append((a, c, True))
             continue
-        d = fcl.distance(fcl_object(asm.parts[a]), fcl_object(asm.parts[c]),
-                         fcl.DistanceRequest(), fcl.DistanceResult())
-        if d <= reach[a] + reach[c] - tol:
+        allowed = reach[a] + reach[c] - tol
+        if tri_box[a] is not None and tri_box[c] is not None and _apart(
+                geos[a], geos[c], tri_box[c], allowed):
+            near = False
+        else:
+            near = fcl.distance(fcl_object(asm.parts[a]), fcl_object(asm.parts[c]),
+                                fcl.DistanceRequest(), fcl.DistanceResult()) <= allowed
+        if near:
             out.append((a, c, False))
         elif inside[a, c] or inside[c, a]:
             nested.append((a, c))
     return out, nested
 
 
+def _apart(ga: PartGeometry, gb: PartGeometry, box_b: tuple[np.ndarray, np.ndarray],
+           gap: float) -> bool:
+    """Whether the triangle boxes alone prove parts A and B more than ``gap`` apart (``box_b``:
+    the box of B's triangles). Two triangles within ``gap`` have boxes within ``gap`` on every
+    axis, so a close pair needs a triangle of A near B's box and then a triangle of B near the
+    box of those; when either set is empty the distance exceeds ``gap``. Costs two numpy box
+    tests, against about 0.5 ms for ``fcl.distance``."""
+    sa = _near_box(ga, box_b[0] - gap, box_b[1] + gap)
+    if len(sa) == 0:
+        return True
+    lo, hi = ga.lo[sa].min(axis=0), ga.hi[sa].max(axis=0)
+    return len(_near_box(gb, lo - gap, hi + gap)) == 0
+
+
 def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float
                          ) -> tuple[np.ndarray, np.ndarray]:
     """Triangle pairs ``(i, j)`` whose boxes, inflated by the largest possible gap allowance,
     overlap: each part's triangles near the other's box, the fewer of them querying the other
-    part's R-tree."""
+    part's triangles, grouped by query triangle (ascending) and in each group in the order the
+    other part's R-tree reports its hits.
+
+    Up to :data:`_DENSE_PAIRS` query x target triangles, the boxes are compared all at once
+    with numpy (:func:`ndbg_cli.facets.box_pairs`), the targets taken in R-tree
+    order (:func:`_tree_rank`): the same pairs in the same order as the R-tree query, which
+    bigger pairs of parts use."""
     reach = tol + float(ga.sag.max()) + float(gb.sag.max())
-    sa = _near_box(ga, gb.lo.min(axis=0) - reach, gb.hi.max(axis=0) + reach)
-    sb = _near_box(gb, ga.lo.min(axis=0) - reach, ga.hi.max(axis=0) + reach)
+    (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
+    sa = _near_box(ga, lo_b - reach, hi_b + reach)
+    sb = _near_box(gb, lo_a - reach, hi_a + reach)
     if len(sa) == 0 or len(sb) == 0:
         return sa[:0], sb[:0]
-    if len(sa) <= len(sb):
-        ids, counts = gb.tree.intersection_v(ga.lo[sa] - reach, ga.hi[sa] + reach)
-        i = np.repeat(sa, np.asarray(counts, dtype=np.int64))
-        return i.astype(np.int64), np.asarray(ids, dtype=np.int64)
-    ids, counts = ga.tree.intersection_v(gb.lo[sb] - reach, gb.hi[sb] + reach)
-    j = np.repeat(sb, np.asarray(counts, dtype=np.int64))
-    return np.asarray(ids, dtype=np.int64), j.astype(np.int64)
+    swap = len(sa) > len(sb)
+    q, qs, t, ts = (gb, sb, ga, sa) if swap else (ga, sa, gb, sb)
+    if len(qs) * len(ts) <= _DENSE_PAIRS:
+        ts = ts[np.argsort(_tree_rank(t)[ts])]
+        qi, ti = box_pairs(q.lo[qs] - reach, q.hi[qs] + reach, t.lo[ts], t.hi[ts])
+        rows, cols = qs[qi], ts[ti]
+    else:
+        ids, counts = t.tree.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+        rows, cols = np.repeat(qs, np.asarray(counts, dtype=np.int64)), np.asarray(ids)
+    rows, cols = rows.astype(np.int64), cols.astype(np.int64)
+    return (cols, rows) if swap else (rows, cols)
+
+
+def _tri_box(g: PartGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """The box ``(lo, hi)`` of the triangles of ``g`` (once per part geometry)."""
+    box = _TRI_BOX.get(g)
+    if box is None:
+        box = _TRI_BOX[g] = (g.lo.min(axis=0), g.hi.max(axis=0))
+    return box
+
+
+def _tree_rank(g: PartGeometry) -> np.ndarray:
+    """Rank ``(f,)`` of each triangle of ``g`` in the order its R-tree reports query hits.
+
+    The R-tree (libspatialindex) walks its nodes depth first in a fixed order and skips the
+    subtrees a query box misses, so any query lists its hits in the order a query covering
+    everything lists all triangles. Computed once per part geometry (about 0.3 us a triangle);
+    ``tests/test_contacts.py`` checks it against the R-tree's own answers."""
+    rank = _TREE_RANK.get(g)
+    if rank is None:
+        ids, _ = g.tree.intersection_v(np.full((1, 3), -np.inf), np.full((1, 3), np.inf))
+        rank = np.empty(len(g.lo), dtype=np.int64)
+        rank[np.asarray(ids, dtype=np.int64)] = np.arange(len(ids))
+        _TREE_RANK[g] = rank
+    return rank
 
 
 def _near_box(g: PartGeometry, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Indices of the triangles of ``g`` whose boxes meet the box ``[lo, hi]``."""
-    return np.nonzero(np.all((g.lo <= hi) & (g.hi >= lo), axis=1))[0]
+    # one axis at a time: ``np.all(..., axis=1)`` over (f, 3) is several times slower
+    near = (g.lo[:, 0] <= hi[0]) & (g.hi[:, 0] >= lo[0])
+    for d in (1, 2):
+        near &= g.lo[:, d] <= hi[d]
+        near &= g.hi[:, d] >= lo[d]
+    return np.nonzero(near)[0]
 
 
 def _plane_filter(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
-                  tol: float) -> tuple[np.ndarray, np.ndarray]:
+                  tol: float) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """Candidate pairs ``(i, j)`` not separated by more than ``g = tol + sag_i + sag_j`` along
-    either triangle's normal (the two cheapest separating axes)."""
+    either triangle's normal (the two cheapest separating axes). Also returns, for the pairs
+    kept, how far (unit) B's vertices reach from A's plane and A's from B's (the largest
+    absolute signed distance): :func:`ndbg_cli.contact_features.classify_pairs` reuses them.
+
+    A's plane is tested first, and B's only on the pairs that pass it (most candidates fail
+    the first test): the same pairs as testing both everywhere."""
     keep_i, keep_j = [i[:0]], [j[:0]]
+    off_b, off_a = [np.zeros(0)], [np.zeros(0)]
     for s in range(0, len(i), _CHUNK):
         ci, cj = i[s:s + _CHUNK], j[s:s + _CHUNK]
-        ta, tb = ga.triangles[ci], gb.triangles[cj]
-        g = (tol + ga.sag[ci] + gb.sag[cj])[:, None]
-        sb = np.einsum("pvd,pd->pv", tb - ta[:, :1], ga.normals[ci])
-        sa = np.einsum("pvd,pd->pv", ta - tb[:, :1], gb.normals[cj])
-        ok = (np.any(sb <= g, axis=1) & np.any(sb >= -g, axis=1)
-              & np.any(sa <= g, axis=1) & np.any(sa >= -g, axis=1))
+        g = tol + ga.sag[ci] + gb.sag[cj]
+        # B's vertices over A's plane: some at most g above and some at least g below; the
+        # smallest and largest of three are taken column-wise (``np.any(..., axis=1)`` over
+        # (p, 3) is several times slower) and also give the largest absolute offset
+        sb = np.einsum("pvd,pd->pv", gb.triangles[cj] - ga.triangles[ci, 0][:, None],
+                       ga.normals[ci])
+        lo, hi = min3(sb), max3(sb)
+        k = np.nonzero((lo <= g) & (hi >= -g))[0]
+        ci, cj, g, lo, hi = ci[k], cj[k], g[k], lo[k], hi[k]
+        sa = np.einsum("pvd,pd->pv", ga.triangles[ci] - gb.triangles[cj, 0][:, None],
+                       gb.normals[cj])
+        lo_a, hi_a = min3(sa), max3(sa)
+        ok = (lo_a <= g) & (hi_a >= -g)
         keep_i.append(ci[ok])
         keep_j.append(cj[ok])
-    return np.concatenate(keep_i), np.concatenate(keep_j)
+        off_b.append(np.maximum(np.abs(lo[ok]), np.abs(hi[ok])))
+        off_a.append(np.maximum(np.abs(lo_a[ok]), np.abs(hi_a[ok])))
+    return (np.concatenate(keep_i), np.concatenate(keep_j),
+            (np.concatenate(off_b), np.concatenate(off_a)))
 
 
 def _touching(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray, tol: float
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The pairs ``(i, j)`` whose separation along all 11 separating axes is at most
-    ``g = tol + sag_i + sag_j``. Returns ``i, j, g`` of those touching pairs."""
-    keep = [sat_gap(ga.triangles[i[s:s + _CHUNK]], gb.triangles[j[s:s + _CHUNK]])
-            for s in range(0, len(i), _CHUNK)]
+    ``g = tol + sag_i + sag_j`` (:func:`ndbg_cli.facets.sat_gap`). Returns ``i, j, g`` of
+    those touching pairs."""
+    keep = [sat_gap(ga.triangles[i[s:s + _SAT_CHUNK]], gb.triangles[j[s:s + _SAT_CHUNK]])
+            for s in range(0, len(i), _SAT_CHUNK)]
     g = tol + ga.sag[i] + gb.sag[j]
     ok = np.concatenate(keep) <= g if keep else np.zeros(0, dtype=bool)
     return i[ok], j[ok], g[ok]
@@ -317,12 +430,14 @@ def _nested(asm: Assembly, nested: list[tuple[int, int]], tol: float) -> list[In
 
 
 def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.ndarray,
-                   j: np.ndarray, tol: float, ang: float) -> list[Contact]:
+                   j: np.ndarray, tol: float, ang: float,
+                   offsets: tuple[np.ndarray, np.ndarray] | None = None) -> list[Contact]:
     """The contact features between parts ``a`` and ``b`` from their candidate triangle pairs
-    (those passing :func:`_plane_filter`). Facing pairs go to the planar and curved features
-    as they are (their polygons are intersected exactly; for them the plane test is the
-    separation test); the others must also pass the full separating-axis test."""
-    planar, curved = classify_pairs(ga, gb, i, j, tol, ang)
+    (those passing :func:`_plane_filter`, with the plane offsets it measured). Facing pairs go
+    to the planar and curved features as they are (their polygons are intersected exactly; for
+    them the plane test is the separation test); the others must also pass the full
+    separating-axis test."""
+    planar, curved = classify_pairs(ga, gb, i, j, tol, ang, offsets)
     feats, used = planar_contacts(ga, gb, i[planar], j[planar], tol, ang)
     planar_used = np.zeros(len(i), dtype=bool)
     planar_used[np.nonzero(planar)[0][used]] = True

@@ -76,7 +76,9 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     fcl.collide(fcl_object(pa), fcl_object(pb), req, res)
     if not res.contacts:
         return None, True
-    ids = np.array([(c.b1, c.b2) for c in res.contacts], dtype=np.int64)
+    # the triangle ids of each contact, gathered column by column (faster than pairs)
+    ids = np.array([[c.b1 for c in res.contacts], [c.b2 for c in res.contacts]],
+                   dtype=np.int64).T
     ids = np.unique(ids, axis=0)
     depth = float(crossing_depth(ga.triangles[ids[:, 0]], ga.normals[ids[:, 0]],
                                  gb.triangles[ids[:, 1]], gb.normals[ids[:, 1]], tol).max())

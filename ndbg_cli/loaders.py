@@ -290,18 +290,40 @@ def natural_key(name: str) -> tuple:
                  for t in re.split(r"(\d+)", name) if t)
 
 
+#: trimesh names the repeated instances of one glTF node ``NAME_xxxxxx`` with a random hex
+#: suffix (a fresh one at every load).
+_RANDOM_SUFFIX = re.compile(r"^(.*)_[0-9a-f]{6}$")
+
+
 def _scene_instances(scene: trimesh.Scene) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """``(node name, world-frame vertices, faces)`` for every mesh instance, ordered by node
-    name (natural order), which is stable whatever order the file's scene graph has."""
-    out = []
-    for node in sorted(scene.graph.nodes_geometry, key=lambda n: (natural_key(str(n)), str(n))):
+    name (natural order), which is stable whatever order the file's scene graph has.
+
+    Repeated instances of one node come back from trimesh with random name suffixes; those
+    suffixes are dropped (when at least two names share the stem) and the instances ordered by
+    geometry name and placement, so the same file gives the same ids at every load
+    (:func:`unique_ids` then numbers the repeats ``-2``, ``-3``...)."""
+    rows = []
+    for node in scene.graph.nodes_geometry:
         T, geom_name = scene.graph[node]
         geom = scene.geometry.get(geom_name)
         if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
             continue
+        rows.append((str(node), T, str(geom_name), geom))
+    stems = [m.group(1) if (m := _RANDOM_SUFFIX.match(name)) else None for name, *_ in rows]
+    count: dict[str, int] = {}
+    for stem in stems:
+        if stem is not None:
+            count[stem] = count.get(stem, 0) + 1
+    out = []
+    for (name, T, geom_name, geom), stem in zip(rows, stems):
+        if stem is not None and count[stem] > 1:
+            name = stem
         v = np.asarray(geom.vertices, dtype=float) @ T[:3, :3].T + T[:3, 3]
-        out.append((str(node), v, np.asarray(geom.faces)))
-    return out
+        key = (natural_key(name), name, geom_name, tuple(np.round(T[:3, :], 9).ravel()))
+        out.append((key, name, v, np.asarray(geom.faces)))
+    out.sort(key=lambda r: r[0])
+    return [(name, v, f) for _, name, v, f in out]
 
 
 def unique_ids(names: list[str]) -> list[str]:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import fcl
 import jsonschema
 import manifold3d as m3
 import numpy as np
@@ -17,9 +18,12 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 import ndbg_cli
+import ndbg_cli.contacts as contacts_module
 from ndbg_cli.assembly import Assembly
+from ndbg_cli.contact_features import _distinct_points, _unique_rows, classify_pairs
 from ndbg_cli.contacts import (
     DEFAULT_ANGLE_TOLERANCE,
+    _tree_rank,
     analyze_contacts,
     check_interference_policy,
     contacts_section,
@@ -27,6 +31,8 @@ from ndbg_cli.contacts import (
     fcl_model,
 )
 from ndbg_cli.errors import InterferenceError
+from ndbg_cli.facets import box_pairs, fcl_object, part_geometry, sat_gap
+from ndbg_cli.normals import _one_cluster, cluster_normals
 from ndbg_cli.validate import make_part
 
 from conftest import shared
@@ -475,3 +481,193 @@ def test_engine_glb_completes_with_warnings():
     warnings = check_interference_policy(asm, res, "warn")
     assert warnings and all(w.code == "interference" for w in warnings)
     json.dumps(contacts_section(asm, res))
+
+
+# -- the fast paths compute exactly what the straightforward code does ------------------------
+
+def greedy_clusters_reference(normals, angle_tol, weights=None):
+    """cluster_normals as first written: one seed at a time, in lexicographic order."""
+    n = np.asarray(normals, dtype=float).reshape(-1, 3)
+    w = np.ones(len(n)) if weights is None else np.asarray(weights, dtype=float)
+    n, inv = np.unique(np.round(n, 9), axis=0, return_inverse=True)
+    w = np.bincount(inv.ravel(), weights=w, minlength=len(n))
+    if len(n) == 1 or (n @ n[0]).min() >= np.cos(angle_tol):
+        m = w @ n
+        return (m / np.linalg.norm(m))[None, :] if np.linalg.norm(m) > 0 else n[:1]
+    free = np.ones(len(n), dtype=bool)
+    out = []
+    while free.any():
+        seed = n[np.argmax(free)]
+        member = free & (n @ seed >= np.cos(angle_tol))
+        m = (n[member] * w[member, None]).sum(axis=0)
+        out.append(m / np.linalg.norm(m) if np.linalg.norm(m) > 0 else seed)
+        free &= ~member
+    out = np.array(out)
+    return out[np.lexsort(np.round(out, 9).T[::-1])]
+
+
+def normal_sets(rng):
+    """Random normal sets: scattered, jittered around a few directions, both sides of
+    tessellated cylinders, chains at about the angle apart, axis-aligned with -0.0."""
+    for trial in range(600):
+        k = int(rng.integers(1, 120))
+        ang = float(rng.choice([np.radians(1), np.radians(5), 0.3, 1.2]))
+        kind = trial % 5
+        if kind == 0:
+            n = rng.normal(size=(k, 3))
+        elif kind == 1:
+            base = unit_rows(rng.normal(size=(int(rng.integers(1, 6)), 3)))
+            n = base[rng.integers(0, len(base), k)] + rng.normal(size=(k, 3)) * ang
+        elif kind == 2:
+            t = 2 * np.pi * np.arange(int(rng.integers(8, 96))) / 96
+            n = np.stack([np.cos(t), np.sin(t), 0 * t], 1)
+            n = np.concatenate([n, -n + rng.normal(size=n.shape) * 1e-4])
+        elif kind == 3:  # neighbours exactly or almost exactly the angle apart
+            t = np.arange(k) * ang * rng.choice([1.0, 0.5, 1 - 1e-15, 1 + 1e-15])
+            n = np.stack([np.cos(t), np.sin(t), 0 * t], 1)
+            n = n @ np.linalg.qr(rng.normal(size=(3, 3)))[0].T
+        else:
+            n = np.eye(3)[rng.integers(0, 3, k)] * rng.choice([-1.0, 1.0], size=(k, 1))
+            n = n + rng.choice([0.0, 1e-12, -1e-12], size=(k, 3))
+        n = unit_rows(n)
+        w = None if trial % 2 else rng.choice([0.0, 0.5, 2.0], size=len(n))
+        yield n, ang, w
+
+
+def test_cluster_normals_equals_the_greedy_reference():
+    rng = np.random.default_rng(11)
+    for n, ang, w in normal_sets(rng):
+        want = greedy_clusters_reference(n, ang, w)
+        got = cluster_normals(n, ang, w)
+        assert got.shape == want.shape
+        assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
+        assert _one_cluster(n, ang) == (len(want) == 1)
+
+
+def test_unique_rows_equals_numpy_unique():
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        x = np.round(rng.normal(size=(int(rng.integers(1, 300)), 3)), 1)
+        x[rng.random(x.shape) < 0.2] = rng.choice([0.0, -0.0])
+        _, first, inv = np.unique(x, axis=0, return_index=True, return_inverse=True)
+        got_first, got_inv = _unique_rows(x)
+        assert np.array_equal(got_first, first) and np.array_equal(got_inv, inv.ravel())
+        groups = [np.sort(rng.choice(len(x), size=int(rng.integers(1, len(x) + 1)),
+                                     replace=False)) for _ in range(3)]
+        for got, g in zip(_distinct_points(x, groups), groups):
+            want = np.unique(x[g], axis=0)
+            assert np.array_equal(got, want) and np.array_equal(np.signbit(got),
+                                                                np.signbit(want))
+
+
+def test_box_pairs_equals_brute_force():
+    rng = np.random.default_rng(2)
+    for _ in range(30):
+        m, n = int(rng.integers(0, 60)), int(rng.integers(0, 300))
+        qlo = np.round(rng.uniform(0, 10, (m, 3)), 1)  # coarse grid: boxes that just touch
+        qhi = qlo + np.round(rng.uniform(0, 2, (m, 3)), 1)
+        tlo = np.round(rng.uniform(0, 10, (n, 3)), 1)
+        thi = tlo + np.round(rng.uniform(0, 2, (n, 3)), 1)
+        hit = np.all((qlo[:, None] <= thi[None]) & (qhi[:, None] >= tlo[None]), axis=2)
+        want_q, want_t = np.nonzero(hit)
+        got_q, got_t = box_pairs(qlo, qhi, tlo, thi)
+        assert np.array_equal(got_q, want_q) and np.array_equal(got_t, want_t)
+
+
+def shaft_block_geometry():
+    shaft, block = shaft_and_block(9.99)
+    asm = assemble(shaft, block)
+    tol = asm.length_tolerance
+    return asm, tol, [part_geometry(p, tol, DEFAULT_ANGLE_TOLERANCE) for p in asm.parts]
+
+
+def test_r_tree_queries_list_hits_in_tree_rank_order():
+    _, _, geos = shaft_block_geometry()
+    rng = np.random.default_rng(4)
+    for g in geos:
+        rank = _tree_rank(g)
+        assert np.array_equal(np.sort(rank), np.arange(len(g.lo)))
+        k = rng.integers(0, len(g.lo), 200)
+        hits, counts = g.tree.intersection_v(g.lo[k] - 2.0, g.hi[k] + 2.0)
+        hits = np.asarray(hits, dtype=np.int64)
+        owner = np.repeat(np.arange(len(k)), np.asarray(counts, dtype=np.int64))
+        for q in range(len(k)):
+            got = hits[owner == q]
+            assert np.array_equal(got, got[np.argsort(rank[got])])
+
+
+def test_triangle_candidates_equal_the_r_tree_search(monkeypatch):
+    _, tol, (ga, gb) = shaft_block_geometry()
+    dense = contacts_module._triangle_candidates(ga, gb, tol)
+    monkeypatch.setattr(contacts_module, "_DENSE_PAIRS", 0)  # every pair through the R-tree
+    tree = contacts_module._triangle_candidates(ga, gb, tol)
+    assert len(dense[0]) > 500
+    assert all(np.array_equal(d, t) for d, t in zip(dense, tree))
+
+
+def _sat_gap_reference(ta, tb):
+    """The 11-axis separating gap as first written (min/max over the vertex axis)."""
+    ea = np.roll(ta, -1, axis=1) - ta
+    eb = np.roll(tb, -1, axis=1) - tb
+    cr = np.cross(ea[:, :, None, :], eb[:, None, :, :]).reshape(-1, 9, 3)
+    axes = np.concatenate([np.cross(ea[:, 0], ea[:, 1])[:, None],
+                           np.cross(eb[:, 0], eb[:, 1])[:, None], cr], axis=1)
+    norm = np.linalg.norm(axes, axis=2)
+    ok = norm > 1e-9 * np.maximum(norm.max(axis=1, keepdims=True), 1e-300)
+    axes = axes / np.where(ok, norm, 1.0)[..., None]
+    pa = np.einsum("pkd,pvd->pkv", axes, ta)
+    pb = np.einsum("pkd,pvd->pkv", axes, tb)
+    gap = np.maximum(pb.min(axis=2) - pa.max(axis=2), pa.min(axis=2) - pb.max(axis=2))
+    return np.where(ok, gap, -np.inf).max(axis=1)
+
+
+def test_sat_gap_and_plane_offsets_equal_the_reference():
+    _, tol, (ga, gb) = shaft_block_geometry()
+    i, j = contacts_module._triangle_candidates(ga, gb, tol)
+    ta, tb = ga.triangles[i], gb.triangles[j]
+    assert np.array_equal(sat_gap(ta, tb), _sat_gap_reference(ta, tb))
+    rng = np.random.default_rng(8)
+    ra, rb = rng.normal(size=(500, 3, 3)), rng.normal(size=(500, 3, 3))
+    ra[:50, 2] = ra[:50, 1]  # degenerate triangles
+    assert np.array_equal(sat_gap(ra, rb), _sat_gap_reference(ra, rb))
+    fi, fj, offsets = contacts_module._plane_filter(ga, gb, i, j, tol)
+    assert len(fi) > 100
+    with_offsets = classify_pairs(ga, gb, fi, fj, tol, DEFAULT_ANGLE_TOLERANCE, offsets)
+    without = classify_pairs(ga, gb, fi, fj, tol, DEFAULT_ANGLE_TOLERANCE)
+    assert all(np.array_equal(a, b) for a, b in zip(with_offsets, without))
+
+
+def test_apart_is_a_proof_of_distance():
+    rng = np.random.default_rng(6)
+    far = near = 0
+    for _ in range(40):
+        shift = rng.uniform(-3, 3, 3)
+        asm = assemble(box((2, 2, 2), (0, 0, 0)), box((1, 1, 1), shift))
+        tol = asm.length_tolerance
+        ga, gb = (part_geometry(p, tol, DEFAULT_ANGLE_TOLERANCE) for p in asm.parts)
+        gap = 0.3
+        d = fcl.distance(fcl_object(asm.parts[0]), fcl_object(asm.parts[1]),
+                         fcl.DistanceRequest(), fcl.DistanceResult())
+        if contacts_module._apart(ga, gb, (gb.lo.min(axis=0), gb.hi.max(axis=0)), gap):
+            assert d > gap
+            far += 1
+        else:
+            near += d <= gap
+    assert far and near
+
+
+def test_near_triangles_equals_the_r_tree_search(monkeypatch):
+    import ndbg_cli.contact_features as features
+    _, _, (ga, gb) = shaft_block_geometry()
+    rng = np.random.default_rng(9)
+    for g in (ga, gb):
+        ids = np.sort(rng.choice(len(g.lo), size=len(g.lo) // 3, replace=False))
+        pts = g.triangles[rng.integers(0, len(g.lo), 400)].mean(axis=1)
+        pts += rng.normal(size=pts.shape) * 0.5
+        gap = rng.uniform(0.01, 1.0, len(pts))
+        dense = features._near_triangles(pts, gap, g, ids)
+        monkeypatch.setattr(features, "_BOX_PAIRS", 0)  # the R-tree query
+        tree = features._near_triangles(pts, gap, g, ids)
+        monkeypatch.undo()
+        assert 0 < dense.sum() < len(pts)
+        assert np.array_equal(dense, tree)

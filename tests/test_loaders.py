@@ -273,3 +273,47 @@ def test_config_file_sets_defaults_and_flags_win(tmp_path):
     cfg.write_text("tolerence: 1\n")
     r = run_cli("analyze", path, "--config", cfg)
     assert r.returncode == 2 and "unknown setting 'tolerence'" in r.stderr
+
+
+def _gltf_two_primitive_mesh(path):
+    """A glTF whose node "17" holds one mesh of two primitives (unit cubes at x = 0 and x =
+    2): trimesh makes each primitive a child node named "17_<random hex>"."""
+    import base64
+
+    blob, views, accessors, prims = b"", [], [], []
+    for dx in (0.0, 2.0):
+        cube = box((dx, 0, 0), (dx + 1, 1, 1))
+        v = np.asarray(cube.vertices, dtype="<f4")
+        f = np.asarray(cube.faces, dtype="<u4")
+        for arr in (v, f):
+            views.append({"buffer": 0, "byteOffset": len(blob), "byteLength": arr.nbytes})
+            blob += arr.tobytes()
+        accessors.append({"bufferView": len(views) - 2, "componentType": 5126,
+                          "count": len(v), "type": "VEC3",
+                          "min": v.min(axis=0).tolist(), "max": v.max(axis=0).tolist()})
+        accessors.append({"bufferView": len(views) - 1, "componentType": 5125,
+                          "count": f.size, "type": "SCALAR"})
+        prims.append({"attributes": {"POSITION": len(accessors) - 2},
+                      "indices": len(accessors) - 1})
+    doc = {
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"name": "17", "mesh": 0}],
+        "meshes": [{"name": "link", "primitives": prims}],
+        "buffers": [{"byteLength": len(blob), "uri": "data:application/octet-stream;base64,"
+                     + base64.b64encode(blob).decode()}],
+        "bufferViews": views,
+        "accessors": accessors,
+    }
+    path.write_text(json.dumps(doc))
+
+
+def test_multi_primitive_node_gets_the_same_ids_at_every_load(tmp_path):
+    path = tmp_path / "link.gltf"
+    _gltf_two_primitive_mesh(path)
+    loads = [ndbg_cli.load(path) for _ in range(3)]
+    # the node name, the primitives numbered in geometry order, whatever trimesh's suffixes
+    assert [tuple(a.ids) for a in loads] == [("17", "17-2")] * 3
+    xs = [p.bounds[0][0] for p in loads[0].parts]
+    assert xs == pytest.approx([0.0, 2.0])
