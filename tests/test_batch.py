@@ -95,3 +95,37 @@ def test_sigterm_leaves_only_complete_reports(tmp_path):
     for f in written:
         json.loads(f.read_text())  # complete JSON, never truncated
     assert not list(out.glob(".*.tmp"))
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_sigterm_inside_write_atomic_leaves_no_temporary_file(tmp_path, monkeypatch):
+    """The window the batch test hits only by luck: SIGTERM just after the temporary file is
+    created. The report is completed (or not started), the signal still stops the caller."""
+    import tempfile
+
+    from ndbg_cli import report
+
+    real_mkstemp = tempfile.mkstemp
+
+    def mkstemp_then_sigterm(*args, **kwargs):
+        made = real_mkstemp(*args, **kwargs)
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.01)  # a pending Python handler runs at the next bytecode boundary
+        return made
+
+    def stop(signum, frame):
+        raise _Stop()
+
+    previous = signal.signal(signal.SIGTERM, stop)
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp_then_sigterm)
+    try:
+        with pytest.raises(_Stop):
+            report.write_atomic(tmp_path / "r.json", '{"a": 1}\n')
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert signal.getsignal(signal.SIGTERM) is previous
+    assert [p.name for p in tmp_path.iterdir()] == ["r.json"]
+    assert json.loads((tmp_path / "r.json").read_text()) == {"a": 1}
