@@ -33,14 +33,46 @@ not the joint's screw, and the LP constrains the relative twist to the screw's l
 (:class:`ndbg_cli.motion_lp.Thread`). With ``threads_as_cylinders`` the joint is ignored as a
 thread (its screw is still suggested) and the contact is a plain cylinder.
 
+Candidates and exact checks (the report section)
+------------------------------------------------
+The section validates the *candidate partitionings* of the suggested motions' DBGs (every
+split ``{S, rest}`` with ``S`` free in some region and both sides connected in the contact
+graph) and looks for subassemblies that *need a rotation* (single parts and the candidates'
+moving sides). The work is kept near the cost of the NDBG itself:
+
+* the candidates are found by :func:`ndbg_cli.candidates.connected_partitionings`, a
+  search over connected sets per distinct DBG (a motion and its reverse searched once),
+  polynomial per candidate, not by enumerating every free set (a DBG with few arcs has
+  exponentially many) and filtering; the same list comes out. At most ``limit`` are listed
+  and the search has a node budget (``candidates.DEFAULT_CANDIDATE_LIMIT``,
+  ``DEFAULT_SEARCH_BUDGET``); the section says when either cut the list
+  (``candidates_truncated``, with ``candidate_limit``);
+* a candidate is valid as soon as one of its regions' suggested motions, checked on the
+  split's contact rows with the LP's own tolerances, breaks a contact without pushing into
+  any (or is a translation along which every contact slides): the LP would then find a
+  motion too, so it is not solved and that suggested motion is reported
+  (``motion_source: "suggested"``; else ``"lp"`` with the LP's motion);
+* a split that some translation frees needs no rotation: a few translations (axes, suggested
+  translations, frequent normals) are checked on the rows first
+  (:meth:`ndbg_cli.motion_solver.MotionSolver.translation_frees`);
+* the remaining splits get the LP (``MotionSolver``, memoised; a split's reverse reuses its
+  answer), whose stages a locking certificate skips when it proves them empty
+  (:mod:`ndbg_cli.motion_lp`): that is where locked and spinning-only parts end.
+
+Every shortcut decides a split exactly as the LP would (a witness is a feasible LP point; a
+certificate bounds every LP-feasible motion); only the motion shown for a candidate may be a
+different freeing motion than the LP's. The needs-rotation motions always come from the LP.
+The section's ``checks`` counts LPs solved, stages certified and splits witnessed.
+
 API
 ---
 ``rows = twist.contact_rows(asm, contacts)`` once per assembly (contacts from
 ``analyze_contacts(asm).contacts``), then :func:`generalized_ndbg` (the family),
 :func:`block_threads` on the translational NDBGs with :func:`threaded_pairs`, :func:`hybrid`
-(translations + suggested motions), :class:`MotionSolver` / ``motion_lp.free_motion`` per split
-(exact local freedom, with the motion), :func:`generalized_partitionings`,
-:func:`needs_rotation`, :func:`generalized_section` and :func:`generalized_text` (report).
+(translations + suggested motions), ``motion_solver.MotionSolver`` / ``motion_lp.free_motion``
+per split (exact local freedom, with the motion), ``candidates.connected_partitionings``,
+:func:`generalized_partitionings`, :func:`needs_rotation`, :func:`generalized_section` and
+:func:`generalized_text` (report).
 """
 
 from __future__ import annotations
@@ -52,22 +84,20 @@ from typing import Any
 import numpy as np
 
 from .assembly import Assembly
+from .candidates import DEFAULT_CANDIDATE_LIMIT, connected_partitionings
 from .dbg import DBG
-from .motion_lp import Thread, assembly_threads, free_motion_rows, sliding_motion
-from .ndbg import NDBG, ConnectivityTest, Partitioning, Region, partitionings
-from .twist import ANGLE_TOL, ContactRows, Motion, contact_rows, group_blocks, to_scaled, twist
+from .motion_lp import Thread, assembly_threads
+from .motion_solver import MotionSolver
+from .ndbg import NDBG, Partitioning, Region, partitionings
+from .twist import ANGLE_TOL, ContactRows, Motion, contact_rows, group_blocks, same_twist, twist
 
 #: Directions of two axis lines that differ by at most this angle (radians) are parallel.
 AXIS_ANGLE_TOL = 1e-3
 #: Two parallel axis lines are the same when each point is within this many length
 #: tolerances of the other line.
 LINE_FACTOR = 10.0
-#: Two twists are the same motion when their normalised scaled twists differ by at most this.
-TWIST_TOL = 1e-6
 #: Arcs and sources listed per motion in the text output.
 TEXT_ITEMS = 6
-#: Cap on the candidate partitionings checked per call (they are LPs).
-DEFAULT_CANDIDATE_LIMIT = 200
 
 
 def _canon(axis: np.ndarray) -> np.ndarray:
@@ -193,13 +223,6 @@ def block_threads(ndbg: NDBG, pairs: Iterable[tuple[str, str]]) -> NDBG:
     return dataclasses.replace(ndbg, regions=regions, stats=stats)
 
 
-def _same_twist(rows: ContactRows, x1: np.ndarray, x2: np.ndarray) -> bool:
-    """Whether two origin twists are the same motion up to a positive or negative factor."""
-    s1, s2 = to_scaled(rows, x1), to_scaled(rows, x2)
-    s1, s2 = s1 / np.linalg.norm(s1), s2 / np.linalg.norm(s2)
-    return min(np.linalg.norm(s1 - s2), np.linalg.norm(s1 + s2)) <= TWIST_TOL
-
-
 # ----------------------------------------------------------------------------- the family
 def motion_dbg(rows: ContactRows, xi: np.ndarray, thread_list: Sequence[Thread] = ()) -> DBG:
     """DBG of the origin twist ``xi``: arc ``a -> b`` where ``a`` moving by ``xi`` pushes into
@@ -232,7 +255,7 @@ def motion_dbgs(rows: ContactRows, twists: np.ndarray, thread_list: Sequence[Thr
             codes = np.unique(np.r_[rows.a[f] * n + rows.b[f], rows.b[b] * n + rows.a[b]])
             arcs = {(int(c) // n, int(c) % n) for c in codes}
         for t in thread_list:
-            if not _same_twist(rows, X[r], np.asarray(t.twist, float)):
+            if not same_twist(rows, X[r], np.asarray(t.twist, float)):
                 arcs |= {(t.a, t.b), (t.b, t.a)}
         out.append(DBG.from_arcs(n, arcs))
     return out
@@ -279,38 +302,52 @@ def contact_neighbours(rows: ContactRows) -> list[int]:
     return nb
 
 
-class MotionSolver:
-    """Memoised local-freedom LP over one assembly's rows and threads: the same split is
-    asked for by several checks (needs-rotation, candidate validation). ``solver(moved,
-    rest)`` is :func:`~ndbg_cli.motion_lp.free_motion_rows` with ``allow_sliding``."""
+def _region_twists(rows: ContactRows, ndbg: NDBG) -> tuple[np.ndarray, list[int]]:
+    """Scaled twists of the regions carrying a motion, normalised to the LP's box
+    (``max |x_i| = 1``), with their region indices; a twist using a component the rows'
+    LP may not (out of the plane of a 2D assembly) is left out."""
+    ids = [k for k, r in enumerate(ndbg.regions)
+           if r.motion is not None and r.motion.get("twist") is not None]
+    xi = np.array([ndbg.regions[k].motion["twist"] for k in ids], float).reshape(-1, 6)
+    X = np.hstack([xi[:, :3] + np.cross(xi[:, 3:], rows.center), rows.scale * xi[:, 3:]])
+    big = np.abs(X).max(axis=1, initial=0.0)
+    ok = (big > 0) & ~np.any(X[:, ~rows.free_axes] != 0.0, axis=1)
+    return X[ok] / big[ok, None], [k for k, keep in zip(ids, ok) if keep]
 
-    def __init__(self, rows: ContactRows, thread_list: Sequence[Thread] = ()) -> None:
-        self.rows = rows
-        self.threads = list(thread_list)
-        self._memo: dict[tuple[int, int], Motion | None] = {}
 
-    def __call__(self, moved: int, rest: int) -> Motion | None:
-        key = (moved, rest)
-        if key not in self._memo:
-            self._memo[key] = free_motion_rows(self.rows, moved, rest, threads=self.threads,
-                                               allow_sliding=True)
-        return self._memo[key]
-
-    def needs_rotation(self, moved: int, rest: int) -> Motion | None:
-        """The freeing non-translational motion when ``moved`` needs one, else ``None``:
-        some twist breaks a contact (or screws along sliding contacts) while no
-        translation breaks or slides (a pure rotation that only slides turns in place and
-        frees nothing)."""
-        mo = self(moved, rest)
-        if mo is None or mo.type == "translation":
-            return None
-        if mo.broken == 0:
-            return mo if mo.type == "screw" else None
-        # free_motion_rows tried translations first: none breaks; one may still slide
-        if sliding_motion(self.rows, moved, rest, threads=self.threads,
-                          translation_only=True) is not None:
-            return None
-        return mo
+def _validate(asm: Assembly, rows: ContactRows, ndbg_gen: NDBG, mask: int | None, *,
+              connected: bool, limit: int | None, solver: MotionSolver
+              ) -> tuple[list[tuple[Partitioning, Motion, str]], list[Partitioning], bool]:
+    """:func:`generalized_partitionings` with each valid motion's source (``"suggested"`` or
+    ``"lp"``) and whether the candidate list was truncated."""
+    if connected:
+        cands, truncated = connected_partitionings(ndbg_gen, contact_neighbours(rows), mask,
+                                                   limit=limit)
+    else:
+        cands, truncated = partitionings(ndbg_gen, mask, limit=limit)
+    X, region_ids = _region_twists(rows, ndbg_gen)
+    where = {k: i for i, k in enumerate(region_ids)}
+    speeds = solver.speeds(X) if len(X) else None
+    trans = {i for i, k in enumerate(region_ids)
+             if ndbg_gen.regions[k].motion.get("type") == "translation"}
+    if speeds is not None:
+        speeds.prefetch([(p.moved, p.rest) for p in cands])
+    valid, rejected = [], []
+    for p in cands:
+        found = None
+        if speeds is not None:
+            mine = [where[k] for k in p.regions if k in where]
+            order = [i for i in mine if i in trans] + [i for i in mine if i not in trans]
+            found = solver.witness(speeds, p.moved, p.rest, order, sliding=trans)
+        if found is not None:
+            valid.append((p, found[1], "suggested"))
+            continue
+        mo = solver(p.moved, p.rest)
+        if mo is None or (mo.broken == 0 and mo.type == "rotation"):
+            rejected.append(p)
+        else:
+            valid.append((p, mo, "lp"))
+    return valid, rejected, truncated
 
 
 def generalized_partitionings(asm: Assembly, contacts: Sequence[Any] | ContactRows,
@@ -319,27 +356,27 @@ def generalized_partitionings(asm: Assembly, contacts: Sequence[Any] | ContactRo
                               limit: int = DEFAULT_CANDIDATE_LIMIT,
                               solver: MotionSolver | None = None
                               ) -> tuple[list[tuple[Partitioning, Motion]], list[Partitioning]]:
-    """Validate the candidate partitionings of ``ndbg_gen`` inside ``mask`` with the LP.
+    """Validate the candidate partitionings of ``ndbg_gen`` inside ``mask``.
 
-    Returns ``(valid, rejected)``: ``valid`` pairs each candidate with the motion the LP found
-    for ``moved`` against ``rest`` (1-handed monotone verdict for this subassembly: a
-    candidate exists iff ``valid`` is non-empty); ``rejected`` are candidates the exact test
-    refutes. A motion along which every contact slides counts (a pin sliding out of its
-    hole, a screw turning out) unless it is a pure rotation, which keeps the parts in place.
-    With ``connected`` both sides must be connected in the contact graph.
+    Returns ``(valid, rejected)``: ``valid`` pairs each candidate with a motion that frees
+    ``moved`` from ``rest`` (1-handed monotone verdict for this subassembly: a candidate
+    exists iff ``valid`` is non-empty); ``rejected`` are candidates the exact test refutes.
+    A motion along which every contact slides counts (a pin sliding out of its hole, a
+    screw turning out) unless it is a pure rotation, which keeps the parts in place.
+
+    The motion is, when one is, a suggested motion of a region listing the candidate
+    (translations first, then by region) checked on the split's contact rows with the LP's
+    tolerances (:meth:`MotionSolver.witness`): the LP would then find a motion too, so it is
+    not solved. Otherwise the LP decides (:class:`MotionSolver`; it proves locked stages
+    with a certificate before solving). With ``connected`` both sides must be connected in
+    the contact graph and the candidates come from :func:`connected_partitionings`; at most
+    ``limit`` are checked.
     """
     rows = contacts if isinstance(contacts, ContactRows) else contact_rows(asm, contacts)
     solver = solver or MotionSolver(rows, threads(asm, threads_as_cylinders))
-    conn = ConnectivityTest(contact_neighbours(rows)) if connected else None
-    cands, _ = partitionings(ndbg_gen, mask, limit=limit, connected=conn)
-    valid, rejected = [], []
-    for p in cands:
-        mo = solver(p.moved, p.rest)
-        if mo is None or (mo.broken == 0 and mo.type == "rotation"):
-            rejected.append(p)
-        else:
-            valid.append((p, mo))
-    return valid, rejected
+    valid, rejected, _ = _validate(asm, rows, ndbg_gen, mask, connected=connected,
+                                   limit=limit, solver=solver)
+    return [(p, mo) for p, mo, _ in valid], rejected
 
 
 def needs_rotation(asm: Assembly, rows: ContactRows, ndbg_gen: NDBG | None = None, *,
@@ -355,22 +392,18 @@ def needs_rotation(asm: Assembly, rows: ContactRows, ndbg_gen: NDBG | None = Non
     side). Returns ``(moved mask, motion found by the full LP)`` pairs, in order of check.
     """
     full = (1 << len(asm)) - 1
-    solver = solver or MotionSolver(rows, threads(asm, threads_as_cylinders))
+    solver = solver or MotionSolver(rows, threads(asm, threads_as_cylinders),
+                                    directions=translation_axes(ndbg_gen))
     todo = [1 << i for i in range(len(asm))]
     if ndbg_gen is not None:
         cands, _ = partitionings(ndbg_gen, full, limit=limit)
         todo += [p.moved for p in cands]
     todo += list(candidates)
-    seen: set[int] = set()
-    out = []
     base = asm.index(asm.base) if asm.base is not None else None
-    for s in todo:
-        if s == 0 or s == full:
-            continue
-        s = _moved_side(s, full, base)
-        if s in seen:
-            continue
-        seen.add(s)
+    sides = list(dict.fromkeys(_moved_side(s, full, base) for s in todo if s not in (0, full)))
+    solver.translation_speeds().prefetch([(s, full & ~s) for s in sides])
+    out = []
+    for s in sides:
         mo = solver.needs_rotation(s, full & ~s)
         if mo is not None:
             out.append((s, mo))
@@ -388,14 +421,31 @@ def _moved_side(s: int, full: int, base: int | None) -> int:
     return s if not s & 1 else c
 
 
+def translation_axes(ndbg: NDBG | None) -> list[list[float]]:
+    """Directions of the suggested translations of a generalized NDBG (for
+    :meth:`MotionSolver.translation_frees`)."""
+    if ndbg is None:
+        return []
+    return [r.motion["axis"] for r in ndbg.regions
+            if r.motion is not None and r.motion.get("type") == "translation"]
+
+
 # ----------------------------------------------------------------------------- report
 def generalized_section(asm: Assembly, ndbg: NDBG, contacts: Sequence[Any] | ContactRows, *,
                         threads_as_cylinders: bool = False,
                         limit: int = DEFAULT_CANDIDATE_LIMIT) -> dict:
     """The report's ``generalized`` section (schema: ``schemas/fragments/generalized.json``):
     the suggested motions with their DBG arcs (by part id), the threaded pairs, the
-    subassemblies that need a rotation (with the LP's motion), and the LP-validated candidate
-    partitionings of the whole assembly."""
+    subassemblies that need a rotation (with the LP's motion), and the validated candidate
+    partitionings of the whole assembly (:func:`generalized_partitionings`, both sides
+    contact-connected).
+
+    ``candidates`` lists at most ``limit`` partitionings (``candidate_limit``;
+    ``candidates_truncated`` says whether the limit or the search budget cut the list), each
+    with ``motion_source``: ``"suggested"`` when the motion is a suggested one checked on the
+    rows, ``"lp"`` when the LP found it. ``checks`` counts the work: ``lp`` HiGHS solves,
+    ``certified`` LP stages proven empty by a locking certificate, ``witnessed`` splits
+    decided without either. The needs-rotation motions always come from the LP."""
     rows = contacts if isinstance(contacts, ContactRows) else contact_rows(asm, contacts)
     motions = []
     for k, r in enumerate(ndbg.regions):
@@ -404,9 +454,11 @@ def generalized_section(asm: Assembly, ndbg: NDBG, contacts: Sequence[Any] | Con
         motions.append({"region": k, **{key: r.motion.get(key) for key in
                                         ("type", "axis", "point", "pitch", "sense", "source")},
                         "arcs": [[ndbg.ids[i], ndbg.ids[j]] for i, j in r.dbg.arcs()]})
-    solver = MotionSolver(rows, threads(asm, threads_as_cylinders))
-    valid, rejected = generalized_partitionings(asm, rows, ndbg, limit=limit, solver=solver)
-    rot = needs_rotation(asm, rows, candidates=[p.moved for p, _ in valid], solver=solver)
+    solver = MotionSolver(rows, threads(asm, threads_as_cylinders),
+                          directions=translation_axes(ndbg))
+    valid, rejected, truncated = _validate(asm, rows, ndbg, None, connected=True, limit=limit,
+                                           solver=solver)
+    rot = needs_rotation(asm, rows, candidates=[p.moved for p, _, _ in valid], solver=solver)
     return {
         "threads_as_cylinders": threads_as_cylinders,
         "threaded_pairs": sorted([list(p) for p in threaded_pairs(asm, threads_as_cylinders)]),
@@ -415,10 +467,14 @@ def generalized_section(asm: Assembly, ndbg: NDBG, contacts: Sequence[Any] | Con
         "suggested_motions": motions,
         "needs_rotation": [{"parts": ndbg.names(s), "motion": mo.record()} for s, mo in rot],
         "candidates": [{"moved": ndbg.names(p.moved), "rest": ndbg.names(p.rest),
-                        "regions": list(p.regions), "motion": mo.record()}
-                       for p, mo in valid],
+                        "regions": list(p.regions), "motion": mo.record(),
+                        "motion_source": src}
+                       for p, mo, src in valid],
         "rejected_candidates": [{"moved": ndbg.names(p.moved), "rest": ndbg.names(p.rest)}
                                 for p in rejected],
+        "candidate_limit": limit,
+        "candidates_truncated": truncated,
+        "checks": dict(solver.stats),
     }
 
 
@@ -461,6 +517,8 @@ def generalized_text(section: dict) -> list[str]:
                          f"{describe(e['motion'])}")
     else:
         lines.append("  no subassembly needs a rotation")
-    lines.append(f"  LP-validated candidate partitionings: {len(section['candidates'])}"
-                 f" ({len(section['rejected_candidates'])} rejected)")
+    cut = (f"; list limited to {section['candidate_limit']}"
+           if section.get("candidates_truncated") else "")
+    lines.append(f"  validated candidate partitionings: {len(section['candidates'])}"
+                 f" ({len(section['rejected_candidates'])} rejected{cut})")
     return lines

@@ -5,6 +5,30 @@ that respects every contact between them and breaks at least one (paper section 
 rows, the scaled twist and the tolerances (``LP_SLACK``, ``slide_tol``, ``break_tol``) are
 those of :mod:`ndbg_cli.twist`. Threads (declared screw joints) restrict the relative twist
 of their two parts to the screw's line.
+
+Locking certificates
+--------------------
+Most splits of a real product are locked (or can only turn in place), and proving that is
+what costs: the LP has one slack per contact row (thousands on a bolted bracket). Before a
+stage's LP, :func:`free_motion_rows` therefore tries a cheap *sound* certificate that the LP
+cannot return a breaking motion (:func:`_locked`; the general stage's first, since it rules
+out translations too). When it holds, the stage is skipped with exactly the LP's outcome (no
+breaking motion; the sliding fallback runs as before); otherwise the LP is solved. It never
+claims a motion: a split that comes apart fails it and gets the LP.
+
+The certificate (Farkas): let ``H = G B`` be the rows on the stage's orthonormal twist basis
+``B`` (the translations; all free axes; or a thread's screw), ``x = B l``. Split ``H``'s
+right singular vectors into the sliding directions (singular value ``<= slide_tol``, moving
+every row by at most ``delta``) and the others ``V``, ``l = V a + (sliding part)``,
+``P = H V``. For each coordinate target ``q = +-e_i``, non-negative least squares
+(``scipy.optimize.nnls``; column generation from the rows best aligned with ``q``, once more
+over all rows if the bound fails with those weights) finds ``z >= 0`` with ``P.T z = q + r``.
+Every motion the LP may return has ``G x <= CERT_SLACK`` (its slack plus HiGHS's tolerance)
+and ``|x_i| <= 1`` (so ``|a| <= sqrt(6)``), hence ``P a <= CERT_SLACK + delta = eps`` and
+``q . a = z . P a - r . a <= eps sum(z) + |r| sqrt(6) = A_i``: every ``|a_i| <= A_i``. A row
+then separates at most ``sum_i |P_ki| A_i + delta``; below ``break_tol`` for every row, the
+stage cannot break a contact. ``stats`` (optional dict) counts ``lp`` (HiGHS solves) and
+``certified`` (stages skipped).
 """
 
 from __future__ import annotations
@@ -15,7 +39,7 @@ from typing import Any
 
 import numpy as np
 from scipy import sparse
-from scipy.optimize import linprog
+from scipy.optimize import linprog, nnls
 
 from .assembly import Assembly
 from .dbg import bits
@@ -33,6 +57,16 @@ from .twist import (
 
 #: Rounds of the centring LP (see :func:`_centre`).
 CENTRE_ROUNDS = 3
+#: Row violation assumed of an LP solution by the locking certificate (:func:`_locked`):
+#: ``LP_SLACK`` plus HiGHS's primal feasibility tolerance (1e-7; solutions were seen to use
+#: all of it), times 2.5.
+CERT_SLACK = 5 * LP_SLACK
+#: Deviation (per component) assumed of an LP solution from a thread's screw line (HiGHS's
+#: tolerance on the equality constraints, with room to spare).
+CERT_EQ_SLACK = 1e-6
+#: Rows given to the certificate's first NNLS per target (the best aligned with it); rows
+#: are added by column generation when they do not suffice (:func:`_cone_weights`).
+CERT_ROWS = 32
 
 
 @dataclass(frozen=True)
@@ -64,8 +98,8 @@ def split_rows(rows: ContactRows, moved: int, rest: int) -> tuple[np.ndarray, np
 
 def free_motion_rows(rows: ContactRows, moved: int, rest: int, *,
                      threads: Sequence[Thread] = (), translation_only: bool = False,
-                     allow_sliding: bool = False, prefer_translation: bool = True
-                     ) -> Motion | None:
+                     allow_sliding: bool = False, prefer_translation: bool = True,
+                     stats: dict | None = None) -> Motion | None:
     """Is there an infinitesimal rigid motion of ``moved`` relative to ``rest`` (bitmasks)
     that respects every contact between them and breaks at least one? Returns the motion or
     ``None``.
@@ -84,6 +118,10 @@ def free_motion_rows(rows: ContactRows, moved: int, rest: int, *,
     ``allow_sliding``, when no motion breaks a contact, a motion along which every contact
     slides (``broken = 0``, e.g. a pin sliding along its hole) is returned if one exists
     (translations preferred).
+
+    Each stage first tries the locking certificate (module docstring): a stage it proves
+    empty is skipped without an LP (same outcome); the general stage's is tried first, since
+    it rules out translations too. ``stats`` counts ``lp`` and ``certified``.
     """
     G, _ = split_rows(rows, moved, rest)
     crossing = [t for t in threads if ((moved >> t.a) & 1 and (rest >> t.b) & 1)
@@ -93,14 +131,24 @@ def free_motion_rows(rows: ContactRows, moved: int, rest: int, *,
         return classify(away, length_tol=rows.length_tol, scale=rows.scale, center=rows.center)
     # Simplest motion first: a translation when one exists, else a general twist.
     stages = (False,) if translation_only else (False, True) if prefer_translation else (True,)
+    unlocked = False  # the general stage's certificate was tried and failed
+    if len(stages) == 2:  # no breaking twist means no breaking translation either
+        if _locked(rows, G, crossing, True):
+            _count(stats, "certified")
+            stages = ()
+        else:
+            unlocked = True
     for rot in stages:
-        x = _solve(rows, G, crossing, rot)
+        if not (rot and unlocked) and _locked(rows, G, crossing, rot):
+            _count(stats, "certified")
+            continue
+        x = _solve(rows, G, crossing, rot, stats=stats)
         if x is None or len(G) == 0:
             continue
         if float((-(G @ x)).max()) <= rows.break_tol:
             continue
         if rot:  # a translation's direction needs no centring: it is reported as found
-            x = _centre(rows, G, crossing, rot, x)
+            x = _centre(rows, G, crossing, rot, x, stats=stats)
         x = _polish(rows, G, x, rot, crossing)
         sep = -(G @ x)
         margin = float(sep.max())
@@ -144,8 +192,119 @@ def _polish(rows: ContactRows, G: np.ndarray, x: np.ndarray, rotate: bool,
     return x
 
 
+def _count(stats: dict | None, key: str) -> None:
+    if stats is not None:
+        stats[key] = stats.get(key, 0) + 1
+
+
+def _stage_basis(rows: ContactRows, crossing: Sequence[Thread], rotate: bool) -> np.ndarray:
+    """Orthonormal basis ``(6, k)`` of the scaled twists a stage's LP may use: the free
+    translation axes (and rotation axes with ``rotate``); with threads crossing the split,
+    their common screw (``k = 0`` when two differ, or when the stage's bounds pin a component
+    the screw needs: the LP can then only return ``x = 0``)."""
+    free = rows.free_axes & np.array([True] * 3 + [rotate] * 3)
+    if not crossing:
+        return np.eye(6)[:, free]
+    sig = [to_scaled(rows, np.asarray(t.twist, float)) for t in crossing]
+    s0 = sig[0] / np.linalg.norm(sig[0])
+    for s in sig[1:]:
+        s = s / np.linalg.norm(s)
+        if min(np.linalg.norm(s - s0), np.linalg.norm(s + s0)) > 1e-9:
+            return np.zeros((6, 0))
+    if np.any(s0[~free] != 0.0):
+        return np.zeros((6, 0))
+    return s0[:, None]
+
+
+def _nnls(A: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, float]:
+    """``scipy.optimize.nnls`` with its answer checked: ``z`` clipped to ``z >= 0`` and the
+    residual norm ``|A z - q|`` recomputed (SciPy's own can be wrong when ``A`` is rank
+    deficient; the certificate's bound must hold for the ``z`` it uses). ``inf`` when NNLS
+    fails."""
+    try:
+        z, _ = nnls(A, q)
+    except RuntimeError:
+        return np.zeros(A.shape[1]), np.inf
+    z = np.maximum(z, 0.0)
+    return z, float(np.linalg.norm(A @ z - q))
+
+
+def _cone_weights(P: np.ndarray, q: np.ndarray, cos: np.ndarray, whole: bool = False
+                  ) -> tuple[np.ndarray, float]:
+    """``z >= 0`` making ``|P.T z - q|`` small (non-negative least squares) and that
+    residual norm (recomputed from ``z``), by column generation: NNLS on the
+    :data:`CERT_ROWS` rows best aligned with ``q`` (``cos``: each row's cosine with it),
+    then, while some other row ``k`` has ``P_k . (q - P.T z) > 0`` (the optimality
+    condition of the full problem fails), again with the rows that most improve it added.
+    ``whole``: one NNLS over all the rows (another solution when several exist, often with a
+    smaller ``sum(z)``)."""
+    m = len(P)
+    z = np.zeros(m)
+    if m <= CERT_ROWS or whole:
+        return _nnls(P.T, q)
+    sub = np.argpartition(-cos, CERT_ROWS)[:CERT_ROWS]
+    grow = CERT_ROWS // 4
+    for _ in range(32):
+        sub = np.sort(sub)
+        zs, res = _nnls(P[sub].T, q)
+        z[:] = 0.0
+        z[sub] = zs
+        if res <= 1e-12 or not np.isfinite(res):
+            break
+        gain = P @ (q - P.T @ z)
+        gain[sub] = -np.inf
+        best = np.argpartition(-gain, grow)[:grow] if m - len(sub) > grow \
+            else np.flatnonzero(np.isfinite(gain))
+        best = best[gain[best] > 1e-12 * max(res, 1.0)]
+        if not len(best):
+            break  # no other row helps
+        sub = np.concatenate([sub, best])
+    return z, res
+
+
+def _locked(rows: ContactRows, G: np.ndarray, crossing: Sequence[Thread], rotate: bool) -> bool:
+    """Whether no motion the stage's LP may return (``G x <= CERT_SLACK``, ``|x_i| <= 1``,
+    in the stage's basis) separates any row faster than ``break_tol``: a sound certificate
+    (module docstring); ``False`` means "not proven", never "free"."""
+    B = _stage_basis(rows, crossing, rotate)
+    if B.shape[1] == 0 or len(G) == 0:
+        return True  # the LP can only return x = 0; with no rows its answer is not used
+    H = G @ B
+    _, sv, vt = np.linalg.svd(H, full_matrices=False)
+    keep = sv > rows.slide_tol
+    # the sliding directions (and any beyond the rank) move every row by at most this, and
+    # so may a solution's deviation from a thread's line
+    delta = float(sv[~keep].max()) * np.sqrt(6.0) if (~keep).any() else 0.0
+    if crossing:
+        delta += CERT_EQ_SLACK * float(np.abs(G).sum(axis=1).max())
+    P = H @ vt[keep].T
+    d = P.shape[1]
+    eps = CERT_SLACK + delta
+    absp = np.abs(P)
+    unit = P / np.maximum(np.linalg.norm(P, axis=1), 1e-300)[:, None]
+    exact = True
+    for whole in (False, True):
+        if whole and (not exact or len(P) <= CERT_ROWS):
+            return False
+        bound_a = np.zeros(d)
+        for i in range(d):
+            for sgn in (1.0, -1.0):
+                q = np.zeros(d)
+                q[i] = sgn
+                z, res = _cone_weights(P, q, sgn * unit[:, i], whole)
+                if not np.isfinite(res):
+                    return False
+                exact = exact and res <= 1e-12
+                bound_a[i] = max(bound_a[i], eps * float(z.sum()) + res * np.sqrt(6.0))
+            if float((absp[:, :i + 1] @ bound_a[:i + 1]).max()) + delta >= rows.break_tol:
+                break  # the bound fails (with these weights)
+        else:
+            return float((absp @ bound_a).max(initial=0.0)) + delta < rows.break_tol
+    return False
+
+
 def _solve(rows: ContactRows, G: np.ndarray, crossing: Sequence[Thread], rotate: bool,
-           broken: np.ndarray | None = None) -> np.ndarray | None:
+           broken: np.ndarray | None = None, stats: dict | None = None) -> np.ndarray | None:
     """The LPs of :func:`free_motion_rows`; returns the optimal scaled twist ``x`` ``(6,)``.
 
     Without ``broken``: maximise the sum of the capped slacks (finds a breaking motion if one
@@ -178,13 +337,14 @@ def _solve(rows: ContactRows, G: np.ndarray, crossing: Sequence[Thread], rotate:
     free = rows.free_axes & np.array([True] * 3 + [rotate] * 3)
     bounds = ([(-1.0, 1.0) if f else (0.0, 0.0) for f in free] + [(None, None)] * T
               + [(0.0, 1.0)] * k)
+    _count(stats, "lp")
     res = linprog(cost, A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=b_eq, bounds=bounds,
                   method="highs")
     return None if res.status != 0 else np.asarray(res.x[:6])
 
 
 def _centre(rows: ContactRows, G: np.ndarray, crossing: Sequence[Thread], rotate: bool,
-            x: np.ndarray) -> np.ndarray:
+            x: np.ndarray, stats: dict | None = None) -> np.ndarray:
     """Move a breaking motion ``x`` to the middle of the freeing motions: repeatedly maximise
     the smallest separation of the rows it breaks (which may then break more rows) until the
     broken set stops growing (at most :data:`CENTRE_ROUNDS` LPs). A vertex of the first LP
@@ -192,7 +352,7 @@ def _centre(rows: ContactRows, G: np.ndarray, crossing: Sequence[Thread], rotate
     corner of the set of admissible centres); this picks the most robust one."""
     broken = -(G @ x) > rows.break_tol
     for _ in range(CENTRE_ROUNDS):
-        y = _solve(rows, G, crossing, rotate, broken)
+        y = _solve(rows, G, crossing, rotate, broken, stats=stats)
         if y is None:
             break
         more = -(G @ y) > rows.break_tol

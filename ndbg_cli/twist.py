@@ -83,6 +83,8 @@ TRANSLATION_FRACTION = 1e-6
 REVOLUTION_ANGLE = float(np.radians(20.0))
 #: A screw whose advance per turn is at most ``PITCH_FACTOR`` length tolerances is a rotation.
 PITCH_FACTOR = 10.0
+#: Two twists are the same motion when their normalised scaled twists differ by at most this.
+TWIST_TOL = 1e-6
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -365,6 +367,14 @@ def from_scaled(rows: ContactRows, x: np.ndarray) -> np.ndarray:
     return np.concatenate([x[:3] - np.cross(w, rows.center), w])
 
 
+def same_twist(rows: ContactRows, x1: np.ndarray, x2: np.ndarray) -> bool:
+    """Whether two origin twists are the same motion up to a positive or negative factor:
+    their normalised scaled twists differ by at most :data:`TWIST_TOL`."""
+    s1, s2 = to_scaled(rows, x1), to_scaled(rows, x2)
+    s1, s2 = s1 / np.linalg.norm(s1), s2 / np.linalg.norm(s2)
+    return min(np.linalg.norm(s1 - s2), np.linalg.norm(s1 + s2)) <= TWIST_TOL
+
+
 def _velocities(rows: ContactRows, xi: np.ndarray) -> np.ndarray:
     """``(K, 3)`` velocity ``v + w x p`` of every row's point under the origin twist."""
     v, w, p = xi[:3], xi[3:], rows.points
@@ -409,6 +419,14 @@ class Motion:
     pitch: float | None
     broken: int = 0
     margin: float = 0.0
+
+    def reversed(self) -> Motion:
+        """The same motion seen from the other side (the rest moving relative to the moved
+        set): the twist negated, so the axis flips; point, pitch (``w . v`` is unchanged),
+        ``broken`` and ``margin`` stay."""
+        flip = tuple(-x + 0.0 for x in self.twist)
+        return Motion(self.type, flip, tuple(-x + 0.0 for x in self.axis), self.point,
+                      self.pitch, self.broken, self.margin)
 
     def record(self) -> dict:
         """JSON-ready description."""

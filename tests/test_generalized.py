@@ -816,6 +816,13 @@ def test_section_schema_text_and_partitionings(tmp_path):
     assert any("threaded: bolt on block" in t for t in text)
     valid, rejected = ge.generalized_partitionings(asm, rows, g)
     assert len(valid) == 2 and not rejected
+    # both candidates come out by the suggested screw itself (either sense), checked on the
+    # rows; the list is complete; the bolt's needs-rotation screw took the LP
+    assert sec["candidate_limit"] == ge.DEFAULT_CANDIDATE_LIMIT
+    assert sec["candidates_truncated"] is False
+    assert {c["motion_source"] for c in sec["candidates"]} == {"suggested"}
+    assert {c["motion"]["type"] for c in sec["candidates"]} == {"screw"}
+    assert sec["checks"]["lp"] >= 1 and sec["checks"]["witnessed"] >= 2
 
 
 def test_hybrid_concatenates_families(tmp_path):
@@ -923,3 +930,306 @@ def test_planar_fig5(tmp_path):
     left = lp.free_motion(asm, rows, bit(asm, "left"))
     assert left is not None and left.type == "translation" and left.axis[0] < 0
     assert abs(left.axis[2]) < 1e-12
+
+
+# ----------------------------------------------------------------------------- fast paths
+def brute_force_candidates(nd: NDBG, nb: list[int], mask: int) -> dict[int, set[int]]:
+    """Every proper non-empty subset S of ``mask``, free in some region's DBG inside ``mask``
+    and with S and ``mask \\ S`` connected in ``nb``, with the regions where S is free: the
+    definition, by exhaustion."""
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    conn = ConnectivityTest(nb)
+    out: dict[int, set[int]] = {}
+    members = [i for i in range(nd.n) if mask >> i & 1]
+    for k in range(1, 1 << len(members)):
+        s = mask_of(members[j] for j in range(len(members)) if k >> j & 1)
+        if s == mask or not (conn(s) and conn(mask & ~s)):
+            continue
+        regs = {r for r, reg in enumerate(nd.regions) if reg.dbg.is_free(s, mask)}
+        if regs:
+            out[s] = regs
+    return out
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_connected_partitionings_are_the_connected_free_sets(seed):
+    """The search of :func:`ge.connected_partitionings` against exhaustion on random DBGs
+    (some regions the exact reverse of another, as a motion and its opposite are) over a
+    random connected contact graph of 7 parts, for the whole assembly and a subassembly:
+    the same sets, each with the same regions, sorted by (size, mask)."""
+    rng = np.random.default_rng(seed)
+    n = 7
+    nb = [0] * n
+    for i in range(1, n):  # a random tree plus a few chords: connected
+        j = int(rng.integers(i))
+        nb[i] |= 1 << j
+        nb[j] |= 1 << i
+    for _ in range(3):
+        i, j = rng.choice(n, 2, replace=False)
+        nb[i] |= 1 << int(j)
+        nb[j] |= 1 << int(i)
+    touching = [(i, j) for i in range(n) for j in range(n) if nb[i] >> j & 1]
+    regions = []
+    for _ in range(3):
+        dbg = DBG.from_arcs(n, [a for a in touching if rng.random() < 0.35])
+        regions += [Region(-1, None, dbg), Region(-1, None, dbg.reversed())]
+    regions.append(Region(-1, None, DBG.empty(n)))
+    nd = NDBG("generalized", tuple(f"p{i}" for i in range(n)), tuple(regions))
+    for mask in ((1 << n) - 1, 0b1011011):
+        want = brute_force_candidates(nd, nb, mask)
+        got, truncated = ge.connected_partitionings(nd, nb, mask, limit=None)
+        assert not truncated
+        assert {p.moved: set(p.regions) for p in got} == want
+        assert all(p.rest == mask & ~p.moved for p in got)
+        assert [p.moved for p in got] == sorted(want, key=lambda s: (s.bit_count(), s))
+
+
+def test_candidate_limit_and_budget_are_reported(tmp_path):
+    """A row of 6 parts touching in a chain, with the DBG of pushing along the row (arc
+    i -> i+1: part i moving pushes into i+1) and its reverse. The connected splits of a path
+    are its prefixes and suffixes, 2 x 5 moving sets, each free in one of the two regions
+    (a suffix moves forward, a prefix backward). ``limit`` 3 keeps the free single parts
+    (the two ends) first and says the list is cut; a search budget of 1 node cuts too."""
+    n = 6
+    nb = [0] * n
+    for i in range(n - 1):
+        nb[i] |= 1 << (i + 1)
+        nb[i + 1] |= 1 << i
+    fwd = DBG.from_arcs(n, [(i, i + 1) for i in range(n - 1)])
+    nd = NDBG("generalized", tuple(f"b{i}" for i in range(n)),
+              (Region(-1, None, fwd), Region(-1, None, fwd.reversed())))
+    full, _ = ge.connected_partitionings(nd, nb, limit=None)
+    assert len(full) == 2 * (n - 1)
+    cut, truncated = ge.connected_partitionings(nd, nb, limit=3)
+    assert truncated and len(cut) == 3
+    assert {1 << 0, 1 << (n - 1)} <= {p.moved for p in cut}
+    _, truncated = ge.connected_partitionings(nd, nb, limit=None, budget=1)
+    assert truncated
+
+
+def test_section_reports_a_cut_candidate_list(tmp_path):
+    """The declared bolt's section with ``limit=1``: one candidate, ``candidates_truncated``
+    and the text says the list is limited."""
+    asm, hand = bolt(tmp_path, screw=True)
+    rows = tw.contact_rows(asm, hand)
+    g = ge.generalized_ndbg(asm, hand, rows=rows)
+    sec = ge.generalized_section(asm, g, rows, limit=1)
+    assert len(sec["candidates"]) == 1 and sec["candidates_truncated"] is True
+    assert sec["candidate_limit"] == 1
+    assert any("list limited to 1" in t for t in ge.generalized_text(sec))
+    schema = json.loads(resources.files("ndbg_cli").joinpath(
+        "schemas/fragments/generalized.json").read_text())
+    jsonschema.validate(json.loads(json.dumps(sec)), schema)
+
+
+#: A unit cube enclosed by six slabs, one on each face (each slab covers the whole face).
+CAGE = {
+    "cube": ((0, 0, 0), (1, 1, 1)),
+    "x0": ((-1, -1, -1), (0, 2, 2)), "x1": ((1, -1, -1), (2, 2, 2)),
+    "y0": ((0, -1, -1), (1, 0, 2)), "y1": ((0, 1, -1), (1, 2, 2)),
+    "z0": ((0, 0, -1), (1, 1, 0)), "z1": ((0, 0, 1), (1, 1, 2)),
+}
+
+
+def test_locking_certificate_on_hand_cases(tmp_path):
+    """The certificate (motion_lp._locked) on configurations analysed by hand:
+
+    * the caged cube: every translation and every twist pushes into a slab (its face
+      corners' rows span every direction both ways): both stages are locked;
+    * the Fig. 5 plate: no translation frees it (see test_fig5_needs_a_rotation) but the
+      counter-clockwise turn does: the translation stage is locked, the general one is not
+      (the certificate never claims a lock that a motion breaks);
+    * the hinge's pin: radial rows all round both knuckles; it can only slide along x and
+      turn about x, breaking nothing: both stages are locked (and the LP's sliding fallback
+      then returns the slide along x)."""
+    cage = [c for c in box_contacts(CAGE) if "cube" in (c.a, c.b)]
+    asm = write(tmp_path / "cage", "cage", {k: box(*v) for k, v in CAGE.items()})
+    rows = tw.contact_rows(asm, cage)
+    cube = bit(asm, "cube")
+    G, _ = lp.split_rows(rows, cube, rows_full(asm) & ~cube)
+    assert lp._locked(rows, G, [], False) and lp._locked(rows, G, [], True)
+    stats: dict = {}
+    assert lp.free_motion_rows(rows, cube, rows_full(asm) & ~cube, allow_sliding=True,
+                               stats=stats) is None
+    assert stats == {"certified": 1}  # one certificate, no LP
+
+    asm, hand = fig5(tmp_path / "f5")
+    rows = tw.contact_rows(asm, hand)
+    a = bit(asm, "a")
+    G, _ = lp.split_rows(rows, a, rows_full(asm) & ~a)
+    assert lp._locked(rows, G, [], False) and not lp._locked(rows, G, [], True)
+
+    asm, hand = hinge(tmp_path / "h")
+    rows = tw.contact_rows(asm, hand)
+    pin = bit(asm, "pin")
+    G, _ = lp.split_rows(rows, pin, rows_full(asm) & ~pin)
+    assert lp._locked(rows, G, [], False) and lp._locked(rows, G, [], True)
+    m = lp.free_motion_rows(rows, pin, rows_full(asm) & ~pin, allow_sliding=True)
+    assert m is not None and m.type == "translation" and m.broken == 0
+    assert abs(m.axis[0]) == pytest.approx(1.0)
+
+
+def test_locking_certificate_never_hides_a_motion(tmp_path, monkeypatch):
+    """On every split of random polycube assemblies, each stage the certificate calls locked
+    is one where the LP itself (solved anyway) separates no row faster than ``break_tol``;
+    and free_motion_rows gives the same verdict with and without certificates."""
+    locked = 0
+    for seed in range(4):
+        locked += _certificate_vs_lp(tmp_path, seed, monkeypatch)
+    assert locked > 0
+
+
+def _certificate_vs_lp(tmp_path: Path, seed: int, monkeypatch) -> int:
+    parts = polycubes(seed)
+    meshes = {p: boolean("union", *[box(c, np.add(c, 1)) for c in cs]) for p, cs in parts.items()}
+    asm = write(tmp_path / str(seed), f"poly{seed}", meshes)
+    rows = tw.contact_rows(asm, polycube_contacts(parts))
+    full = rows_full(asm)
+    locked = 0
+    for s in range(1, full):
+        G, _ = lp.split_rows(rows, s, full & ~s)
+        if not len(G):
+            continue
+        for rot in (False, True):
+            if lp._locked(rows, G, [], rot):
+                locked += 1
+                x = lp._solve(rows, G, [], rot)
+                assert x is None or float((-(G @ x)).max()) <= rows.break_tol, (s, rot)
+        fast = lp.free_motion_rows(rows, s, full & ~s, allow_sliding=True)
+        with monkeypatch.context() as mp:
+            mp.setattr(lp, "_locked", lambda *a, **k: False)
+            slow = lp.free_motion_rows(rows, s, full & ~s, allow_sliding=True)
+        assert (fast is None) == (slow is None), s
+        if fast is not None:
+            assert (fast.type, fast.broken > 0) == (slow.type, slow.broken > 0), s
+    return locked
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_locking_certificate_fails_when_a_motion_is_built_in(seed):
+    """Rows made to admit a known breaking motion ``u`` (random rows, each flipped so that
+    ``g . u <= 0``, and degenerate row sets: rows confined to a subspace, rows repeated)
+    are never certified locked in a stage that contains ``u``; the same rows completed by
+    their negatives (so every row can neither separate nor push in: ``+-g``) always are,
+    whatever the stage."""
+    rng = np.random.default_rng(seed)
+    rows = math_rows([plane("a", "b", (0, 0, 1), square(0))], ["a", "b"])
+    for trial in range(80):
+        m = int(rng.integers(3, 80))
+        G = rng.normal(size=(m, 6))
+        if trial % 4 == 1:  # rows in a 4D subspace (rank-deficient row sets)
+            G[:, 4:] = G[:, :2] @ rng.normal(size=(2, 2))
+        if trial % 4 == 2:  # repeated rows
+            G = np.repeat(G[: max(1, m // 4)], 4, axis=0)
+        if trial % 4 == 3:  # many rows in a subspace, a few outside (like a bolt's shank
+            G[:, 3:] = 0.0  # and head): the best-aligned rows do not span
+            G = np.vstack([G, np.repeat(rng.normal(size=(2, 6)), 3, axis=0)])
+        rot = bool(trial % 2)
+        u = rng.normal(size=6)
+        if not rot:
+            u[3:] = 0.0
+        u /= np.abs(u).max()
+        sign = np.where(G @ u > 0, -1.0, 1.0)
+        free = G * sign[:, None]
+        if np.all(np.abs(free @ u) <= 1e-3):
+            continue
+        assert not lp._locked(rows, free, [], rot), trial
+        assert lp._locked(rows, np.vstack([free, -free]), [], rot), trial
+
+
+def test_locking_certificate_on_turned_rows(tmp_path):
+    """The plain bolt's rows (it lifts off along +z) and the hinge leaf's (it slides out
+    along +x), in 40 random orthonormal frames of the twist space (``G Q``: the motion
+    ``Q.T u`` breaks the same contacts): never certified locked. The caged cube's rows (no
+    motion at all) in the same frames: always certified."""
+    rng = np.random.default_rng(7)
+    cases = []
+    for build, part in ((lambda f: bolt(f, screw=False), "bolt"), (hinge, "leaf")):
+        asm, hand = build(tmp_path / part)
+        rows = tw.contact_rows(asm, hand)
+        s = bit(asm, part)
+        cases.append((rows, lp.split_rows(rows, s, rows_full(asm) & ~s)[0], False))
+    asm = write(tmp_path / "cage", "cage", {k: box(*v) for k, v in CAGE.items()})
+    rows = tw.contact_rows(asm, [c for c in box_contacts(CAGE) if "cube" in (c.a, c.b)])
+    cube = bit(asm, "cube")
+    cases.append((rows, lp.split_rows(rows, cube, rows_full(asm) & ~cube)[0], True))
+    for rows, G, locked in cases:
+        for _ in range(40):
+            Q, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+            assert lp._locked(rows, G @ Q, [], True) == locked
+
+
+def test_reversed_motion_is_the_other_side_moving(tmp_path):
+    """The Fig. 5 plate turns counter-clockwise (w = +z) about (5, 5) relative to the rest;
+    the rest relative to the plate turns the other way about the same line, which the
+    rest's rows allow (the same contacts, normals reversed); the clockwise turn of the plate
+    itself pushes into the blockers."""
+    asm, hand = fig5(tmp_path)
+    rows = tw.contact_rows(asm, hand)
+    a = bit(asm, "a")
+    rest = rows_full(asm) & ~a
+    m = lp.free_motion_rows(rows, a, rest)
+    r = m.reversed()
+    assert r.type == "rotation" and r.axis == pytest.approx((0, 0, -1))
+    assert r.point == m.point and r.broken == m.broken and r.pitch == m.pitch
+    G_rest, _ = lp.split_rows(rows, rest, a)
+    assert (G_rest @ tw.to_scaled(rows, np.asarray(r.twist))).max() <= 1e-9
+    G_a, _ = lp.split_rows(rows, a, rest)
+    assert (G_a @ tw.to_scaled(rows, np.asarray(r.twist))).max() > 0.01
+
+
+def test_suggested_motion_witnesses_match_the_lp(tmp_path, monkeypatch):
+    """The plain bolt (no thread): the bolt lifts off along +z (head off the block, shank
+    sliding in the hole) and the block comes off it along -z; the section reports both with
+    the suggested translation along the cylinder's axis, checked on the rows (no LP), and
+    nothing needs a rotation. Every candidate verdict equals the plain LP's (certificates
+    and witnesses switched off)."""
+    asm, hand = bolt(tmp_path, screw=False)
+    rows = tw.contact_rows(asm, hand)
+    g = ge.generalized_ndbg(asm, hand, rows=rows)
+    sec = ge.generalized_section(asm, g, rows)
+    got = {tuple(c["moved"]): c for c in sec["candidates"]}
+    assert set(got) == {("bolt",), ("block",)}
+    for moved, z in ((("bolt",), 1.0), (("block",), -1.0)):
+        c = got[moved]
+        assert c["motion_source"] == "suggested" and c["motion"]["type"] == "translation"
+        assert c["motion"]["axis"] == pytest.approx((0, 0, z), abs=1e-9)
+        assert c["motion"]["broken_contacts"] == 4  # the head's four corners
+    assert sec["needs_rotation"] == [] and sec["checks"]["lp"] == 0
+    with monkeypatch.context() as mp:
+        mp.setattr(lp, "_locked", lambda *a, **k: False)
+        solver = ge.MotionSolver(rows, ge.threads(asm))
+        for c in sec["candidates"]:
+            mo = solver(g.mask(c["moved"]), g.mask(c["rest"]))
+            assert mo is not None and not (mo.broken == 0 and mo.type == "rotation")
+
+
+def test_bell_section_matches_the_plain_lp(monkeypatch):
+    """On the shipped bell, every verdict of the fast section (candidates valid or rejected,
+    subassemblies needing a rotation) equals the plain LP's: each candidate split solved by
+    free_motion_rows with the certificates switched off, and needs_rotation redone the same
+    way without witnesses."""
+    asm, rows, cs = shipped("bell")
+    g = ge.generalized_ndbg(asm, cs, rows=rows)
+    sec = ge.generalized_section(asm, g, rows)
+    assert not sec["candidates_truncated"]
+    thr = ge.threads(asm)
+    with monkeypatch.context() as mp:
+        mp.setattr(lp, "_locked", lambda *a, **k: False)
+        for c, ok in [(c, True) for c in sec["candidates"]] + \
+                [(c, False) for c in sec["rejected_candidates"]]:
+            mo = lp.free_motion_rows(rows, g.mask(c["moved"]), g.mask(c["rest"]), threads=thr,
+                                     allow_sliding=True)
+            assert (mo is not None and not (mo.broken == 0 and mo.type == "rotation")) == ok
+        full = rows_full(asm)
+        plain = []
+        for i in range(len(asm)):
+            s = 1 << i
+            mo = lp.free_motion_rows(rows, s, full & ~s, threads=thr, allow_sliding=True)
+            if mo is not None and mo.type != "translation" and (
+                    mo.type == "screw" if mo.broken == 0 else lp.sliding_motion(
+                        rows, s, full & ~s, threads=thr, translation_only=True) is None):
+                plain.append(asm.ids[i])
+    singles = [e["parts"][0] for e in sec["needs_rotation"] if len(e["parts"]) == 1]
+    assert singles == plain
