@@ -87,22 +87,45 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9) -> np.ndarray:
     return out
 
 
-def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48
-                    ) -> tuple[np.ndarray, np.ndarray]:
+def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
+                    shrink: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Clip the chart square of ``face`` by the open cones ``normals`` ``(p, k, 3)``.
+
+    With ``shrink > 0`` every cone facet (not the chart square) is moved inward by ``shrink``
+    chart units: the polygons are eroded, which is what a test "strictly inside some cone"
+    needs.
 
     Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
     ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face). Vectorised
     Sutherland-Hodgman over all cones at once, one half-plane at a time.
     """
     e, u, v = FACES[face]
-    p = normals.shape[0]
     r = 1.0 + SQUARE_MARGIN
     sq = np.array([[-r, -r], [r, -r], [r, r], [-r, r]])
+    coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
+    if shrink > 0.0:
+        coef[:, :, 2] -= shrink * np.hypot(coef[:, :, 0], coef[:, :, 1])
+    # A half-plane that excludes the four corners excludes the square (it is convex): most
+    # cones meet one or two faces, so this spares the clipping of the others.
+    at_corners = coef[:, :, :1] * sq[:, 0] + coef[:, :, 1:2] * sq[:, 1] + coef[:, :, 2:3]
+    miss = np.any(np.all(at_corners < 0.0, axis=2), axis=1)
+    if miss.any():
+        hit = np.nonzero(~miss)[0]
+        sub, cnt = _clip_square(coef[hit], sq, max_vertices)
+        poly = np.zeros((len(normals), sub.shape[1], 2))
+        count = np.zeros(len(normals), dtype=np.int64)
+        poly[hit], count[hit] = sub, cnt
+        return poly, count
+    return _clip_square(coef, sq, max_vertices)
+
+
+def _clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`clip_halfplanes` on chart half-plane coefficients ``coef`` ``(p, k, 3)``."""
+    p = coef.shape[0]
     poly = np.broadcast_to(sq, (p, 4, 2)).copy()
     count = np.full(p, 4, dtype=np.int64)
-    coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
-    for k in range(normals.shape[1]):
+    for k in range(coef.shape[1]):
         c = coef[:, k]
         active = np.any(c != 0.0, axis=1) & (count >= 3)
         if not active.any():

@@ -96,6 +96,7 @@ AXIS_ANGLE_TOL = 1e-3
 #: Two parallel axis lines are the same when each point is within this many length
 #: tolerances of the other line.
 LINE_FACTOR = 10.0
+_SIN_AXIS = float(np.sin(AXIS_ANGLE_TOL))  # largest |a1 x a2| of parallel unit axes
 #: Arcs and sources listed per motion in the text output.
 TEXT_ITEMS = 6
 
@@ -119,9 +120,9 @@ def _cross_norm(a: Sequence[float], b: Sequence[float]) -> float:
 def _same_line(a1: np.ndarray, p1: np.ndarray, a2: np.ndarray, p2: np.ndarray,
                tol: float) -> bool:
     """Whether two axis lines (unit direction, point) coincide within the tolerances."""
-    if _cross_norm(a1, a2) > np.sin(AXIS_ANGLE_TOL):
+    if _cross_norm(a1, a2) > _SIN_AXIS:
         return False
-    d = np.asarray(p2, float) - np.asarray(p1, float)
+    d = [float(y) - float(x) for x, y in zip(p1, p2)]
     return _cross_norm(d, a1) <= tol and _cross_norm(d, a2) <= tol
 
 
@@ -132,26 +133,28 @@ def suggested_motions(asm: Assembly, contacts: Iterable[Any]) -> list[dict]:
     tol = asm.length_tolerance
     line_tol = LINE_FACTOR * tol
     out: list[dict] = []
+    flat: list[tuple[list[float], list[float] | None]] = []  # out's axis, point as floats
 
     def add(kind: str, axis, point, pitch: float, source: str) -> None:
         ax = _canon(np.asarray(axis, float))
         pt = None if point is None else np.asarray(point, float)
         if pt is not None:  # the point of the line closest to the origin
             pt = pt - float(pt @ ax) * ax
-        for m in out:
+        fa, fp = ax.tolist(), None if pt is None else pt.tolist()
+        for m, (ma, mp) in zip(out, flat):
             if m["type"] != kind:
                 continue
             if kind == "translation":
-                same = _cross_norm(m["axis"], ax) <= np.sin(AXIS_ANGLE_TOL)
+                same = _cross_norm(ma, fa) <= _SIN_AXIS
             else:
-                same = (_same_line(m["axis"], m["point"], ax, pt, line_tol)
-                        and abs(m["pitch"] - pitch) <= tol)
+                same = _same_line(ma, mp, fa, fp, line_tol) and abs(m["pitch"] - pitch) <= tol
             if same:
                 if source not in m["sources"]:
                     m["sources"].append(source)
                 return
         out.append({"type": kind, "axis": ax, "point": pt, "pitch": float(pitch),
                     "sources": [source]})
+        flat.append((fa, fp))
 
     for c in contacts:
         if getattr(c, "surface", None) != "cylinder" or getattr(c, "axis", None) is None:
@@ -234,31 +237,76 @@ def motion_dbg(rows: ContactRows, xi: np.ndarray, thread_list: Sequence[Thread] 
 def motion_dbgs(rows: ContactRows, twists: np.ndarray, thread_list: Sequence[Thread] = ()
                 ) -> list[DBG]:
     """:func:`motion_dbg` of every origin twist in ``twists`` ``(R, 6)``, vectorised: the
-    speeds are one product ``[n, p x n] @ twists.T`` ``(K, R)``."""
+    speeds are one product ``[n, p x n] @ twists.T`` ``(K, R)``; the blocking rows are
+    reduced per run of rows of one part pair, then per distinct arc, before any Python
+    loop (which visits only the arcs found)."""
     X = np.asarray(twists, float).reshape(-1, 6)
-    out = []
+    n = rows.n
+    succ = [[0] * n for _ in range(len(X))]
     if len(rows.a):
         P, N = rows.points, rows.normals
-        S = np.hstack([N, np.cross(P, N)]) @ X.T
-        V, W = X[:, :3], X[:, 3:]
-        ux = V[:, 0] + np.outer(P[:, 2], W[:, 1]) - np.outer(P[:, 1], W[:, 2])
-        uy = V[:, 1] + np.outer(P[:, 0], W[:, 2]) - np.outer(P[:, 2], W[:, 0])
-        uz = V[:, 2] + np.outer(P[:, 1], W[:, 0]) - np.outer(P[:, 0], W[:, 1])
-        eps = (rows.length_tol * np.linalg.norm(W, axis=1)[None, :]
-               + ANGLE_TOL * np.sqrt(ux * ux + uy * uy + uz * uz))
-        fwd, bwd = group_blocks(rows, S - eps), group_blocks(rows, -S - eps)
-    n = rows.n
+        # a C-ordered right factor: with the transposed view OpenBLAS may split this small
+        # product over threads, slow on a busy machine (same values either way)
+        S = np.hstack([N, np.cross(P, N)]) @ np.ascontiguousarray(X.T)
+        fwd, bwd = _pushes(P, S, X, rows.length_tol)
+        fwd, bwd = group_blocks(rows, fwd), group_blocks(rows, bwd)
+        a, b = rows.a, rows.b
+        run = np.flatnonzero(np.r_[True, (a[1:] != a[:-1]) | (b[1:] != b[:-1])])
+        blocked = np.vstack([np.logical_or.reduceat(fwd, run, axis=0),
+                             np.logical_or.reduceat(bwd, run, axis=0)])  # (2 runs, R)
+        code = np.r_[a[run] * n + b[run], b[run] * n + a[run]]  # arc i -> j as i n + j
+        arcs, inv = np.unique(code, return_inverse=True)
+        hit = np.zeros((len(arcs), len(X)), dtype=np.int64)
+        np.add.at(hit, inv.ravel(), blocked.astype(np.int64))
+        k, hit_r = np.nonzero(hit)
+        for r, i, j in zip(hit_r.tolist(), (arcs[k] // n).tolist(), (arcs[k] % n).tolist()):
+            if i != j:
+                succ[r][i] |= 1 << j
     for r in range(len(X)):
-        arcs: set[tuple[int, int]] = set()
-        if len(rows.a):
-            f, b = fwd[:, r], bwd[:, r]
-            codes = np.unique(np.r_[rows.a[f] * n + rows.b[f], rows.b[b] * n + rows.a[b]])
-            arcs = {(int(c) // n, int(c) % n) for c in codes}
         for t in thread_list:
             if not same_twist(rows, X[r], np.asarray(t.twist, float)):
-                arcs |= {(t.a, t.b), (t.b, t.a)}
-        out.append(DBG.from_arcs(n, arcs))
-    return out
+                for i, j in ((t.a, t.b), (t.b, t.a)):
+                    if i != j:
+                        succ[r][i] |= 1 << j
+    return [DBG(tuple(s)) for s in succ]
+
+
+def _pushes(P: np.ndarray, S: np.ndarray, X: np.ndarray, length_tol: float,
+            chunk: int = 1 << 15) -> tuple[np.ndarray, np.ndarray]:
+    """Which rows push in under which twists: ``S`` ``(K, R)`` the normal speeds of the
+    rows at ``P`` ``(K, 3)`` under the origin twists ``X`` ``(R, 6)``; returns ``S > eps``
+    (``a`` into ``b``) and ``S < -eps`` (``b`` into ``a``), bool ``(K, R)``, with
+    ``eps = length_tol |w| + ANGLE_TOL |v + w x p|`` (:func:`~ndbg_cli.twist.block_tolerance`).
+    Computed in blocks of about ``chunk`` entries into reused buffers (cache-sized, no
+    fresh pages per operation); each entry's arithmetic is the unblocked one."""
+    K, R = S.shape
+    fwd = np.empty((K, R), dtype=bool)
+    bwd = np.empty((K, R), dtype=bool)
+    V, W = X[:, :3], X[:, 3:]
+    wtol = length_tol * np.linalg.norm(W, axis=1)
+    step = max(1, chunk // max(R, 1))
+    buf = np.empty((4, min(step, K), R))
+    for lo in range(0, K, step):
+        p = P[lo:lo + step]
+        m = len(p)
+        eps, tmp = buf[0, :m], buf[3, :m]
+        for c, (i, j) in enumerate(((1, 2), (2, 0), (0, 1))):  # u_c = v_c + p_j w_i - p_i w_j
+            uc = buf[c, :m]
+            np.multiply.outer(p[:, j], W[:, i], out=uc)
+            uc += V[:, c]
+            np.multiply.outer(p[:, i], W[:, j], out=tmp)
+            uc -= tmp
+            uc *= uc
+            if c:
+                eps += uc
+        np.sqrt(eps, out=eps)
+        eps *= ANGLE_TOL
+        eps += wtol
+        s = S[lo:lo + step]
+        np.greater(s, eps, out=fwd[lo:lo + step])
+        np.negative(eps, out=eps)
+        np.less(s, eps, out=bwd[lo:lo + step])
+    return fwd, bwd
 
 
 def generalized_ndbg(asm: Assembly, contacts: Sequence[Any] | None = None, *,

@@ -16,8 +16,10 @@ interior of a triangle ``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a tr
 each term an open convex polyhedral cone, i.e. a convex spherical polygon, i.e. a convex
 polygon on each face of the gnomonic cube map (:mod:`ndbg_cli.cubemap`). Pairs that cannot
 face each other (``t_j`` wholly behind ``t_i``'s plane or ``t_i`` wholly behind ``t_j``'s) are
-pruned exactly, vectorised; no other pair of parts or triangles is skipped, since distant parts
-block too.
+pruned exactly, vectorised; every pair of parts is processed, since distant parts block too,
+but the triangle pairs whose terms lie strictly inside the terms already kept are skipped
+wholesale by a walk over bounding-box trees (:func:`ndbg_cli.blocking_cones.
+pruned_pair_cones`; same union, same open cones, same contact circles).
 
 Tolerance (``eps = asm.length_tolerance``)
 ------------------------------------------
@@ -47,11 +49,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
-import trimesh
 
 from .assembly import Assembly, content_hash
+from .blocking_cones import (
+    GRID,
+    cones_to_face_geoms,
+    pair_cones,
+    part_triangles,
+    pruned_pair_cones,
+    tri_tree,
+    unique_circles,
+)
 from .cache import PairCache
-from .cubemap import FACES, clip_halfplanes, cone_normals, face_of
+from .cubemap import FACES, face_of
 from .dbg import DBG
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
@@ -59,10 +69,6 @@ from .ndbg import NDBG, Region
 #: Regions thinner than ``ANGULAR_FACTOR * length_tolerance / diagonal`` (chart units, about
 #: radians) are reported as lower-dimensional.
 ANGULAR_FACTOR = 50.0
-#: Snapping grid of the arrangement linework, chart units.
-GRID = 1e-10
-#: Triangle pairs processed per vectorised chunk.
-CHUNK = 20000
 
 
 @dataclass
@@ -159,167 +165,10 @@ def succ_from_matrix(mat: np.ndarray) -> list[tuple[int, ...]]:
             for k in range(m)]
 
 
-# --------------------------------------------------------------------------------------------
-# Geometry of one ordered pair
-# --------------------------------------------------------------------------------------------
-
-def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per part: triangles ``(t, 3, 3)`` and unit outward normals ``(t, 3)``, in the assembly
-    frame (2D parts are extruded to prisms of height ``diagonal``)."""
-    out = []
-    h = max(asm.diagonal, 1e-9)
-    for p in asm.parts:
-        if asm.dimension == 2:
-            mesh = trimesh.creation.extrude_polygon(p.polygon, h)
-            mesh.apply_translation([0.0, 0.0, -h / 2])
-        else:
-            mesh = p.mesh
-        tri = np.asarray(mesh.triangles, dtype=float)
-        nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-        ok = ln[:, 0] > 0
-        out.append((tri[ok], nrm[ok] / ln[ok]))
-    return out
-
-
-def pair_cones(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, eps: float
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Open cones (H-representation, ``(p, k, 3)``) whose union is ``B_ij``, and the normals
-    ``(c, 3)`` of the triangles of near (contact) pairs.
-
-    ``ti`` ``(a, 3, 3)`` / ``ni`` ``(a, 3)`` are the moving part's triangles and normals,
-    ``tj`` / ``nj`` the blocker's. Pairs that cannot face each other are pruned; near pairs
-    use eroded triangles (see the module docstring). The great circles ``d . n = 0`` of the
-    contact normals carry the sliding directions, where lower-dimensional free regions lie.
-    """
-    empty = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
-    if not len(ti) or not len(tj):
-        return empty
-    ci = ti[:, 0]
-    cj = tj[:, 0]
-    # Facing prune: some vertex of t_j in front of t_i's plane, some vertex of t_i in front of
-    # t_j's plane (lenient by 2 eps; an empty cone is harmless).
-    front_j = np.einsum("ak,bvk->abv", ni, tj) - np.einsum("ak,ak->a", ni, ci)[:, None, None]
-    front_i = np.einsum("bk,avk->abv", nj, ti) - np.einsum("bk,bk->b", nj, cj)[None, :, None]
-    ok = (front_j.max(axis=2) > -2 * eps) & (front_i.max(axis=2) > -2 * eps)
-    ia, jb = np.nonzero(ok)
-    if not len(ia):
-        return empty
-    lo_i, hi_i = ti.min(axis=1), ti.max(axis=1)
-    lo_j, hi_j = tj.min(axis=1), tj.max(axis=1)
-    gap = np.maximum(lo_j[jb] - hi_i[ia], lo_i[ia] - hi_j[jb]).max(axis=1)
-    near = gap <= 4 * eps
-    parts = []
-    for sel, is_near in ((np.nonzero(~near)[0], False), (np.nonzero(near)[0], True)):
-        for s in range(0, len(sel), CHUNK):
-            idx = sel[s:s + CHUNK]
-            a, b = ia[idx], jb[idx]
-            gens = (tj[b][:, :, None, :] - ti[a][:, None, :, :]).reshape(len(idx), 9, 3)
-            if is_near:
-                # Both triangles moved inward by 1.5 eps along their normals (erosion).
-                gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
-            m = _compact(cone_normals(gens))
-            facing = np.stack([ni[a], -nj[b]], axis=1)
-            parts.append(np.concatenate([m, facing], axis=1))
-    width = max(p.shape[1] for p in parts)
-    cones = np.concatenate([np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)))
-                            for p in parts], axis=0)
-    circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
-    return cones, circles
-
-
-def unique_circles(normals: np.ndarray) -> np.ndarray:
-    """Deduplicate great circles given by normals ``(c, 3)`` (``n`` and ``-n`` are one)."""
-    if not len(normals):
-        return np.zeros((0, 3))
-    n = normals / np.linalg.norm(normals, axis=1, keepdims=True)
-    first = np.argmax(np.abs(n) > 1e-12, axis=1)
-    sign = np.sign(n[np.arange(len(n)), first])
-    n = n * sign[:, None]
-    _, idx = np.unique(np.round(n, 9), axis=0, return_index=True)
-    return n[np.sort(idx)]
-
-
-def _compact(normals: np.ndarray) -> np.ndarray:
-    """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
-    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
-    order = np.argsort(key, axis=1, kind="stable")
-    key = np.take_along_axis(key, order, axis=1)
-    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
-    dup = np.zeros_like(key, dtype=bool)
-    dup[:, 1:] = key[:, 1:] == key[:, :-1]
-    zero = ~np.any(nm != 0.0, axis=2)
-    drop = dup | zero
-    order = np.argsort(drop, axis=1, kind="stable")
-    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
-    width = max(int((~drop).sum(axis=1).max()) if len(nm) else 0, 1)
-    nm = nm[:, :width]
-    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
-    return np.where(keepmask[:, :, None], nm, 0.0)
-
-
-def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
-    """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
-    empty, else ``(union, tree, index)``: the union (closed polygons in chart coordinates),
-    an STR-tree over the pieces' polygons and the cone index of each tree item."""
-    out: list[tuple | None] = []
-    for face in range(6):
-        if not len(cones):
-            out.append(None)
-            continue
-        poly, cnt = clip_halfplanes(cones, face)
-        keep = cnt >= 3
-        if not keep.any():
-            out.append(None)
-            continue
-        index = np.nonzero(keep)[0]
-        poly, cnt = poly[keep], cnt[keep]
-        k = np.arange(poly.shape[1])[None, :] < cnt[:, None]
-        coords = poly[k]
-        ring = np.repeat(np.arange(len(cnt)), cnt)
-        rings = shapely.linearrings(coords, indices=ring)
-        # The pieces are convex: their hull is the same polygon, and always valid.
-        polys = shapely.convex_hull(shapely.polygons(rings))
-        big = (shapely.area(polys) > GRID * GRID) & (shapely.get_type_id(polys) == 3)
-        polys, index = polys[big], index[big]
-        if not len(polys):
-            out.append(None)
-            continue
-        g = _union(polys)
-        out.append(None if g.is_empty else (g, shapely.STRtree(polys), index))
-    return out
-
-
-def _union(polys: np.ndarray, seed: int = 64) -> object:
-    """Union of many overlapping convex polygons: the largest first, then only those not
-    already covered (exact ``covered_by`` tests against the partial union), repeatedly."""
-    polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
-    acc = _robust_union(polys[:seed])
-    rest = polys[seed:]
-    while len(rest):
-        shapely.prepare(acc)
-        rest = rest[~shapely.covers(acc, rest)]
-        if not len(rest):
-            break
-        take = max(seed, len(rest) // 8)
-        acc = _robust_union(np.concatenate([[acc], rest[:take]]))
-        rest = rest[take:]
-    return acc
-
-
-def _robust_union(polys: np.ndarray) -> object:
-    """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
-    overlay fails (GEOS topology exceptions on nearly coincident edges)."""
-    try:
-        return shapely.union_all(polys)
-    except shapely.errors.GEOSException:
-        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
-
-
 def triangle_pairs(asm: Assembly) -> int:
     """Number of (moving, blocking) triangle pairs the builder examines: the cost driver
-    (about 2-25 microseconds each, plus memory for the cones kept for the exact test). The
-    CLI should refuse or warn above a budget (AS1: 1.1e8 pairs, about 45 minutes)."""
+    (an upper bound since the pruning walk skips most of them). The CLI skips the NDBG with a
+    warning above ``--infinite-budget`` (AS1: 1.1e8 pairs)."""
     t = np.array([p.check.triangles if asm.dimension == 3 else 4 * p.check.vertices
                   for p in asm.parts], dtype=float)
     return int(t.sum() ** 2 - (t ** 2).sum())
@@ -341,6 +190,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
     circles: list[np.ndarray] = []
     # content hashes of the triangles actually used (validated, placed, 2D extruded)
     gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
+    trees_of: list = [None] * n  # pruning trees, built on first use
     for i in range(n):
         for j in range(n):
             if i == j:
@@ -349,14 +199,19 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
             key = got = None
             if cache is not None:
                 # 2D parts are extruded to the assembly's diagonal: that enters the result.
-                key = cache.key("infinite", gkeys[i], gkeys[j], eps, asm.dimension,
+                key = cache.key("infinite", "pruned-1", gkeys[i], gkeys[j], eps, asm.dimension,
                                 asm.diagonal if asm.dimension == 2 else None)
                 got = cache.get("infinite", key, _thaw)
             if got is not None:
                 cones, circ, entries = got
                 tb = time.perf_counter()
             else:
-                cones, circ = pair_cones(tris[i][0], tris[i][1], tris[j][0], tris[j][1], eps)
+                if trees_of[i] is None:
+                    trees_of[i] = tri_tree(tris[i][0])
+                if trees_of[j] is None:
+                    trees_of[j] = tri_tree(tris[j][0])
+                cones, circ = pruned_pair_cones(tris[i][0], tris[i][1], trees_of[i],
+                                                tris[j][0], tris[j][1], trees_of[j], eps)
                 tb = time.perf_counter()
                 entries = cones_to_face_geoms(cones)
                 if key is not None:

@@ -91,9 +91,7 @@ def split_rows(rows: ContactRows, moved: int, rest: int) -> tuple[np.ndarray, np
     bwd = inr[rows.a] & inm[rows.b]
     idx = np.flatnonzero(fwd | bwd)
     sign = np.where(fwd[idx], 1.0, -1.0)
-    n = rows.normals[idx]
-    mom = np.cross(rows.points[idx] - rows.center, n) / rows.scale
-    return np.hstack([n, mom]) * sign[:, None], idx
+    return rows.scaled[idx] * sign[:, None], idx
 
 
 def free_motion_rows(rows: ContactRows, moved: int, rest: int, *,

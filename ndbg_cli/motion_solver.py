@@ -48,7 +48,7 @@ class PairSpeeds:
         self.solver = solver
         rows = solver.rows
         self.X = np.asarray(X, float).reshape(-1, 6)
-        S = solver.scaled_rows @ self.X.T
+        S = solver.scaled_rows @ np.ascontiguousarray(self.X.T)  # see generalized.motion_dbgs
         starts = solver.pair_starts
         r = len(self.X)
         self._motions: dict[int, Motion] = {}
@@ -151,9 +151,7 @@ class MotionSolver:
                 else np.zeros(0, dtype=np.int64)
             self.pair_a = r.a[order][self.pair_starts]
             self.pair_b = r.b[order][self.pair_starts]
-            nrm = r.normals[order]
-            mom = np.cross(r.points[order] - r.center, nrm) / r.scale
-            self._scaled = np.hstack([nrm, mom]).reshape(-1, 6)
+            self._scaled = r.scaled[order]
         return self._scaled
 
     def crossing_pairs(self, moved: int, rest: int) -> tuple[np.ndarray, np.ndarray]:

@@ -41,23 +41,12 @@ class SweepChecker:
     def __init__(self, asm: Assembly):
         self.asm = asm
         self.eps = asm.length_tolerance
-        self.tris: list[np.ndarray] = []
-        self.normals: list[np.ndarray] = []
-        h = max(asm.diagonal, 1e-9)
-        for p in asm.parts:
-            if asm.dimension == 2:
-                import trimesh
+        # the same triangles as the builder (2D parts extruded); the test itself is separate
+        from .blocking_cones import part_triangles
 
-                mesh = trimesh.creation.extrude_polygon(p.polygon, h)
-                mesh.apply_translation([0.0, 0.0, -h / 2])
-            else:
-                mesh = p.mesh
-            t = np.asarray(mesh.triangles, dtype=float)
-            n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-            ln = np.linalg.norm(n, axis=1)
-            ok = ln > 0
-            self.tris.append(t[ok])
-            self.normals.append(n[ok] / ln[ok, None])
+        tn = part_triangles(asm)
+        self.tris: list[np.ndarray] = [t for t, _ in tn]
+        self.normals: list[np.ndarray] = [n for _, n in tn]
 
     def blocked(self, i: int, j: int, d: np.ndarray) -> bool:
         """Whether part ``j`` blocks the infinite translation of part ``i`` along ``d``."""

@@ -59,6 +59,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 from typing import Any
 
 import numpy as np
@@ -115,6 +116,13 @@ class ContactRows:
     group: np.ndarray
     planar: bool = False
 
+    @cached_property
+    def scaled(self) -> np.ndarray:
+        """``(K, 6)`` rows ``(n, (p - c) x n / L)`` in the LP's scaled units, part ``a[k]``
+        moving (built once; the LP of a split takes its rows from here)."""
+        mom = np.cross(self.points - self.center, self.normals) / self.scale
+        return np.hstack([self.normals, mom]).reshape(-1, 6)
+
     @property
     def free_axes(self) -> np.ndarray:
         """``(6,)`` bool: the scaled twist components that may move (2D assemblies, embedded
@@ -139,6 +147,57 @@ def _part_index(asm: Assembly, ref: Any) -> int:
     return asm.index(str(ref))
 
 
+#: Multiplier of the normal hash in :func:`_reduce_keep` (a prime above 2 ** 31).
+_HASH = 2_147_483_659
+
+
+def _raw_rows(c: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The first step of :func:`contact_points`: points ``(m, 3)``, point normals ``(m, 3)``
+    and the contact's normals ``(g, 3)`` (2D embedded at z = 0), and whether the point
+    normals are final (one unit planar normal per point); else they are still to be made
+    unit and signed (:func:`_unit_rows`, :func:`_signed`)."""
+    pts = _pad3(np.asarray(c.points, dtype=float)).reshape(-1, 3)
+    if getattr(c, "kind", None) == "planar" and np.size(c.normals) in (2, 3):  # one normal
+        n0 = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)[0]
+        return pts, np.repeat(_unit(n0)[None, :], len(pts), axis=0), np.zeros((0, 3)), True
+    pn = getattr(c, "point_normals", None)
+    gens = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)
+    if pn is None and len(gens) == len(pts) and not hasattr(c, "kind"):
+        pn = gens  # 2D contacts: one normal per point
+    pn = None if pn is None else _pad3(np.asarray(pn, dtype=float)).reshape(-1, 3)
+    if pn is None or len(pn) != len(pts):
+        pn = np.repeat(gens[:1], len(pts), axis=0)
+    return pts, pn, gens, False
+
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    """Each row of ``v`` ``(m, 3)`` divided by its norm (zero rows stay zero)."""
+    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+
+
+def _signed(pn: np.ndarray, gens: np.ndarray) -> np.ndarray:
+    """Unit point normals ``pn`` ``(m, 3)``, negated as a whole when they agree better
+    with ``-gens`` than with the contact's normals ``gens`` ``(g, 3)``."""
+    if len(gens) and len(pn):
+        dots = pn @ gens.T  # (m, g); -pn @ gens.T is exactly -dots
+        if (-dots.min(axis=1)).sum() > dots.max(axis=1).sum():
+            return -pn
+    return pn
+
+
+def _lines(c: Any, joint_axes: Sequence[tuple[np.ndarray, np.ndarray]]
+           ) -> list[tuple[np.ndarray, np.ndarray, bool]]:
+    """The axis lines ``(unit axis, point, check)`` a contact's points may be turned about
+    (:func:`contact_points`): its own cylinder axis (not checked), else, for a curved
+    contact, the ``joint_axes`` (checked for a surface of revolution)."""
+    axis, center = getattr(c, "axis", None), getattr(c, "center", None)
+    if getattr(c, "surface", None) == "cylinder" and axis is not None and center is not None:
+        return [(_unit(np.asarray(axis, dtype=float)), np.asarray(center, dtype=float), False)]
+    if getattr(c, "kind", None) == "curved":
+        return [(np.asarray(ax, float), np.asarray(q, float), True) for ax, q in joint_axes]
+    return []
+
+
 def contact_points(c: Any, length_tol: float,
                    joint_axes: Sequence[tuple[np.ndarray, np.ndarray]] = ()
                    ) -> tuple[np.ndarray, np.ndarray]:
@@ -153,59 +212,84 @@ def contact_points(c: Any, length_tol: float,
     at its own radius and height, onto the line where that normal is exactly radial: the
     rows then let the part turn about the axis exactly; of the points sharing a normal only
     the lowest and highest along the axis are kept (exact, see :func:`reduce_points`).
+    (:func:`contact_rows` does the same for all contacts at once.)
     """
-    pts = _pad3(np.asarray(c.points, dtype=float)).reshape(-1, 3)
-    if getattr(c, "kind", None) == "planar" and np.size(c.normals) in (2, 3):  # one normal
-        n0 = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)[0]
-        return pts, np.repeat(_unit(n0)[None, :], len(pts), axis=0)
-    pn = getattr(c, "point_normals", None)
-    gens = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)
-    if pn is None and len(gens) == len(pts) and not hasattr(c, "kind"):
-        pn = gens  # 2D contacts: one normal per point
-    pn = None if pn is None else _pad3(np.asarray(pn, dtype=float)).reshape(-1, 3)
-    if pn is None or len(pn) != len(pts):
-        pn = np.repeat(gens[:1], len(pts), axis=0)
-    pn = pn / np.maximum(np.linalg.norm(pn, axis=1, keepdims=True), 1e-300)
-    if len(gens) and len(pn):
-        agree = (pn @ gens.T).max(axis=1).sum()
-        if (-pn @ gens.T).max(axis=1).sum() > agree:
-            pn = -pn
-    axis, center = getattr(c, "axis", None), getattr(c, "center", None)
-    lines: list[tuple[np.ndarray, np.ndarray, bool]] = []  # (axis, point, check first)
-    if getattr(c, "surface", None) == "cylinder" and axis is not None and center is not None:
-        lines.append((_unit(np.asarray(axis, dtype=float)), np.asarray(center, dtype=float),
-                      False))
-    elif getattr(c, "kind", None) == "curved":
-        lines.extend((np.asarray(ax, float), np.asarray(q, float), True) for ax, q in joint_axes)
-    for ax, q, check in lines:
-        rel = pts - q
-        h = rel @ ax
-        radial = rel - np.outer(h, ax)
-        r = np.linalg.norm(radial, axis=1)
-        across = pn - np.outer(pn @ ax, ax)
-        na = np.linalg.norm(across, axis=1)
-        if np.any(r <= length_tol) or np.any(na <= 1e-9):
-            continue
+    pts, pn, gens, final = _raw_rows(c)
+    if final:
+        return pts, pn
+    pn = _signed(_unit_rows(pn), gens)
+    if len(pts) == 0:
+        return pts, pn
+    start = np.zeros(1, dtype=np.int64)
+    for ax, q, check in _lines(c, joint_axes):
+        moved, across, ok, keep = _turn(pts, pn, ax[None, :], q[None, :], start, check,
+                                        length_tol)
+        if ok[0]:
+            return moved[keep], across[keep]
+    return pts, pn
+
+
+def _turn(pts: np.ndarray, pn: np.ndarray, axes: np.ndarray, centres: np.ndarray,
+          starts: np.ndarray, check: bool, length_tol: float
+          ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`contact_points`' turn about an axis line for ``E`` contacts at once: ``pts``,
+    ``pn`` ``(M, 3)`` their points and unit normals, contact ``e``'s rows from ``starts[e]``
+    (``(E,)``, increasing, none empty); ``axes`` (unit) and ``centres`` ``(E, 3)`` their
+    lines. Returns the turned points and radial unit normals ``(M, 3)``, ``ok`` ``(E,)``
+    (turned: radii above ``length_tol``, normals off the axis by more than 1e-9, with
+    ``check`` within :data:`REVOLUTION_ANGLE` of radial) and ``keep`` ``(M,)`` (a turned
+    contact's lowest and highest point per normal, angle rounded to 1e-6 rad; every row of
+    the others). Products with a contact's own vectors are taken per contact, as for one
+    contact (the same rows bit for bit)."""
+    counts = np.diff(np.r_[starts, len(pts)])
+    seg = np.repeat(np.arange(len(starts)), counts)
+    bounds = list(zip(starts.tolist(), (starts + counts).tolist()))
+    ax_rows = axes[seg]
+    rel = pts - centres[seg]
+    h = np.concatenate([rel[s:e] @ ax for (s, e), ax in zip(bounds, axes)])
+    ph = np.concatenate([pn[s:e] @ ax for (s, e), ax in zip(bounds, axes)])
+    radial = rel - h[:, None] * ax_rows
+    r = np.linalg.norm(radial, axis=1)
+    across = pn - ph[:, None] * ax_rows
+    na = np.linalg.norm(across, axis=1)
+    ok = ~np.logical_or.reduceat((r <= length_tol) | (na <= 1e-9), starts)
+    with np.errstate(divide="ignore", invalid="ignore"):  # rows of contacts not turned
         across /= na[:, None]
         cos = np.sum(radial * across, axis=1) / r
-        if check and not np.all(np.abs(pn @ ax) <= np.sin(REVOLUTION_ANGLE)) or \
-                check and not np.all(np.abs(cos) >= np.cos(REVOLUTION_ANGLE)):
-            continue  # not a surface of revolution about this joint's axis
-        side = np.where(cos < 0, -1.0, 1.0)
-        # the point moves round the axis onto the line where its facet normal is radial
-        moved = q + np.outer(h, ax) + (r * side)[:, None] * across
-        # rows sharing a normal differ only by the height h (the radius drops out of
-        # p x n): keep the lowest and highest point of each normal
-        e1, e2 = _across(ax)  # normals across the axis: one angle each
-        _, inv = np.unique(np.round(np.arctan2(across @ e2, across @ e1), 6),
-                           return_inverse=True)
-        inv = inv.ravel()
-        order = np.lexsort((h, inv))
-        first = np.flatnonzero(np.r_[True, inv[order][1:] != inv[order][:-1]])
-        last = np.r_[first[1:], len(order)] - 1
-        sel = np.unique(np.r_[order[first], order[last]])
-        return moved[sel], across[sel]
-    return pts, pn
+    if check:
+        ok &= np.logical_and.reduceat(np.abs(ph) <= np.sin(REVOLUTION_ANGLE), starts)
+        ok &= np.logical_and.reduceat(np.abs(cos) >= np.cos(REVOLUTION_ANGLE), starts)
+    side = np.where(cos < 0, -1.0, 1.0)
+    # the point moves round the axis onto the line where its facet normal is radial
+    moved = centres[seg] + h[:, None] * ax_rows + (r * side)[:, None] * across
+    # rows sharing a normal differ only by the height h (the radius drops out of p x n):
+    # keep the lowest and highest point of each normal (one angle about the axis each)
+    ang = np.zeros(len(pts))
+    for (s, e), ax, turned in zip(bounds, axes, ok.tolist()):
+        if turned:
+            e1, e2 = _across(ax)
+            ang[s:e] = np.arctan2(across[s:e] @ e2, across[s:e] @ e1)
+    # one integer per (contact, angle): the angles are multiples of 1e-6 rad, |angle| <= pi
+    code = seg * 2 ** 23 + (np.rint(np.round(ang, 6) * 1e6).astype(np.int64) + 2 ** 22)
+    order = np.argsort(code, kind="stable")
+    new = np.r_[True, code[order][1:] != code[order][:-1]]
+    keep = ~ok[seg]
+    keep[order[_extreme(h[order], new, low=True)]] = True
+    keep[order[_extreme(h[order], new, low=False)]] = True
+    return moved, across, ok, keep
+
+
+def _extreme(v: np.ndarray, new: np.ndarray, low: bool) -> np.ndarray:
+    """Per run of ``v`` ``(M,)`` (a run starts where ``new`` is set, ``new[0]`` is), the
+    position of its smallest value, the first one if several (``low``), else of its largest
+    value, the last one if several: a stable sort's first and last element by ``v``."""
+    starts = np.flatnonzero(new)
+    run = np.cumsum(new) - 1
+    best = (np.minimum if low else np.maximum).reduceat(v, starts)
+    pos = np.flatnonzero(v == best[run])
+    r = run[pos]
+    change = r[1:] != r[:-1]
+    return pos[np.r_[True, change]] if low else pos[np.r_[change, True]]
 
 
 def reduce_points(pts: np.ndarray, nrm: np.ndarray, tol: float
@@ -216,30 +300,57 @@ def reduce_points(pts: np.ndarray, nrm: np.ndarray, tol: float
     the convex hull of their projection on the plane across ``n`` matter (two extremes when
     they are collinear, within ``tol``). Exact; it shrinks a tessellated cylinder's rows to
     about four per facet direction."""
+    keep = _reduce_keep(pts, nrm, np.zeros(len(pts), dtype=np.int64), tol)
+    return pts[keep], nrm[keep]
+
+
+def _reduce_keep(pts: np.ndarray, nrm: np.ndarray, seg: np.ndarray, tol: float
+                 ) -> np.ndarray:
+    """:func:`reduce_points` for many contacts at once: ``seg`` ``(M,)`` the contact of each
+    row of ``pts``/``nrm`` ``(M, 3)``; returns the rows kept ``(M,)`` bool. A group of rows
+    sharing a contact and a normal (rounded to 1e-9) keeps every row when it has at most
+    three, else its 2D hull's (:func:`_hull_2d`)."""
+    keep = np.ones(len(pts), dtype=bool)
     if len(pts) <= 2:
-        return pts, nrm
-    _, inv = np.unique(np.round(nrm, 9), axis=0, return_inverse=True)
-    inv = inv.ravel()
-    if np.bincount(inv).max() <= 3:
-        return pts, nrm
-    keep: list[np.ndarray] = []
-    for g in range(int(inv.max()) + 1):
-        idx = np.flatnonzero(inv == g)
-        if len(idx) <= 3:
-            keep.append(idx)
-            continue
-        e1, e2 = _across(nrm[idx[0]])
-        q = np.stack([pts[idx] @ e1, pts[idx] @ e2], axis=1)
-        keep.append(idx[_hull_2d(q, tol)])
-    sel = np.sort(np.concatenate(keep))
-    return pts[sel], nrm[sel]
+        return keep
+    # rounded normals: multiples of 1e-9 in [-1, 1], three exact integers, hashed with the
+    # contact into one int64 (wrapping); a hash of over 3 rows is checked for collisions
+    m = np.rint(np.round(nrm, 9) * 1e9).astype(np.int64) + 2 ** 30
+    code = ((seg * _HASH + m[:, 0]) * _HASH + m[:, 1]) * _HASH + m[:, 2]
+    order = np.argsort(code, kind="stable")
+    starts = np.flatnonzero(np.r_[True, code[order][1:] != code[order][:-1]])
+    sizes = np.diff(np.r_[starts, len(order)])
+    key = np.column_stack([seg, m])
+    for g in np.flatnonzero(sizes > 3).tolist():
+        idx = np.sort(order[starts[g]:starts[g] + sizes[g]])
+        if np.any(key[idx] != key[idx[0]]):  # a collision: the exact groups
+            _, inv = np.unique(key[idx], axis=0, return_inverse=True)
+            groups = [idx[inv.ravel() == k] for k in range(int(inv.max()) + 1)]
+        else:
+            groups = [idx]
+        for idx in groups:
+            if len(idx) > 3:
+                e1, e2 = _across(nrm[idx[0]])
+                q = np.stack([pts[idx] @ e1, pts[idx] @ e2], axis=1)
+                keep[idx] = False
+                keep[idx[_hull_2d(q, tol)]] = True
+    return keep
 
 
 def _across(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """An orthonormal basis of the plane across the unit vector ``n``."""
+    """An orthonormal basis of the plane across the unit vector ``n`` (two read-only
+    ``(3,)`` arrays; memoised by the bytes of ``n``: contacts share few axes and normals)."""
+    return _across_of(np.asarray(n, dtype=float).tobytes())
+
+
+@lru_cache(maxsize=4096)
+def _across_of(key: bytes) -> tuple[np.ndarray, np.ndarray]:
+    n = np.frombuffer(key, dtype=float)
     t = np.eye(3)[int(np.argmin(np.abs(n)))]
     e1 = _unit(np.cross(n, t))
-    return e1, np.cross(n, e1)
+    e2 = np.cross(n, e1)
+    e1.flags.writeable = e2.flags.writeable = False
+    return e1, e2
 
 
 def _hull_2d(q: np.ndarray, tol: float) -> np.ndarray:
@@ -278,48 +389,83 @@ def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
     into) gives one row per point and generator, and the rows of one point form a *group*:
     :func:`group_blocks` blocks a group only when all its rows do (exact), while the LP
     requires every row (conservative: it may miss a motion that slides round a vertex).
+
+    The rows are, bit for bit, :func:`contact_points` then (curved) :func:`reduce_points`
+    per contact, computed for all contacts at once (:func:`_turn`, :func:`_reduce_keep`;
+    curved contacts of a joint's parts one by one: several axes to try).
     """
     tol = asm.length_tolerance
-    P, N, A, B, C, G = [], [], [], [], [], []
-    ngroups = 0
     joints: dict[frozenset, list[tuple[np.ndarray, np.ndarray]]] = {}
     for j in getattr(asm, "joints", ()):
         key = frozenset(asm.index(p) for p in j.parts)
         joints.setdefault(key, []).append((_unit(np.asarray(j.axis, float)),
                                            np.asarray(j.point, float)))
-    for k, c in enumerate(contacts):
-        pair = frozenset((_part_index(asm, c.a), _part_index(asm, c.b)))
-        pts, nrm = contact_points(c, tol, joints.get(pair, ()))
+    info, pts_l, nrm_l, todo, lines, every, curved = [], [], [], [], {}, {}, []
+    for k, c in enumerate(contacts):  # per contact: the rows before any turn or reduction
+        a, b = _part_index(asm, c.a), _part_index(asm, c.b)
+        jax = joints.get(frozenset((a, b)), ())
+        pts, pn, gens, final = _raw_rows(c)
+        line = [] if final or len(pts) == 0 else _lines(c, jax)
+        if len(pn) != len(pts) or len(line) > 1 or (line and line[0][2]):
+            (pts, pn), final, line = contact_points(c, tol, jax), True, []
         if len(pts) == 0:
             continue
+        if not final:
+            todo.append((len(pts_l), gens))
+        if line:
+            lines[len(pts_l)] = line[0]
         if getattr(c, "blocking", "any") == "all":
-            gens = np.asarray(c.normals, dtype=float).reshape(-1, 3)
-            gens = gens / np.maximum(np.linalg.norm(gens, axis=1, keepdims=True), 1e-300)
-            pts = np.repeat(pts, len(gens), axis=0)
-            nrm = np.tile(gens, (len(pts) // len(gens), 1))
-            grp = ngroups + np.arange(len(pts)) // len(gens)
-        else:
-            if getattr(c, "kind", None) == "curved":  # planar points are hull vertices already
-                pts, nrm = reduce_points(pts, nrm, tol)
-            grp = ngroups + np.arange(len(pts))
-        ngroups = int(grp[-1]) + 1
-        P.append(pts)
-        N.append(nrm)
-        A.append(np.full(len(pts), _part_index(asm, c.a)))
-        B.append(np.full(len(pts), _part_index(asm, c.b)))
-        C.append(np.full(len(pts), k))
-        G.append(grp)
+            every[len(pts_l)] = np.asarray(c.normals, dtype=float).reshape(-1, 3)
+        curved.append(getattr(c, "kind", None) == "curved")
+        info.append((k, a, b))
+        pts_l.append(pts)
+        nrm_l.append(pn)
     lo, hi = asm.bounds if len(asm) else (np.zeros(3), np.ones(3))
     lo, hi = _pad3(np.asarray(lo, float)), _pad3(np.asarray(hi, float))
     scale = max(float(np.linalg.norm(hi - lo)), tol, 1e-12)
     planar = getattr(asm, "dimension", 3) == 2
-    if not P:
+    if not info:
         z = np.zeros((0, 3))
         e = np.zeros(0, dtype=int)
         return ContactRows(z, z, e, e, e, len(asm), (lo + hi) / 2, scale, tol, e, planar)
-    return ContactRows(np.vstack(P), np.vstack(N), np.concatenate(A), np.concatenate(B),
-                       np.concatenate(C), len(asm), (lo + hi) / 2, scale, tol,
-                       np.concatenate(G), planar)
+    if todo:  # unit point normals, signed per contact
+        unit = _unit_rows(np.concatenate([nrm_l[i] for i, _ in todo]))
+        at = np.cumsum([0] + [len(nrm_l[i]) for i, _ in todo]).tolist()
+        for (i, gens), s, e in zip(todo, at[:-1], at[1:]):
+            nrm_l[i] = _signed(unit[s:e], gens)
+    counts = np.array([len(p) for p in pts_l])
+    starts = np.r_[0, np.cumsum(counts)[:-1]]
+    P, N = np.concatenate(pts_l), np.concatenate(nrm_l)
+    seg = np.repeat(np.arange(len(info)), counts)
+    keep = np.ones(len(P), dtype=bool)
+    if lines:  # every cylinder contact turned about its axis at once
+        cyl = list(lines)
+        sub = np.concatenate([np.arange(starts[i], starts[i] + counts[i]) for i in cyl])
+        moved, across, ok, kept = _turn(P[sub], N[sub], np.array([lines[i][0] for i in cyl]),
+                                        np.array([lines[i][1] for i in cyl]),
+                                        np.r_[0, np.cumsum(counts[cyl])[:-1]], False, tol)
+        turned = ok[np.repeat(np.arange(len(cyl)), counts[cyl])]
+        P[sub[turned]], N[sub[turned]] = moved[turned], across[turned]
+        keep[sub] = kept
+    red = np.array(curved)
+    red[list(every)] = False
+    if red.any():  # curved contacts: rows implied by others dropped
+        sub = np.flatnonzero(keep & red[seg])
+        keep[sub] = _reduce_keep(P[sub], N[sub], seg[sub], tol)
+    P, N, seg = P[keep], N[keep], seg[keep]
+    new = np.ones(len(P), dtype=bool)
+    if every:  # blocking "all": one row per point and generator, grouped by point
+        at = np.searchsorted(seg, np.arange(len(info) + 1)).tolist()
+        parts = [(P[s:e], N[s:e], new[s:e]) for s, e in zip(at[:-1], at[1:])]
+        for i, gens in every.items():
+            pts, gens = parts[i][0], _unit_rows(gens)
+            parts[i] = (np.repeat(pts, len(gens), axis=0), np.tile(gens, (len(pts), 1)),
+                        np.arange(len(pts) * len(gens)) % len(gens) == 0)
+        P, N, new = (np.concatenate(x) for x in zip(*parts))
+        seg = np.repeat(np.arange(len(info)), [len(x[0]) for x in parts])
+    ids = np.array(info, dtype=np.int64)[seg]
+    return ContactRows(P, N, ids[:, 1], ids[:, 2], ids[:, 0], len(asm), (lo + hi) / 2, scale,
+                       tol, np.cumsum(new) - 1, planar)
 
 
 def group_blocks(rows: ContactRows, values: np.ndarray) -> np.ndarray:
@@ -349,7 +495,11 @@ def twist(kind: str, axis: Sequence[float], point: Sequence[float] = (0.0, 0.0, 
     if kind == "translation":
         return np.concatenate([ax, np.zeros(3)])
     q = np.asarray(point, dtype=float)
-    v = -np.cross(ax, q)
+    if ax.shape == q.shape == (3,):  # -(ax x q): np.cross's operations on Python floats
+        (a0, a1, a2), (q0, q1, q2) = ax.tolist(), q.tolist()
+        v = -np.array([a1 * q2 - a2 * q1, a2 * q0 - a0 * q2, a0 * q1 - a1 * q0])
+    else:
+        v = -np.cross(ax, q)
     if kind == "screw":
         v = v + pitch / (2.0 * np.pi) * ax
     return np.concatenate([v, ax])

@@ -347,6 +347,72 @@ def test_box_in_a_corner():
     assert lp.free_motion_rows(rows, 0b0001, 0b1110, translation_only=True) is not None
 
 
+def test_contact_rows_turns_each_cylinder_about_its_own_axis():
+    """Four contacts flattened in one call (the rows are built for all contacts at once).
+
+    0: a square "cylinder" about z through (1, 2, 0), facet normals +x, -x, +y, -y, each
+    with points at offsets 3 along the normal and +-4 across it (radius 5) at heights 0, 1,
+    2: each point turns onto the line where its normal is radial, (1, 2, h) + 5 n, and only
+    the lowest and highest point of each normal stay: (6, 2, 0), (6, 2, 2), (-4, 2, 0),
+    (-4, 2, 2), (1, 7, 0), (1, 7, 2), (1, -3, 0), (1, -3, 2).
+    1: one facet about the x axis through the origin, normal +z, points (h, +-4, 3) at
+    h = -1, 0, 3: they turn to (h, 0, 5), and h = -1 and 3 stay.
+    2: a planar contact with one normal: its three points unchanged.
+    3: an edge contact (``blocking="all"``, normals +x and +y) at two points: one row per
+    point and normal, grouped by point.
+    """
+    def facets(center, axis, normals, heights):
+        pts, nrm = [], []
+        for n in normals:
+            n = np.asarray(n, float)
+            t = np.cross(axis, n)
+            for side in (4.0, -4.0):
+                for h in heights:
+                    pts.append(np.asarray(center, float) + h * np.asarray(axis, float)
+                               + 3.0 * n + side * t)
+                    nrm.append(n)
+        return np.array(pts), np.array(nrm)
+
+    z, x = np.array([0, 0, 1.0]), np.array([1.0, 0, 0])
+    sq = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]]
+    p0, n0 = facets([1, 2, 0], z, sq, (0, 1, 2))
+    p1, n1 = facets([0, 0, 0], x, [[0, 0, 1]], (-1, 0, 3))
+    p2 = np.array([[0, 0, 9.0], [1, 0, 9], [0, 1, 9]])
+    p3 = np.array([[5, 5, 5.0], [5, 5, 6]])
+    cs = [C("a", "b", "curved", np.array(sq, float), p0, n0, axis=z, center=np.array([1, 2, 0.0]),
+            surface="cylinder"),
+          C("b", "c", "curved", np.array([[0, 0, 1.0]]), p1, n1, axis=x, center=np.zeros(3),
+            surface="cylinder"),
+          C("a", "c", "planar", np.array([[0, 0, 2.0]]), p2, np.tile([0, 0, 2.0], (3, 1))),
+          C("c", "a", "edge", np.array([[2, 0, 0.0], [0, 3, 0]]), p3, np.zeros((2, 3)),
+            blocking="all")]
+    idx = {"a": 0, "b": 1, "c": 2}
+
+    class _Asm:  # contact_rows needs ids, bounds and the tolerance only
+        length_tolerance = 1e-6
+        bounds = np.array([[-10, -10, -10], [10, 10, 10.0]])
+
+        def __len__(self):
+            return 3
+
+        def index(self, pid):
+            return idx[pid]
+
+    rows = tw.contact_rows(_Asm(), cs)  # type: ignore[arg-type]
+    ex, ey = [1, 0, 0], [0, 1, 0]
+    want_p = [[6, 2, 0], [6, 2, 2], [-4, 2, 0], [-4, 2, 2], [1, 7, 0], [1, 7, 2], [1, -3, 0],
+              [1, -3, 2], [-1, 0, 5], [3, 0, 5], [0, 0, 9], [1, 0, 9], [0, 1, 9],
+              [5, 5, 5], [5, 5, 5], [5, 5, 6], [5, 5, 6]]
+    want_n = [ex, ex, [-1, 0, 0], [-1, 0, 0], ey, ey, [0, -1, 0], [0, -1, 0], [0, 0, 1],
+              [0, 0, 1]] + [[0, 0, 1]] * 3 + [ex, ey, ex, ey]
+    np.testing.assert_allclose(rows.points, want_p, atol=1e-12)
+    np.testing.assert_allclose(rows.normals, want_n, atol=1e-12)
+    assert list(rows.contact) == [0] * 8 + [1] * 2 + [2] * 3 + [3] * 4
+    assert list(rows.a) == [0] * 8 + [1] * 2 + [0] * 3 + [2] * 4
+    assert list(rows.b) == [1] * 8 + [2] * 2 + [2] * 3 + [0] * 4
+    assert list(rows.group) == list(range(13)) + [13, 13, 14, 14]
+
+
 def test_edge_contact_blocks_only_when_every_normal_does():
     """An edge contact with normals (1, 0, 0) and (0, 1, 0) (``blocking="all"``): ``a``
     moving along +x pushes along n1 but slides past n2 (0): not blocked; along (1, 1, 0) it

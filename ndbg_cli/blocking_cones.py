@@ -1,0 +1,589 @@
+"""The blocked-direction set ``B_ij`` of one ordered pair of parts, as a union of open cones.
+
+Part ``P_j`` blocks the infinite translation of ``P_i`` along ``d`` when the sweep of ``P_i``
+along ``d`` meets the interior of ``P_j``. For closed polyhedral parts a generic blocking ray
+leaves ``P_i`` through a triangle ``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a
+triangle ``t_j`` (``n_j . d < 0``), so
+
+    B_ij = union over triangle pairs of  cone(t_j - t_i) ∩ {n_i . d > 0} ∩ {n_j . d < 0},
+
+each term an open convex polyhedral cone (H-representation, :mod:`ndbg_cli.cubemap`).
+:func:`pair_cones` lists every term of the triangle pairs that can face each other (dense,
+``O(t_i t_j)``); :func:`pruned_pair_cones` gives the same set from far fewer terms.
+
+Pruning (exact)
+---------------
+The triangles of each part are put in a bounding-box tree (:func:`tri_tree`). For a pair of
+nodes, every term of their triangle pairs lies in the cone spanned by the box difference
+``box_j - box_i`` (grown by the erosion margin); if that cone lies inside the union of the terms
+already kept, *each polygon eroded by* :data:`SHRINK` chart units, the node pair adds nothing:
+every one of its directions is already strictly inside some kept open cone. "Inside" is
+decided conservatively on a raster per cube face (:class:`Cover`: the cells wholly inside some
+eroded kept polygon; a cone is inside when the bounding box of its chart image meets only such
+cells), which costs the same however many terms are kept; a new term inside it is dropped the
+same way. So the union of
+the kept terms equals ``B_ij``, both as a closed chart set and as a union of open cones (which
+the open-set re-test of :class:`ndbg_cli.infinite.BlockedSets` relies on). Node pairs within
+``4 eps`` of each other (contacts) are never pruned, so every near triangle pair is kept and
+the contact circles are complete. The tree is walked breadth-first; at each level every
+surviving node pair contributes the exact term of its two largest triangles, which fills the
+union from the inside before the leaves are reached. Leaf pairs (at most :data:`LEAF`
+triangles a side) that survive contribute all their terms.
+
+Tolerance (``eps``, the assembly's length tolerance)
+---------------------------------------------------
+Near triangle pairs (bounding boxes closer than ``4 eps``) are eroded: both triangles move
+inward by ``1.5 eps`` along their normals, so contact never blocks by itself (see
+:mod:`ndbg_cli.infinite`). Far pairs use the exact triangles.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+import trimesh
+
+from .assembly import Assembly
+from .cubemap import FACES, clip_halfplanes, cone_normals
+
+#: Snapping grid of the arrangement linework, chart units.
+GRID = 1e-10
+#: Triangle pairs processed per vectorised chunk.
+CHUNK = 20000
+#: Most triangles in a leaf of the pruning tree.
+LEAF = 8
+#: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
+#: direction is at least this far inside a kept cone, far above the 1e-6 of the open test.
+SHRINK = 1e-5
+#: Cells per side of the pruning raster of each cube face (:class:`Cover`).
+RASTER = 512
+#: Node pairs tested per vectorised chunk of the pruning walk.
+NODE_CHUNK = 50000
+
+
+def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per part: triangles ``(t, 3, 3)`` and unit outward normals ``(t, 3)``, in the assembly
+    frame (2D parts are extruded to prisms of height ``diagonal``)."""
+    out = []
+    h = max(asm.diagonal, 1e-9)
+    for p in asm.parts:
+        if asm.dimension == 2:
+            mesh = trimesh.creation.extrude_polygon(p.polygon, h)
+            mesh.apply_translation([0.0, 0.0, -h / 2])
+        else:
+            mesh = p.mesh
+        tri = np.asarray(mesh.triangles, dtype=float)
+        nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+        ok = ln[:, 0] > 0
+        out.append((tri[ok], nrm[ok] / ln[ok]))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Terms of triangle pairs
+# --------------------------------------------------------------------------------------------
+
+def pair_cones(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, eps: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Every term of ``B_ij`` (dense): open cones ``(p, k, 3)`` and the normals ``(c, 3)`` of
+    the triangles of near (contact) pairs.
+
+    ``ti`` ``(a, 3, 3)`` / ``ni`` ``(a, 3)`` are the moving part's triangles and normals,
+    ``tj`` / ``nj`` the blocker's. The great circles ``d . n = 0`` of the contact normals
+    carry the sliding directions, where lower-dimensional free regions lie.
+    """
+    if not len(ti) or not len(tj):
+        return _EMPTY
+    ia, jb = np.nonzero(np.ones((len(ti), len(tj)), dtype=bool))
+    return terms(ti, ni, tj, nj, ia, jb, eps)
+
+
+_EMPTY = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
+
+
+def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
+          jb: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other:
+    open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs."""
+    if not len(ia):
+        return _EMPTY
+    # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
+    # of t_j's plane (lenient by 2 eps; an empty cone is harmless).
+    keep = []
+    for s in range(0, len(ia), 4 * CHUNK):
+        a, b = ia[s:s + 4 * CHUNK], jb[s:s + 4 * CHUNK]
+        fj = np.einsum("pk,pvk->pv", ni[a], tj[b]) - np.einsum("pk,pk->p", ni[a], ti[a, 0])[:, None]
+        fi = np.einsum("pk,pvk->pv", nj[b], ti[a]) - np.einsum("pk,pk->p", nj[b], tj[b, 0])[:, None]
+        keep.append((fj.max(axis=1) > -2 * eps) & (fi.max(axis=1) > -2 * eps))
+    ok = np.concatenate(keep)
+    ia, jb = ia[ok], jb[ok]
+    if not len(ia):
+        return _EMPTY
+    lo_i, hi_i = ti.min(axis=1), ti.max(axis=1)
+    lo_j, hi_j = tj.min(axis=1), tj.max(axis=1)
+    gap = np.maximum(lo_j[jb] - hi_i[ia], lo_i[ia] - hi_j[jb]).max(axis=1)
+    near = gap <= 4 * eps
+    parts = []
+    for sel, is_near in ((np.nonzero(~near)[0], False), (np.nonzero(near)[0], True)):
+        for s in range(0, len(sel), CHUNK):
+            idx = sel[s:s + CHUNK]
+            a, b = ia[idx], jb[idx]
+            gens = (tj[b][:, :, None, :] - ti[a][:, None, :, :]).reshape(len(idx), 9, 3)
+            if is_near:
+                # Both triangles moved inward by 1.5 eps along their normals (erosion).
+                gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
+            m = compact(cone_normals(gens))
+            facing = np.stack([ni[a], -nj[b]], axis=1)
+            parts.append(np.concatenate([m, facing], axis=1))
+    cones = _stack(parts)
+    circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
+    return cones, circles
+
+
+def _stack(parts: list[np.ndarray]) -> np.ndarray:
+    """Concatenate padded cone batches of different widths."""
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        return np.zeros((0, 1, 3))
+    width = max(p.shape[1] for p in parts)
+    return np.concatenate([np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)))
+                           for p in parts], axis=0)
+
+
+def unique_circles(normals: np.ndarray) -> np.ndarray:
+    """Deduplicate great circles given by normals ``(c, 3)`` (``n`` and ``-n`` are one)."""
+    if not len(normals):
+        return np.zeros((0, 3))
+    n = normals / np.linalg.norm(normals, axis=1, keepdims=True)
+    first = np.argmax(np.abs(n) > 1e-12, axis=1)
+    sign = np.sign(n[np.arange(len(n)), first])
+    n = n * sign[:, None]
+    _, idx = np.unique(np.round(n, 9), axis=0, return_index=True)
+    return n[np.sort(idx)]
+
+
+def compact(normals: np.ndarray) -> np.ndarray:
+    """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
+    if not len(normals):
+        return normals
+    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
+    order = np.argsort(key, axis=1, kind="stable")
+    key = np.take_along_axis(key, order, axis=1)
+    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
+    dup = np.zeros_like(key, dtype=bool)
+    dup[:, 1:] = key[:, 1:] == key[:, :-1]
+    zero = ~np.any(nm != 0.0, axis=2)
+    drop = dup | zero
+    order = np.argsort(drop, axis=1, kind="stable")
+    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
+    width = max(int((~drop).sum(axis=1).max()), 1)
+    nm = nm[:, :width]
+    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
+    return np.where(keepmask[:, :, None], nm, 0.0)
+
+
+# --------------------------------------------------------------------------------------------
+# Chart polygons and their unions
+# --------------------------------------------------------------------------------------------
+
+def face_polygons(cones: np.ndarray, face: int, shrink: float = 0.0, slivers: bool = False
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Chart polygons of ``cones`` ``(p, k, 3)`` on ``face`` (convex, possibly eroded by
+    ``shrink``) and the index of the cone of each; cones missing the face are left out, and
+    so are pieces of area below ``GRID**2`` unless ``slivers`` (then they may be degenerate:
+    segments or points)."""
+    if not len(cones):
+        return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
+    poly, cnt = clip_halfplanes(cones, face, shrink=shrink)
+    keep = cnt >= 3
+    if not keep.any():
+        return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
+    index = np.nonzero(keep)[0]
+    poly, cnt = poly[keep], cnt[keep]
+    k = np.arange(poly.shape[1])[None, :] < cnt[:, None]
+    rings = shapely.linearrings(poly[k], indices=np.repeat(np.arange(len(cnt)), cnt))
+    # The pieces are convex: their hull is the same polygon, and always valid.
+    polys = shapely.convex_hull(shapely.polygons(rings))
+    if slivers:
+        return polys, index
+    big = (shapely.area(polys) > GRID * GRID) & (shapely.get_type_id(polys) == 3)
+    return polys[big], index[big]
+
+
+def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
+    """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
+    empty, else ``(union, tree, index)``: the union (closed polygons in chart coordinates),
+    an STR-tree over the pieces' polygons and the cone index of each tree item."""
+    out: list[tuple | None] = []
+    for face in range(6):
+        polys, index = face_polygons(cones, face)
+        if not len(polys):
+            out.append(None)
+            continue
+        g = union(polys)
+        out.append(None if g.is_empty else (g, shapely.STRtree(polys), index))
+    return out
+
+
+def union(polys: np.ndarray, seed: int = 64, acc: object | None = None) -> object:
+    """Union of many overlapping convex polygons (and of ``acc`` if given): the largest first,
+    then only those not already covered (exact ``covers`` tests against the partial union),
+    repeatedly."""
+    polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
+    if acc is None:
+        acc = robust_union(polys[:seed])
+        rest = polys[seed:]
+    else:
+        rest = polys
+    while len(rest):
+        shapely.prepare(acc)
+        rest = rest[~shapely.covers(acc, rest)]
+        if not len(rest):
+            break
+        take = max(seed, len(rest) // 8)
+        acc = robust_union(np.concatenate([[acc], rest[:take]]))
+        rest = rest[take:]
+    return acc
+
+
+def robust_union(polys: np.ndarray) -> object:
+    """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
+    overlay fails (GEOS topology exceptions on nearly coincident edges)."""
+    try:
+        return shapely.union_all(polys)
+    except shapely.errors.GEOSException:
+        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
+
+
+# --------------------------------------------------------------------------------------------
+# Pruning tree
+# --------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TriTree:
+    """A bounding-box tree over a part's triangles. Node ``k`` holds the triangles
+    ``perm[start[k]:stop[k]]`` inside the box ``lo[k]..hi[k]`` (``(m, 3)``, model units);
+    ``left``/``right`` are ``-1`` for leaves; ``big[k]`` are the node's two largest triangles
+    (indices into the part's triangles, repeated when the node has one)."""
+
+    perm: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    start: np.ndarray
+    stop: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    big: np.ndarray
+
+
+def tri_tree(tri: np.ndarray, leaf: int = LEAF) -> TriTree:
+    """Median-split tree over triangles ``(t, 3, 3)`` (longest box axis of the centroids)."""
+    cen = tri.mean(axis=1)
+    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    perm = np.arange(len(tri))
+    start, stop, left, right = [0], [len(tri)], [-1], [-1]
+    todo = [0] if len(tri) > leaf else []
+    while todo:
+        k = todo.pop()
+        s, e = start[k], stop[k]
+        idx = perm[s:e]
+        c = cen[idx]
+        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
+        perm[s:e] = idx[np.argsort(c[:, axis], kind="stable")]
+        mid = (s + e) // 2
+        for a, b in ((s, mid), (mid, e)):
+            start.append(a)
+            stop.append(b)
+            left.append(-1)
+            right.append(-1)
+            if b - a > leaf:
+                todo.append(len(start) - 1)
+        left[k], right[k] = len(start) - 2, len(start) - 1
+    start_a, stop_a = np.array(start), np.array(stop)
+    lo = np.array([tri[perm[a:b]].reshape(-1, 3).min(axis=0) for a, b in zip(start, stop)])
+    hi = np.array([tri[perm[a:b]].reshape(-1, 3).max(axis=0) for a, b in zip(start, stop)])
+    big = np.array([perm[a:b][np.argsort(-area[perm[a:b]], kind="stable")[:2]][[0, -1]]
+                    for a, b in zip(start, stop)])
+    return TriTree(perm, lo.reshape(-1, 3), hi.reshape(-1, 3), start_a, stop_a,
+                   np.array(left), np.array(right), big.reshape(-1, 2))
+
+
+def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.ndarray,
+                      nj: np.ndarray, tree_j: TriTree, eps: float, stats: dict | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The terms of ``B_ij`` that the union needs (see the module docstring): the same set
+    as :func:`pair_cones`, as open cones ``(p, k, 3)``, and the same contact normals.
+    ``stats`` (if given) receives counts of node pairs tested and terms computed and kept."""
+    if not len(ti) or not len(tj):
+        return _EMPTY
+    walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps)
+    a = np.zeros(1, dtype=np.int64)
+    b = np.zeros(1, dtype=np.int64)
+    while len(a):
+        a, b = walk.prune(a, b)
+        # the two largest triangles of every node pair first: they fill the union from inside
+        walk.emit(np.repeat(tree_i.big[a], 2, axis=1).ravel(),
+                  np.tile(tree_j.big[b], (1, 2)).ravel())
+        a, b = walk.prune(a, b)
+        leaf = (tree_i.left[a] < 0) & (tree_j.left[b] < 0)
+        la, lb = a[leaf], b[leaf]
+        for s in range(0, len(la), LEAF_CHUNK):
+            ca, cb = walk.prune(la[s:s + LEAF_CHUNK], lb[s:s + LEAF_CHUNK])
+            walk.emit(*_leaf_pairs(tree_i, tree_j, ca, cb))
+        # split the inner node pairs: the node with the larger box (a leaf is never split)
+        a, b = a[~leaf], b[~leaf]
+        size_i = np.linalg.norm(tree_i.hi[a] - tree_i.lo[a], axis=1)
+        size_j = np.linalg.norm(tree_j.hi[b] - tree_j.lo[b], axis=1)
+        split_i = (tree_i.left[a] >= 0) & ((size_i >= size_j) | (tree_j.left[b] < 0))
+        a = np.concatenate([tree_i.left[a[split_i]], tree_i.right[a[split_i]],
+                            a[~split_i], a[~split_i]])
+        b = np.concatenate([b[split_i], b[split_i],
+                            tree_j.left[b[~split_i]], tree_j.right[b[~split_i]]])
+    if stats is not None:
+        stats.update(walk.stats)
+    cones = _stack(walk.kept)
+    circ = unique_circles(np.concatenate(walk.circles)) if walk.circles else np.zeros((0, 3))
+    return cones, circ
+
+
+#: Leaf pairs whose terms are computed between two updates of the kept union.
+LEAF_CHUNK = 64
+
+
+class _Walk:
+    """State of one pruning walk: the kept terms, the contact normals and, per cube face, the
+    union of the kept terms' polygons eroded by :data:`SHRINK` (``None`` while empty)."""
+
+    def __init__(self, ti, ni, tree_i, tj, nj, tree_j, eps: float) -> None:
+        self.ti, self.ni, self.tree_i = ti, ni, tree_i
+        self.tj, self.nj, self.tree_j = tj, nj, tree_j
+        self.eps = eps
+        self.kept: list[np.ndarray] = []
+        self.circles: list[np.ndarray] = []
+        self.cover = Cover()
+        self.stats = {"node_pairs": 0, "terms": 0, "kept": 0}
+
+    def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the eroded union.
+        Near node pairs (gap <= 4 eps) and boxes around the origin are kept."""
+        if not len(a) or self.cover.empty:
+            return a, b
+        ti, tj, eps = self.tree_i, self.tree_j, self.eps
+        grow = 2.0 * eps  # the erosion moves near triangles by 1.5 eps
+        dlo = tj.lo[b] - ti.hi[a] - grow
+        dhi = tj.hi[b] - ti.lo[a] + grow
+        gap = np.maximum(tj.lo[b] - ti.hi[a], ti.lo[a] - tj.hi[b]).max(axis=1)
+        test = (gap > 4 * eps) & ~np.all((dlo < 0) & (dhi > 0), axis=1)
+        self.stats["node_pairs"] += int(test.sum())
+        drop = np.zeros(len(a), dtype=bool)
+        if test.any():
+            sel = np.nonzero(test)[0]
+            corner = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)],
+                              dtype=bool)
+            gens = np.where(corner[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
+            drop[sel] = self.cover.covers_spanned(gens)
+        return a[~drop], b[~drop]
+
+    def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
+        """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already
+        strictly inside the kept union and add them to it."""
+        cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps)
+        self.stats["terms"] += len(cones)
+        if len(circ):
+            self.circles.append(circ)
+        if not len(cones):
+            return
+        if not self.cover.empty:
+            cones = cones[~self.cover.covers(cones)]
+            if not len(cones):
+                return
+        self.kept.append(cones)
+        self.stats["kept"] += len(cones)
+        self.cover.add(cones)
+
+
+def _leaf_pairs(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """All triangle index pairs of the leaf pairs ``(a[k], b[k])``."""
+    if not len(a):
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    na = tree_i.stop[a] - tree_i.start[a]
+    nb = tree_j.stop[b] - tree_j.start[b]
+    cnt = na * nb
+    pair = np.repeat(np.arange(len(a)), cnt)
+    off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    ka, kb = off // nb[pair], off % nb[pair]
+    return (tree_i.perm[tree_i.start[a][pair] + ka], tree_j.perm[tree_j.start[b][pair] + kb])
+
+
+class Cover:
+    """An inner approximation of the union of the kept terms, for the pruning test: per cube
+    face, a raster of :data:`RASTER` x :data:`RASTER` chart cells, a cell being *covered* when
+    it lies wholly inside some kept term's polygon eroded by :data:`SHRINK`. A cone whose
+    polygon's bounding box meets only covered cells, on every face it meets, is therefore
+    strictly inside the kept union (by at least ``SHRINK``): :meth:`covers`.
+
+    Adding a term costs a few array operations per raster row it spans (cross-sections of a
+    convex polygon at the grid lines), a test one summed-area-table lookup per face: unlike an
+    exact polygon union, neither grows with the number of terms kept. The price is a margin of
+    about one cell (``2 / RASTER`` chart units) along the union's boundary where nothing is
+    pruned; what is computed there is exact."""
+
+    def __init__(self, raster: int = RASTER) -> None:
+        self.r = raster
+        self.h = 2.0 / raster
+        self.covered = np.zeros((6, raster, raster), dtype=bool)
+        self.sat: list[np.ndarray | None] = [None] * 6  # summed-area tables, built lazily
+        self.empty = True
+
+    def add(self, cones: np.ndarray) -> None:
+        """Mark the cells wholly inside the eroded polygons of the open cones ``(p, k, 3)``."""
+        for face in range(6):
+            poly, cnt = clip_halfplanes(cones, face, shrink=SHRINK)
+            keep = cnt >= 3
+            if keep.any():
+                self._mark(face, poly[keep], cnt[keep])
+
+    def _mark(self, face: int, poly: np.ndarray, cnt: np.ndarray) -> None:
+        r, h = self.r, self.h
+        m = poly.shape[1]
+        k = np.arange(m)[None, :]
+        valid = k < cnt[:, None]
+        nxt = np.where(k + 1 < cnt[:, None], k + 1, 0)
+        a = poly
+        b = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
+        # A convex polygon holding a cell has inradius >= h / 2, and its inradius is at most
+        # 2 area / perimeter: slivers, most of the terms, cover no cell and are skipped.
+        area = 0.5 * np.abs(np.where(valid, a[:, :, 0] * b[:, :, 1] - a[:, :, 1] * b[:, :, 0],
+                                     0.0).sum(axis=1))
+        perim = np.where(valid, np.linalg.norm(b - a, axis=2), 0.0).sum(axis=1)
+        fat = 4.0 * area >= h * perim
+        if not fat.all():
+            a, b, valid, poly = a[fat], b[fat], valid[fat], poly[fat]
+            if not len(poly):
+                return
+        ys = np.where(valid, poly[:, :, 1], np.nan)
+        g0 = np.ceil((np.nanmin(ys, axis=1) + 1.0) / h).astype(np.int64)
+        g1 = np.floor((np.nanmax(ys, axis=1) + 1.0) / h).astype(np.int64)
+        g0, g1 = np.maximum(g0, 0), np.minimum(g1, r)
+        nlines = np.maximum(g1 - g0 + 1, 0)
+        if not (nlines >= 2).any():  # a band needs two grid lines inside the polygon
+            return
+        base = np.cumsum(nlines) - nlines
+        left = np.full(int(nlines.sum()), np.inf)
+        right = np.full(len(left), -np.inf)
+        # Each grid line meets a convex polygon in one edge going down (the left chain of a
+        # counter-clockwise polygon) and one going up (the right chain): intersect per edge.
+        pe, ke = np.nonzero(valid & (a[:, :, 1] != b[:, :, 1]))
+        ya, yb = a[pe, ke, 1], b[pe, ke, 1]
+        xa, xb = a[pe, ke, 0], b[pe, ke, 0]
+        e0 = np.maximum(np.ceil((np.minimum(ya, yb) + 1.0) / h).astype(np.int64), g0[pe])
+        e1 = np.minimum(np.floor((np.maximum(ya, yb) + 1.0) / h).astype(np.int64), g1[pe])
+        ne = np.maximum(e1 - e0 + 1, 0)
+        edge = np.repeat(np.arange(len(pe)), ne)
+        g = e0[edge] + (np.arange(ne.sum()) - np.repeat(np.cumsum(ne) - ne, ne))
+        y = -1.0 + g * h
+        x = xa[edge] + (y - ya[edge]) * ((xb - xa) / (yb - ya))[edge]
+        slot = base[pe[edge]] + g - g0[pe[edge]]
+        down = (yb < ya)[edge]
+        np.minimum.at(left, slot[down], x[down])
+        np.maximum.at(right, slot[~down], x[~down])
+        owner = np.repeat(np.arange(len(nlines)), nlines)
+        g = g0[owner] + (np.arange(len(left)) - base[owner])
+        # band [y_g, y_g+1] of one polygon: rows of consecutive lines of the same owner; a
+        # convex polygon's cross-section there contains the intersection of the two ends'
+        same = owner[1:] == owner[:-1]
+        lo = np.maximum(left[1:], left[:-1])[same]
+        hi = np.minimum(right[1:], right[:-1])[same]
+        row = g[:-1][same]
+        fin = np.isfinite(lo) & np.isfinite(hi) & (lo < hi)
+        lo, hi, row = lo[fin], hi[fin], row[fin]
+        c0 = np.ceil((lo + 1.0) / h).astype(np.int64)
+        c1 = np.floor((hi + 1.0) / h).astype(np.int64)  # one past the last whole cell
+        c0, c1 = np.maximum(c0, 0), np.minimum(c1, r)
+        ok = (c1 > c0) & (row < r)
+        if not ok.any():
+            return
+        rows, slot = np.unique(row[ok], return_inverse=True)
+        w = r + 1
+        spans = np.bincount(slot * w + c0[ok], minlength=len(rows) * w) \
+            - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
+        inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
+        self.covered[face, rows] |= inside
+        self.sat[face] = None
+        self.empty = False
+
+    def _table(self, face: int) -> np.ndarray:
+        if self.sat[face] is None:
+            sat = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
+            np.cumsum(self.covered[face], axis=0, dtype=np.int32, out=sat[1:, 1:])
+            np.cumsum(sat[1:, 1:], axis=1, out=sat[1:, 1:])
+            self.sat[face] = sat
+        return self.sat[face]
+
+    def covers_spanned(self, gens: np.ndarray) -> np.ndarray:
+        """``(p,)`` whether each closed cone spanned by generators ``gens`` ``(p, g, 3)``
+        lies in covered cells on every face it meets. On a face whose axis ``e`` has
+        ``g . e > 0`` for every generator, the cone's chart image is the convex hull of the
+        generators' charts, so their bounding box is used (no clipping); a face with no
+        generator in front of it is missed. A cone with generators on both sides of some
+        face's plane is clipped (:meth:`covers` of its H-representation)."""
+        if self.empty:
+            return np.zeros(len(gens), dtype=bool)
+        r, h = self.r, self.h
+        se = gens @ FACES[:, 0].T  # (p, g, 6)
+        front = se > 0.0
+        mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
+        ok = np.ones(len(gens), dtype=bool)
+        if mixed.any():
+            ok[mixed] = self.covers(compact(cone_normals(gens[mixed])))
+        for face in range(6):
+            e, u, v = FACES[face]
+            sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
+            if not len(sel):
+                continue
+            g, w = gens[sel], se[sel, :, face]
+            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2) + 1.0
+            lo, hi = st.min(axis=1), st.max(axis=1)
+            meet = np.all(hi >= 0.0, axis=1) & np.all(lo <= 2.0, axis=1)
+            sel, lo, hi = sel[meet], lo[meet], hi[meet]
+            c0 = np.clip(np.floor(lo / h), 0, r - 1).astype(np.int64)
+            c1 = np.clip(np.floor(hi / h), 0, r - 1).astype(np.int64)
+            ok[sel[~self._all_covered(face, c0, c1)]] = False
+        return ok
+
+    def _all_covered(self, face: int, c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
+        """Whether every cell of the rectangles ``c0..c1`` (``(p, 2)`` column, row) is
+        covered."""
+        s = self._table(face)
+        x0, y0, x1, y1 = c0[:, 0], c0[:, 1], c1[:, 0], c1[:, 1]
+        got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
+        return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+
+    def covers(self, cones: np.ndarray) -> np.ndarray:
+        """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every
+        face it meets."""
+        if self.empty:
+            return np.zeros(len(cones), dtype=bool)
+        ok = np.ones(len(cones), dtype=bool)
+        r, h = self.r, self.h
+        for face in range(6):
+            poly, cnt = clip_halfplanes(cones, face)
+            hit = cnt >= 3
+            if not hit.any():
+                continue
+            idx = np.nonzero(hit)[0]
+            poly, cnt = poly[hit], cnt[hit]
+            valid = np.arange(poly.shape[1])[None, :] < cnt[:, None]
+            xs = np.where(valid, poly[:, :, 0], np.nan)
+            ys = np.where(valid, poly[:, :, 1], np.nan)
+            x0 = np.clip(np.floor((np.nanmin(xs, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
+            x1 = np.clip(np.floor((np.nanmax(xs, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
+            y0 = np.clip(np.floor((np.nanmin(ys, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
+            y1 = np.clip(np.floor((np.nanmax(ys, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
+            cov = self._all_covered(face, np.stack([x0, y0], axis=1), np.stack([x1, y1], axis=1))
+            ok[idx[~cov]] = False
+        return ok
