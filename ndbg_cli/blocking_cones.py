@@ -59,8 +59,6 @@ LEAF = 8
 SHRINK = 1e-5
 #: Cells per side of the pruning raster of each cube face (:class:`Cover`).
 RASTER = 512
-#: Node pairs tested per vectorised chunk of the pruning walk.
-NODE_CHUNK = 50000
 
 
 def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -189,15 +187,13 @@ def compact(normals: np.ndarray) -> np.ndarray:
 # Chart polygons and their unions
 # --------------------------------------------------------------------------------------------
 
-def face_polygons(cones: np.ndarray, face: int, shrink: float = 0.0, slivers: bool = False
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Chart polygons of ``cones`` ``(p, k, 3)`` on ``face`` (convex, possibly eroded by
-    ``shrink``) and the index of the cone of each; cones missing the face are left out, and
-    so are pieces of area below ``GRID**2`` unless ``slivers`` (then they may be degenerate:
-    segments or points)."""
+def face_polygons(cones: np.ndarray, face: int) -> tuple[np.ndarray, np.ndarray]:
+    """Chart polygons of ``cones`` ``(p, k, 3)`` on ``face`` (convex) and the index of the
+    cone of each; cones missing the face and pieces of area below ``GRID**2`` are left
+    out."""
     if not len(cones):
         return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
-    poly, cnt = clip_halfplanes(cones, face, shrink=shrink)
+    poly, cnt = clip_halfplanes(cones, face)
     keep = cnt >= 3
     if not keep.any():
         return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
@@ -207,8 +203,6 @@ def face_polygons(cones: np.ndarray, face: int, shrink: float = 0.0, slivers: bo
     rings = shapely.linearrings(poly[k], indices=np.repeat(np.arange(len(cnt)), cnt))
     # The pieces are convex: their hull is the same polygon, and always valid.
     polys = shapely.convex_hull(shapely.polygons(rings))
-    if slivers:
-        return polys, index
     big = (shapely.area(polys) > GRID * GRID) & (shapely.get_type_id(polys) == 3)
     return polys[big], index[big]
 
@@ -228,16 +222,12 @@ def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
     return out
 
 
-def union(polys: np.ndarray, seed: int = 64, acc: object | None = None) -> object:
-    """Union of many overlapping convex polygons (and of ``acc`` if given): the largest first,
-    then only those not already covered (exact ``covers`` tests against the partial union),
-    repeatedly."""
+def union(polys: np.ndarray, seed: int = 64) -> object:
+    """Union of many overlapping convex polygons: the largest first, then only those not
+    already covered (exact ``covers`` tests against the partial union), repeatedly."""
     polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
-    if acc is None:
-        acc = robust_union(polys[:seed])
-        rest = polys[seed:]
-    else:
-        rest = polys
+    acc = robust_union(polys[:seed])
+    rest = polys[seed:]
     while len(rest):
         shapely.prepare(acc)
         rest = rest[~shapely.covers(acc, rest)]
@@ -349,13 +339,15 @@ def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.nd
     return cones, circ
 
 
-#: Leaf pairs whose terms are computed between two updates of the kept union.
+#: Leaf pairs whose terms are computed between two updates of the cover.
 LEAF_CHUNK = 64
+#: The corners of a box, as "take the high end" flags per axis ``(8, 3)``.
+_CORNERS = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool)
 
 
 class _Walk:
-    """State of one pruning walk: the kept terms, the contact normals and, per cube face, the
-    union of the kept terms' polygons eroded by :data:`SHRINK` (``None`` while empty)."""
+    """State of one pruning walk: the kept terms, the contact normals and the :class:`Cover`
+    of the kept terms."""
 
     def __init__(self, ti, ni, tree_i, tj, nj, tree_j, eps: float) -> None:
         self.ti, self.ni, self.tree_i = ti, ni, tree_i
@@ -367,8 +359,8 @@ class _Walk:
         self.stats = {"node_pairs": 0, "terms": 0, "kept": 0}
 
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the eroded union.
-        Near node pairs (gap <= 4 eps) and boxes around the origin are kept."""
+        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Near
+        node pairs (gap <= 4 eps) and boxes around the origin are kept."""
         if not len(a) or self.cover.empty:
             return a, b
         ti, tj, eps = self.tree_i, self.tree_j, self.eps
@@ -381,15 +373,13 @@ class _Walk:
         drop = np.zeros(len(a), dtype=bool)
         if test.any():
             sel = np.nonzero(test)[0]
-            corner = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)],
-                              dtype=bool)
-            gens = np.where(corner[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
+            gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
             drop[sel] = self.cover.covers_spanned(gens)
         return a[~drop], b[~drop]
 
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
         """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already
-        strictly inside the kept union and add them to it."""
+        inside the cover and add them to it."""
         cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps)
         self.stats["terms"] += len(cones)
         if len(circ):
@@ -405,6 +395,13 @@ class _Walk:
         self.cover.add(cones)
 
 
+def _run_offsets(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For runs of lengths ``counts`` ``(n,)`` laid end to end: the run of each position and
+    its offset within the run (two ``(counts.sum(),)`` arrays)."""
+    run = np.repeat(np.arange(len(counts)), counts)
+    return run, np.arange(len(run)) - (np.cumsum(counts) - counts)[run]
+
+
 def _leaf_pairs(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
     """All triangle index pairs of the leaf pairs ``(a[k], b[k])``."""
@@ -412,9 +409,7 @@ def _leaf_pairs(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     na = tree_i.stop[a] - tree_i.start[a]
     nb = tree_j.stop[b] - tree_j.start[b]
-    cnt = na * nb
-    pair = np.repeat(np.arange(len(a)), cnt)
-    off = np.arange(cnt.sum()) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    pair, off = _run_offsets(na * nb)
     ka, kb = off // nb[pair], off % nb[pair]
     return (tree_i.perm[tree_i.start[a][pair] + ka], tree_j.perm[tree_j.start[b][pair] + kb])
 
@@ -472,8 +467,9 @@ class Cover:
         nlines = np.maximum(g1 - g0 + 1, 0)
         if not (nlines >= 2).any():  # a band needs two grid lines inside the polygon
             return
+        owner, line = _run_offsets(nlines)
         base = np.cumsum(nlines) - nlines
-        left = np.full(int(nlines.sum()), np.inf)
+        left = np.full(len(owner), np.inf)
         right = np.full(len(left), -np.inf)
         # Each grid line meets a convex polygon in one edge going down (the left chain of a
         # counter-clockwise polygon) and one going up (the right chain): intersect per edge.
@@ -482,17 +478,15 @@ class Cover:
         xa, xb = a[pe, ke, 0], b[pe, ke, 0]
         e0 = np.maximum(np.ceil((np.minimum(ya, yb) + 1.0) / h).astype(np.int64), g0[pe])
         e1 = np.minimum(np.floor((np.maximum(ya, yb) + 1.0) / h).astype(np.int64), g1[pe])
-        ne = np.maximum(e1 - e0 + 1, 0)
-        edge = np.repeat(np.arange(len(pe)), ne)
-        g = e0[edge] + (np.arange(ne.sum()) - np.repeat(np.cumsum(ne) - ne, ne))
+        edge, k = _run_offsets(np.maximum(e1 - e0 + 1, 0))
+        g = e0[edge] + k
         y = -1.0 + g * h
         x = xa[edge] + (y - ya[edge]) * ((xb - xa) / (yb - ya))[edge]
         slot = base[pe[edge]] + g - g0[pe[edge]]
         down = (yb < ya)[edge]
         np.minimum.at(left, slot[down], x[down])
         np.maximum.at(right, slot[~down], x[~down])
-        owner = np.repeat(np.arange(len(nlines)), nlines)
-        g = g0[owner] + (np.arange(len(left)) - base[owner])
+        g = g0[owner] + line
         # band [y_g, y_g+1] of one polygon: rows of consecutive lines of the same owner; a
         # convex polygon's cross-section there contains the intersection of the two ends'
         same = owner[1:] == owner[:-1]
@@ -533,7 +527,6 @@ class Cover:
         face's plane is clipped (:meth:`covers` of its H-representation)."""
         if self.empty:
             return np.zeros(len(gens), dtype=bool)
-        r, h = self.r, self.h
         se = gens @ FACES[:, 0].T  # (p, g, 6)
         front = se > 0.0
         mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
@@ -546,18 +539,19 @@ class Cover:
             if not len(sel):
                 continue
             g, w = gens[sel], se[sel, :, face]
-            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2) + 1.0
+            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2)
             lo, hi = st.min(axis=1), st.max(axis=1)
-            meet = np.all(hi >= 0.0, axis=1) & np.all(lo <= 2.0, axis=1)
+            meet = np.all(hi >= -1.0, axis=1) & np.all(lo <= 1.0, axis=1)
             sel, lo, hi = sel[meet], lo[meet], hi[meet]
-            c0 = np.clip(np.floor(lo / h), 0, r - 1).astype(np.int64)
-            c1 = np.clip(np.floor(hi / h), 0, r - 1).astype(np.int64)
-            ok[sel[~self._all_covered(face, c0, c1)]] = False
+            ok[sel[~self._box_covered(face, lo, hi)]] = False
         return ok
 
-    def _all_covered(self, face: int, c0: np.ndarray, c1: np.ndarray) -> np.ndarray:
-        """Whether every cell of the rectangles ``c0..c1`` (``(p, 2)`` column, row) is
-        covered."""
+    def _box_covered(self, face: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether every cell meeting the chart boxes ``lo..hi`` (``(p, 2)``, clipped to the
+        face) is covered."""
+        r, h = self.r, self.h
+        c0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(np.int64)
+        c1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(np.int64)
         s = self._table(face)
         x0, y0, x1, y1 = c0[:, 0], c0[:, 1], c1[:, 0], c1[:, 1]
         got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
@@ -569,7 +563,6 @@ class Cover:
         if self.empty:
             return np.zeros(len(cones), dtype=bool)
         ok = np.ones(len(cones), dtype=bool)
-        r, h = self.r, self.h
         for face in range(6):
             poly, cnt = clip_halfplanes(cones, face)
             hit = cnt >= 3
@@ -577,13 +570,8 @@ class Cover:
                 continue
             idx = np.nonzero(hit)[0]
             poly, cnt = poly[hit], cnt[hit]
-            valid = np.arange(poly.shape[1])[None, :] < cnt[:, None]
-            xs = np.where(valid, poly[:, :, 0], np.nan)
-            ys = np.where(valid, poly[:, :, 1], np.nan)
-            x0 = np.clip(np.floor((np.nanmin(xs, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
-            x1 = np.clip(np.floor((np.nanmax(xs, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
-            y0 = np.clip(np.floor((np.nanmin(ys, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
-            y1 = np.clip(np.floor((np.nanmax(ys, axis=1) + 1.0) / h), 0, r - 1).astype(np.int64)
-            cov = self._all_covered(face, np.stack([x0, y0], axis=1), np.stack([x1, y1], axis=1))
-            ok[idx[~cov]] = False
+            valid = (np.arange(poly.shape[1])[None, :] < cnt[:, None])[:, :, None]
+            lo = np.where(valid, poly, np.inf).min(axis=1)
+            hi = np.where(valid, poly, -np.inf).max(axis=1)
+            ok[idx[~self._box_covered(face, lo, hi)]] = False
         return ok

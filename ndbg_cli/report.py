@@ -15,6 +15,7 @@ import math
 import os
 import signal
 import tempfile
+import threading
 from collections.abc import Iterator
 from importlib import resources
 from pathlib import Path
@@ -140,7 +141,6 @@ def _signals_held() -> Iterator[None]:
     process pool's manager thread) and Python still runs the handler in the main thread. So
     the handlers are swapped for a recorder; outside the main thread, where handlers cannot
     be set and never run, there is nothing to hold."""
-    import threading
     if threading.current_thread() is not threading.main_thread():
         yield
         return
