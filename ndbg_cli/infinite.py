@@ -16,7 +16,8 @@ interior of a triangle ``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a tr
 each term an open convex polyhedral cone, i.e. a convex spherical polygon, i.e. a convex
 polygon on each face of the gnomonic cube map (:mod:`ndbg_cli.cubemap`). Pairs that cannot
 face each other (``t_j`` wholly behind ``t_i``'s plane or ``t_i`` wholly behind ``t_j``'s) are
-pruned exactly, vectorised; every pair of parts is processed, since distant parts block too,
+pruned exactly, vectorised; every pair of parts is processed, since distant parts block too
+(each unordered pair once: ``B_ji = -B_ij``),
 but the triangle pairs whose terms lie strictly inside the terms already kept are skipped
 wholesale by a walk over bounding-box trees (:func:`ndbg_cli.blocking_cones.
 pruned_pair_cones`; same union, same open cones, same contact circles).
@@ -175,7 +176,9 @@ def triangle_pairs(asm: Assembly) -> int:
 
 
 def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
-    """``B_ij`` for every ordered pair of parts, on the cube map. With ``cache``, each ordered
+    """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is
+    computed once, the part with fewer triangles moving, and the other order is its antipodal
+    image (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed
     pair's cones and chart polygons are looked up by the two parts' content hashes and the
     tolerance (:mod:`ndbg_cli.cache`)."""
     t0 = time.perf_counter()
@@ -191,38 +194,41 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
     # content hashes of the triangles actually used (validated, placed, 2D extruded)
     gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
     trees_of: list = [None] * n  # pruning trees, built on first use
+    sizes = [len(t) for t, _ in tris]
     for i in range(n):
-        for j in range(n):
-            if i == j:
-                continue
+        for j in range(i + 1, n):
+            # B_ji = -B_ij: one orientation is computed, the smaller part moving (its walk
+            # prunes better), and the other is its antipodal image
+            a, b = (i, j) if sizes[i] <= sizes[j] else (j, i)
             ta = time.perf_counter()
             key = got = None
             if cache is not None:
                 # 2D parts are extruded to the assembly's diagonal: that enters the result.
-                key = cache.key("infinite", "pruned-1", gkeys[i], gkeys[j], eps, asm.dimension,
+                key = cache.key("infinite", "pruned-1", gkeys[a], gkeys[b], eps, asm.dimension,
                                 asm.diagonal if asm.dimension == 2 else None)
                 got = cache.get("infinite", key, _thaw)
             if got is not None:
                 cones, circ, entries = got
                 tb = time.perf_counter()
             else:
-                if trees_of[i] is None:
-                    trees_of[i] = tri_tree(tris[i][0])
-                if trees_of[j] is None:
-                    trees_of[j] = tri_tree(tris[j][0])
-                cones, circ = pruned_pair_cones(tris[i][0], tris[i][1], trees_of[i],
-                                                tris[j][0], tris[j][1], trees_of[j], eps)
+                for k in (a, b):
+                    if trees_of[k] is None:
+                        trees_of[k] = tri_tree(tris[k][0])
+                cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees_of[a],
+                                                tris[b][0], tris[b][1], trees_of[b], eps)
                 tb = time.perf_counter()
                 entries = cones_to_face_geoms(cones)
                 if key is not None:
                     cache.put("infinite", key, _freeze(cones, circ, entries))
-            all_cones[(i, j)] = cones
             circles.append(circ)
-            npieces += len(cones)
-            for face, entry in enumerate(entries):
-                if entry is not None:
-                    geoms[face][(i, j)] = entry[0]
-                    trees[face][(i, j)] = entry[1:]
+            for pair, c, ent in (((a, b), cones, entries),
+                                 ((b, a), -cones, reverse_entries(entries))):
+                all_cones[pair] = c
+                npieces += len(c)
+                for face, entry in enumerate(ent):
+                    if entry is not None:
+                        geoms[face][pair] = entry[0]
+                        trees[face][pair] = entry[1:]
             t_cones += tb - ta
             t_union += time.perf_counter() - tb
     for fd in geoms:
@@ -235,6 +241,30 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
     stats["contact_circles"] = len(circ)
     return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, trees=trees, circles=circ,
                        space_dimension=asm.dimension, stats=stats)
+
+
+#: The chart map of the antipodal map ``d -> -d``: a direction at ``(s, t)`` on face ``f``
+#: goes to ``(-t, -s)`` on the opposite face ``f ^ 1``, the same for all six faces (their
+#: chart axes are paired that way, see :data:`ndbg_cli.cubemap.FACES`).
+_ANTIPODAL = np.array([[0.0, -1.0], [-1.0, 0.0]])
+
+
+def reverse_entries(entries: list) -> list:
+    """The per-face chart geometry of ``B_ji`` from that of ``B_ij``
+    (:func:`~ndbg_cli.blocking_cones.cones_to_face_geoms`): ``P_i`` moving along ``d`` meets
+    ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
+    the antipodal map is a chart isometry onto the opposite cube face. The cone index of each
+    piece is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""
+    def flip(g):
+        return shapely.transform(g, lambda xy: xy @ _ANTIPODAL.T)
+
+    out: list = [None] * 6
+    for face, e in enumerate(entries):
+        if e is None:
+            continue
+        union, tree, index = e
+        out[face ^ 1] = (flip(union), shapely.STRtree(flip(tree.geometries)), index)
+    return out
 
 
 def _freeze(cones: np.ndarray, circ: np.ndarray, entries: list) -> tuple:

@@ -332,3 +332,62 @@ def test_pruned_terms_give_the_dense_blocked_sets(name):
                 if gd is not None:
                     assert shapely.symmetric_difference(gd[0], gp[0]).area < 1e-12
     assert fewer  # the walk did prune somewhere
+
+
+@pytest.mark.parametrize("name", ["peg-37", "hover"])
+def test_reversed_pair_is_the_antipodal_image(name):
+    """``blocked_sets`` computes one orientation of each pair and takes the other as the
+    antipodal image (``B_ji = -B_ij``): against the pair computed directly, the same closed
+    chart union on every face, the same open-cone membership and the same region lookup on
+    random directions."""
+    import shapely
+
+    from ndbg_cli import blocking_cones as bc
+    from ndbg_cli.infinite import blocked_sets, reverse_entries
+
+    asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+    tris = bc.part_triangles(asm)
+    trees = [bc.tri_tree(t) for t, _ in tris]
+    eps = asm.length_tolerance
+    d = random_directions(4000, seed=5)
+    bs = blocked_sets(asm)
+    exact = bs.dbgs(d[:500], exact=True)
+    n = len(tris)
+    for i in range(n):
+        for j in range(n):
+            if i == j:
+                continue
+            direct, _ = bc.pruned_pair_cones(tris[i][0], tris[i][1], trees[i],
+                                             tris[j][0], tris[j][1], trees[j], eps)
+            other, _ = bc.pruned_pair_cones(tris[j][0], tris[j][1], trees[j],
+                                            tris[i][0], tris[i][1], trees[i], eps)
+            assert np.array_equal(_open_member(direct, d), _open_member(-other, d)), (i, j)
+            mine = bc.cones_to_face_geoms(direct)
+            flipped = reverse_entries(bc.cones_to_face_geoms(other))
+            for a, b in zip(mine, flipped):
+                assert (a is None) == (b is None), (i, j)
+                if a is not None:
+                    assert shapely.symmetric_difference(a[0], b[0]).area < 1e-12, (i, j)
+            got = np.array([bool(g.succ[i] >> j & 1) for g in exact])
+            assert np.array_equal(got, _open_member(direct, d[:500])), (i, j)
+            # what blocked_sets holds for (i, j), whichever orientation it computed
+            for face in range(6):
+                got = bs.geoms[face].get((i, j))
+                want = mine[face][0] if mine[face] is not None else None
+                assert (got is None) == (want is None), (i, j, face)
+                if got is not None:
+                    assert shapely.symmetric_difference(got, want).area < 1e-12, (i, j, face)
+
+
+def test_dbg_of_the_opposite_direction_is_the_reversed_dbg():
+    """``P_j`` blocks ``P_i`` along ``d`` exactly when ``P_i`` blocks ``P_j`` along ``-d``:
+    at every region's representative direction (thin 1- and 0-dimensional regions along the
+    sliding directions included), the exact lookup at ``-d`` is the reversed DBG."""
+    from ndbg_cli.infinite import build_infinite, lookup
+
+    asm = ndbg_cli.load("assemblies/hover.yaml")
+    nd = build_infinite(asm)
+    d = np.array([r.direction for r in nd.regions])
+    assert (np.array([r.dimension for r in nd.regions]) < 2).sum() > 20
+    ahead, behind = lookup(nd, d, exact=True), lookup(nd, -d, exact=True)
+    assert [g.succ for g in behind] == [g.reversed().succ for g in ahead]
