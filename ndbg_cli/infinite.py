@@ -167,9 +167,10 @@ def succ_from_matrix(mat: np.ndarray) -> list[tuple[int, ...]]:
 
 
 def triangle_pairs(asm: Assembly) -> int:
-    """Number of (moving, blocking) triangle pairs the builder examines: the cost driver
-    (an upper bound since the pruning walk skips most of them). The CLI skips the NDBG with a
-    warning above ``--infinite-budget`` (AS1: 1.1e8 pairs)."""
+    """Number of (moving, blocking) triangle pairs over all ordered pairs of parts: the cost
+    driver, twice what the builder examines (it computes each unordered pair once) and an
+    upper bound of even that, since the pruning walk skips most of them. The CLI skips the
+    NDBG with a warning above ``--infinite-budget`` (AS1: 1.1e8 pairs)."""
     t = np.array([p.check.triangles if asm.dimension == 3 else 4 * p.check.vertices
                   for p in asm.parts], dtype=float)
     return int(t.sum() ** 2 - (t ** 2).sum())
