@@ -15,20 +15,25 @@ Pruning (exact)
 ---------------
 The triangles of each part are put in a bounding-box tree (:func:`tri_tree`). For a pair of
 nodes, every term of their triangle pairs lies in the cone spanned by the box difference
-``box_j - box_i`` (grown by the erosion margin); if that cone lies inside the union of the terms
-already kept, *each polygon eroded by* :data:`SHRINK` chart units, the node pair adds nothing:
-every one of its directions is already strictly inside some kept open cone. "Inside" is
-decided conservatively on a raster per cube face (:class:`Cover`: the cells wholly inside some
-eroded kept polygon; a cone is inside when the bounding box of its chart image meets only such
-cells), which costs the same however many terms are kept; a new term inside it is dropped the
-same way. So the union of
-the kept terms equals ``B_ij``, both as a closed chart set and as a union of open cones (which
-the open-set re-test of :class:`ndbg_cli.infinite.BlockedSets` relies on). Node pairs within
+``box_j - box_i`` (grown by the erosion margin); if that cone lies inside the union of the
+terms already kept, *each polygon eroded by* :data:`~ndbg_cli.cover.SHRINK` chart units, the
+node pair adds nothing: every one of its directions is already strictly inside some kept open
+cone. "Inside" is decided conservatively on a raster per cube face
+(:class:`~ndbg_cli.cover.Cover`: the cells wholly inside some eroded kept polygon; a cone is
+inside when the bounding box of its chart image meets only such cells), which costs the same
+however many terms are kept; a new term inside it is dropped the same way. So the union of the
+kept terms equals ``B_ij``, both as a closed chart set and as a union of open cones (which the
+open-set re-test of :class:`ndbg_cli.infinite.BlockedSets` relies on). Node pairs within
 ``4 eps`` of each other (contacts) are never pruned, so every near triangle pair is kept and
 the contact circles are complete. The tree is walked breadth-first; at each level every
 surviving node pair contributes the exact term of its two largest triangles, which fills the
 union from the inside before the leaves are reached. Leaf pairs (at most :data:`LEAF`
-triangles a side) that survive contribute all their terms.
+triangles a side) that survive contribute all their terms. Flat terms (:func:`flat`: two
+coplanar triangles, an empty open cone) are dropped as they are made.
+
+With a *domain* (cube-map cells, :mod:`ndbg_cli.domain`), the cells outside it count as
+covered from the start: what lies only there is pruned, near node pairs included, and the
+union is right inside the domain only.
 
 Tolerance (``eps``, the assembly's length tolerance)
 ---------------------------------------------------
@@ -46,7 +51,8 @@ import shapely
 import trimesh
 
 from .assembly import Assembly
-from .cubemap import FACES, clip_halfplanes, cone_normals
+from .cover import Cover, run_offsets
+from .cubemap import clip_halfplanes, compact, cone_normals
 
 #: Snapping grid of the arrangement linework, chart units.
 GRID = 1e-10
@@ -54,11 +60,6 @@ GRID = 1e-10
 CHUNK = 20000
 #: Most triangles in a leaf of the pruning tree.
 LEAF = 8
-#: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
-#: direction is at least this far inside a kept cone, far above the 1e-6 of the open test.
-SHRINK = 1e-5
-#: Cells per side of the pruning raster of each cube face (:class:`Cover`).
-RASTER = 512
 
 
 def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -135,10 +136,28 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
                 gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
             m = compact(cone_normals(gens))
             facing = np.stack([ni[a], -nj[b]], axis=1)
-            parts.append(np.concatenate([m, facing], axis=1))
+            cone = np.concatenate([m, facing], axis=1)
+            parts.append(cone[~flat(cone)])
     cones = _stack(parts)
     circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
     return cones, circles
+
+
+#: Two rows of a cone at least this anti-parallel (``m . m' <= -1 + FLAT``) make it flat:
+#: its open set lies in a wedge narrower than ``sqrt(2 FLAT)`` (1.4e-7 rad), where the open
+#: test (``OPEN_TOL`` = 1e-6 inside every facet) accepts no direction.
+FLAT = 1e-14
+
+
+def flat(cones: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether each cone ``(p, k, 3)`` (unit or zero rows) has two anti-parallel rows
+    within :data:`FLAT`: an empty open set. Coplanar faces of two parts make such terms (the
+    generators of ``t_j - t_i`` in one plane, or ``n_i = n_j``); on AS1 they are about half of
+    all terms, and being lines across a whole face, the cover could never prune them."""
+    if not len(cones):
+        return np.zeros(0, dtype=bool)
+    dots = np.einsum("pak,pbk->pab", cones, cones)
+    return (dots <= -1.0 + FLAT).any(axis=(1, 2))
 
 
 def _stack(parts: list[np.ndarray]) -> np.ndarray:
@@ -161,26 +180,6 @@ def unique_circles(normals: np.ndarray) -> np.ndarray:
     n = n * sign[:, None]
     _, idx = np.unique(np.round(n, 9), axis=0, return_index=True)
     return n[np.sort(idx)]
-
-
-def compact(normals: np.ndarray) -> np.ndarray:
-    """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
-    if not len(normals):
-        return normals
-    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
-    order = np.argsort(key, axis=1, kind="stable")
-    key = np.take_along_axis(key, order, axis=1)
-    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
-    dup = np.zeros_like(key, dtype=bool)
-    dup[:, 1:] = key[:, 1:] == key[:, :-1]
-    zero = ~np.any(nm != 0.0, axis=2)
-    drop = dup | zero
-    order = np.argsort(drop, axis=1, kind="stable")
-    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
-    width = max(int((~drop).sum(axis=1).max()), 1)
-    nm = nm[:, :width]
-    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
-    return np.where(keepmask[:, :, None], nm, 0.0)
 
 
 # --------------------------------------------------------------------------------------------
@@ -302,14 +301,16 @@ def tri_tree(tri: np.ndarray, leaf: int = LEAF) -> TriTree:
 
 
 def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.ndarray,
-                      nj: np.ndarray, tree_j: TriTree, eps: float, stats: dict | None = None
-                      ) -> tuple[np.ndarray, np.ndarray]:
+                      nj: np.ndarray, tree_j: TriTree, eps: float, stats: dict | None = None,
+                      domain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The terms of ``B_ij`` that the union needs (see the module docstring): the same set
     as :func:`pair_cones`, as open cones ``(p, k, 3)``, and the same contact normals.
-    ``stats`` (if given) receives counts of node pairs tested and terms computed and kept."""
+    ``stats`` (if given) receives counts of node pairs tested and terms computed and kept.
+    With ``domain`` (``(6, c, c)`` bool cells of the cube map, :mod:`ndbg_cli.domain`) the
+    union is right only inside the domain cells: nothing is computed for the others."""
     if not len(ti) or not len(tj):
         return _EMPTY
-    walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps)
+    walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps, domain)
     a = np.zeros(1, dtype=np.int64)
     b = np.zeros(1, dtype=np.int64)
     while len(a):
@@ -349,13 +350,16 @@ class _Walk:
     """State of one pruning walk: the kept terms, the contact normals and the :class:`Cover`
     of the kept terms."""
 
-    def __init__(self, ti, ni, tree_i, tj, nj, tree_j, eps: float) -> None:
+    def __init__(self, ti, ni, tree_i, tj, nj, tree_j, eps: float,
+                 domain: np.ndarray | None = None) -> None:
         self.ti, self.ni, self.tree_i = ti, ni, tree_i
         self.tj, self.nj, self.tree_j = tj, nj, tree_j
         self.eps = eps
         self.kept: list[np.ndarray] = []
         self.circles: list[np.ndarray] = []
-        self.cover = Cover()
+        self.cover = Cover(domain=domain)
+        # the domain alone (never updated): near node pairs wholly outside it are dropped too
+        self.outside = None if domain is None else Cover(domain=domain)
         self.stats = {"node_pairs": 0, "terms": 0, "kept": 0}
 
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -368,13 +372,21 @@ class _Walk:
         dlo = tj.lo[b] - ti.hi[a] - grow
         dhi = tj.hi[b] - ti.lo[a] + grow
         gap = np.maximum(tj.lo[b] - ti.hi[a], ti.lo[a] - tj.hi[b]).max(axis=1)
-        test = (gap > 4 * eps) & ~np.all((dlo < 0) & (dhi > 0), axis=1)
+        around = np.all((dlo < 0) & (dhi > 0), axis=1)
+        test = (gap > 4 * eps) & ~around
         self.stats["node_pairs"] += int(test.sum())
         drop = np.zeros(len(a), dtype=bool)
         if test.any():
             sel = np.nonzero(test)[0]
             gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
             drop[sel] = self.cover.covers_spanned(gens)
+        near = (gap <= 4 * eps) & ~around
+        if self.outside is not None and not self.outside.empty and near.any():
+            # Their terms and contact circles only matter inside the domain: a seam there
+            # lies between terms there, whose near pairs are kept.
+            sel = np.nonzero(near)[0]
+            gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
+            drop[sel] = self.outside.covers_spanned(gens)
         return a[~drop], b[~drop]
 
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
@@ -395,13 +407,6 @@ class _Walk:
         self.cover.add(cones)
 
 
-def _run_offsets(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For runs of lengths ``counts`` ``(n,)`` laid end to end: the run of each position and
-    its offset within the run (two ``(counts.sum(),)`` arrays)."""
-    run = np.repeat(np.arange(len(counts)), counts)
-    return run, np.arange(len(run)) - (np.cumsum(counts) - counts)[run]
-
-
 def _leaf_pairs(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray]:
     """All triangle index pairs of the leaf pairs ``(a[k], b[k])``."""
@@ -409,169 +414,6 @@ def _leaf_pairs(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     na = tree_i.stop[a] - tree_i.start[a]
     nb = tree_j.stop[b] - tree_j.start[b]
-    pair, off = _run_offsets(na * nb)
+    pair, off = run_offsets(na * nb)
     ka, kb = off // nb[pair], off % nb[pair]
     return (tree_i.perm[tree_i.start[a][pair] + ka], tree_j.perm[tree_j.start[b][pair] + kb])
-
-
-class Cover:
-    """An inner approximation of the union of the kept terms, for the pruning test: per cube
-    face, a raster of :data:`RASTER` x :data:`RASTER` chart cells, a cell being *covered* when
-    it lies wholly inside some kept term's polygon eroded by :data:`SHRINK`. A cone whose
-    polygon's bounding box meets only covered cells, on every face it meets, is therefore
-    strictly inside the kept union (by at least ``SHRINK``): :meth:`covers`.
-
-    Adding a term costs a few array operations per raster row it spans (cross-sections of a
-    convex polygon at the grid lines), a test one summed-area-table lookup per face: unlike an
-    exact polygon union, neither grows with the number of terms kept. The price is a margin of
-    about one cell (``2 / RASTER`` chart units) along the union's boundary where nothing is
-    pruned; what is computed there is exact."""
-
-    def __init__(self, raster: int = RASTER) -> None:
-        self.r = raster
-        self.h = 2.0 / raster
-        self.covered = np.zeros((6, raster, raster), dtype=bool)
-        self.sat: list[np.ndarray | None] = [None] * 6  # summed-area tables, built lazily
-        self.empty = True
-
-    def add(self, cones: np.ndarray) -> None:
-        """Mark the cells wholly inside the eroded polygons of the open cones ``(p, k, 3)``."""
-        for face in range(6):
-            poly, cnt = clip_halfplanes(cones, face, shrink=SHRINK)
-            keep = cnt >= 3
-            if keep.any():
-                self._mark(face, poly[keep], cnt[keep])
-
-    def _mark(self, face: int, poly: np.ndarray, cnt: np.ndarray) -> None:
-        r, h = self.r, self.h
-        m = poly.shape[1]
-        k = np.arange(m)[None, :]
-        valid = k < cnt[:, None]
-        nxt = np.where(k + 1 < cnt[:, None], k + 1, 0)
-        a = poly
-        b = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
-        # A convex polygon holding a cell has inradius >= h / 2, and its inradius is at most
-        # 2 area / perimeter: slivers, most of the terms, cover no cell and are skipped.
-        area = 0.5 * np.abs(np.where(valid, a[:, :, 0] * b[:, :, 1] - a[:, :, 1] * b[:, :, 0],
-                                     0.0).sum(axis=1))
-        perim = np.where(valid, np.linalg.norm(b - a, axis=2), 0.0).sum(axis=1)
-        fat = 4.0 * area >= h * perim
-        if not fat.all():
-            a, b, valid, poly = a[fat], b[fat], valid[fat], poly[fat]
-            if not len(poly):
-                return
-        ys = np.where(valid, poly[:, :, 1], np.nan)
-        g0 = np.ceil((np.nanmin(ys, axis=1) + 1.0) / h).astype(np.int64)
-        g1 = np.floor((np.nanmax(ys, axis=1) + 1.0) / h).astype(np.int64)
-        g0, g1 = np.maximum(g0, 0), np.minimum(g1, r)
-        nlines = np.maximum(g1 - g0 + 1, 0)
-        if not (nlines >= 2).any():  # a band needs two grid lines inside the polygon
-            return
-        owner, line = _run_offsets(nlines)
-        base = np.cumsum(nlines) - nlines
-        left = np.full(len(owner), np.inf)
-        right = np.full(len(left), -np.inf)
-        # Each grid line meets a convex polygon in one edge going down (the left chain of a
-        # counter-clockwise polygon) and one going up (the right chain): intersect per edge.
-        pe, ke = np.nonzero(valid & (a[:, :, 1] != b[:, :, 1]))
-        ya, yb = a[pe, ke, 1], b[pe, ke, 1]
-        xa, xb = a[pe, ke, 0], b[pe, ke, 0]
-        e0 = np.maximum(np.ceil((np.minimum(ya, yb) + 1.0) / h).astype(np.int64), g0[pe])
-        e1 = np.minimum(np.floor((np.maximum(ya, yb) + 1.0) / h).astype(np.int64), g1[pe])
-        edge, k = _run_offsets(np.maximum(e1 - e0 + 1, 0))
-        g = e0[edge] + k
-        y = -1.0 + g * h
-        x = xa[edge] + (y - ya[edge]) * ((xb - xa) / (yb - ya))[edge]
-        slot = base[pe[edge]] + g - g0[pe[edge]]
-        down = (yb < ya)[edge]
-        np.minimum.at(left, slot[down], x[down])
-        np.maximum.at(right, slot[~down], x[~down])
-        g = g0[owner] + line
-        # band [y_g, y_g+1] of one polygon: rows of consecutive lines of the same owner; a
-        # convex polygon's cross-section there contains the intersection of the two ends'
-        same = owner[1:] == owner[:-1]
-        lo = np.maximum(left[1:], left[:-1])[same]
-        hi = np.minimum(right[1:], right[:-1])[same]
-        row = g[:-1][same]
-        fin = np.isfinite(lo) & np.isfinite(hi) & (lo < hi)
-        lo, hi, row = lo[fin], hi[fin], row[fin]
-        c0 = np.ceil((lo + 1.0) / h).astype(np.int64)
-        c1 = np.floor((hi + 1.0) / h).astype(np.int64)  # one past the last whole cell
-        c0, c1 = np.maximum(c0, 0), np.minimum(c1, r)
-        ok = (c1 > c0) & (row < r)
-        if not ok.any():
-            return
-        rows, slot = np.unique(row[ok], return_inverse=True)
-        w = r + 1
-        spans = np.bincount(slot * w + c0[ok], minlength=len(rows) * w) \
-            - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
-        inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
-        self.covered[face, rows] |= inside
-        self.sat[face] = None
-        self.empty = False
-
-    def _table(self, face: int) -> np.ndarray:
-        if self.sat[face] is None:
-            sat = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
-            np.cumsum(self.covered[face], axis=0, dtype=np.int32, out=sat[1:, 1:])
-            np.cumsum(sat[1:, 1:], axis=1, out=sat[1:, 1:])
-            self.sat[face] = sat
-        return self.sat[face]
-
-    def covers_spanned(self, gens: np.ndarray) -> np.ndarray:
-        """``(p,)`` whether each closed cone spanned by generators ``gens`` ``(p, g, 3)``
-        lies in covered cells on every face it meets. On a face whose axis ``e`` has
-        ``g . e > 0`` for every generator, the cone's chart image is the convex hull of the
-        generators' charts, so their bounding box is used (no clipping); a face with no
-        generator in front of it is missed. A cone with generators on both sides of some
-        face's plane is clipped (:meth:`covers` of its H-representation)."""
-        if self.empty:
-            return np.zeros(len(gens), dtype=bool)
-        se = gens @ FACES[:, 0].T  # (p, g, 6)
-        front = se > 0.0
-        mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
-        ok = np.ones(len(gens), dtype=bool)
-        if mixed.any():
-            ok[mixed] = self.covers(compact(cone_normals(gens[mixed])))
-        for face in range(6):
-            e, u, v = FACES[face]
-            sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
-            if not len(sel):
-                continue
-            g, w = gens[sel], se[sel, :, face]
-            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2)
-            lo, hi = st.min(axis=1), st.max(axis=1)
-            meet = np.all(hi >= -1.0, axis=1) & np.all(lo <= 1.0, axis=1)
-            sel, lo, hi = sel[meet], lo[meet], hi[meet]
-            ok[sel[~self._box_covered(face, lo, hi)]] = False
-        return ok
-
-    def _box_covered(self, face: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Whether every cell meeting the chart boxes ``lo..hi`` (``(p, 2)``, clipped to the
-        face) is covered."""
-        r, h = self.r, self.h
-        c0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(np.int64)
-        c1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(np.int64)
-        s = self._table(face)
-        x0, y0, x1, y1 = c0[:, 0], c0[:, 1], c1[:, 0], c1[:, 1]
-        got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
-        return got == (y1 - y0 + 1) * (x1 - x0 + 1)
-
-    def covers(self, cones: np.ndarray) -> np.ndarray:
-        """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every
-        face it meets."""
-        if self.empty:
-            return np.zeros(len(cones), dtype=bool)
-        ok = np.ones(len(cones), dtype=bool)
-        for face in range(6):
-            poly, cnt = clip_halfplanes(cones, face)
-            hit = cnt >= 3
-            if not hit.any():
-                continue
-            idx = np.nonzero(hit)[0]
-            poly, cnt = poly[hit], cnt[hit]
-            valid = (np.arange(poly.shape[1])[None, :] < cnt[:, None])[:, :, None]
-            lo = np.where(valid, poly, np.inf).min(axis=1)
-            hi = np.where(valid, poly, -np.inf).max(axis=1)
-            ok[idx[~self._box_covered(face, lo, hi)]] = False
-        return ok

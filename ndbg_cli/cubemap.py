@@ -88,12 +88,14 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9) -> np.ndarray:
 
 
 def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
-                    shrink: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                    shrink: float = 0.0, rect: tuple[float, float, float, float] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
     """Clip the chart square of ``face`` by the open cones ``normals`` ``(p, k, 3)``.
 
     With ``shrink > 0`` every cone facet (not the chart square) is moved inward by ``shrink``
     chart units: the polygons are eroded, which is what a test "strictly inside some cone"
-    needs.
+    needs. With ``rect`` (``x0, y0, x1, y1``, chart units) that rectangle is clipped instead
+    of the square (a window: cones missing it are skipped at the cost of four corner tests).
 
     Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
     ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face). Vectorised
@@ -101,7 +103,8 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     """
     e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
-    sq = np.array([[-r, -r], [r, -r], [r, r], [-r, r]])
+    x0, y0, x1, y1 = (-r, -r, r, r) if rect is None else rect
+    sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
     coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
     if shrink > 0.0:
         coef[:, :, 2] -= shrink * np.hypot(coef[:, :, 0], coef[:, :, 1])
@@ -172,3 +175,23 @@ def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
     rng = np.random.default_rng(seed)
     d = rng.normal(size=(n, dim))
     return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def compact(normals: np.ndarray) -> np.ndarray:
+    """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
+    if not len(normals):
+        return normals
+    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
+    order = np.argsort(key, axis=1, kind="stable")
+    key = np.take_along_axis(key, order, axis=1)
+    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
+    dup = np.zeros_like(key, dtype=bool)
+    dup[:, 1:] = key[:, 1:] == key[:, :-1]
+    zero = ~np.any(nm != 0.0, axis=2)
+    drop = dup | zero
+    order = np.argsort(drop, axis=1, kind="stable")
+    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
+    width = max(int((~drop).sum(axis=1).max()), 1)
+    nm = nm[:, :width]
+    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
+    return np.where(keepmask[:, :, None], nm, 0.0)

@@ -45,12 +45,14 @@ arrangement is read on the equator (S^1).
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 
+from .arrangement import Cell, arrangement_cells, equator_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
     GRID,
@@ -62,8 +64,9 @@ from .blocking_cones import (
     unique_circles,
 )
 from .cache import PairCache
-from .cubemap import FACES, face_of
+from .cubemap import face_of
 from .dbg import DBG
+from .domain import domain_polygons
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
 
@@ -89,6 +92,9 @@ class BlockedSets:
     circles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     space_dimension: int = 3
     stats: dict = field(default_factory=dict)
+    #: Per face, the chart geometry of the directions where the sets are right (``None``
+    #: entries: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.domain`).
+    domain: list | None = None
 
     def blocked_pairs(self, d: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
         """For directions ``d`` ``(m, 3)``: list of ``(mask (m,), i, j)`` with ``mask[k]``
@@ -176,12 +182,15 @@ def triangle_pairs(asm: Assembly) -> int:
     return int(t.sum() ** 2 - (t ** 2).sum())
 
 
-def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
+def blocked_sets(asm: Assembly, cache: PairCache | None = None,
+                 domain: np.ndarray | None = None) -> BlockedSets:
     """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is
     computed once, the part with fewer triangles moving, and the other order is its antipodal
     image (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed
     pair's cones and chart polygons are looked up by the two parts' content hashes and the
-    tolerance (:mod:`ndbg_cli.cache`)."""
+    tolerance (:mod:`ndbg_cli.cache`). With ``domain`` (``(6, r, r)`` bool cube-map cells,
+    symmetric under ``d -> -d``, :func:`ndbg_cli.domain.free_domain`) the sets are right only
+    inside those cells, and computed only there."""
     t0 = time.perf_counter()
     tris = part_triangles(asm)
     eps = asm.length_tolerance
@@ -205,8 +214,10 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
             key = got = None
             if cache is not None:
                 # 2D parts are extruded to the assembly's diagonal: that enters the result.
+                extra = () if domain is None else (
+                    hashlib.sha256(np.packbits(domain).tobytes()).hexdigest(),)
                 key = cache.key("infinite", "pruned-1", gkeys[a], gkeys[b], eps, asm.dimension,
-                                asm.diagonal if asm.dimension == 2 else None)
+                                asm.diagonal if asm.dimension == 2 else None, *extra)
                 got = cache.get("infinite", key, _thaw)
             if got is not None:
                 cones, circ, entries = got
@@ -216,7 +227,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
                     if trees_of[k] is None:
                         trees_of[k] = tri_tree(tris[k][0])
                 cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees_of[a],
-                                                tris[b][0], tris[b][1], trees_of[b], eps)
+                                                tris[b][0], tris[b][1], trees_of[b], eps,
+                                                domain=domain)
                 tb = time.perf_counter()
                 entries = cones_to_face_geoms(cones)
                 if key is not None:
@@ -232,6 +244,19 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
                         trees[face][pair] = entry[1:]
             t_cones += tb - ta
             t_union += time.perf_counter() - tb
+    dom = None if domain is None else domain_polygons(domain)
+    if dom is not None:
+        # only the domain's part is right (and needed): the arrangement is built there
+        for face, fd in enumerate(geoms):
+            if dom[face] is None:
+                fd.clear()
+                continue
+            for pair in list(fd):
+                g = shapely.intersection(fd[pair], dom[face], grid_size=GRID)
+                if g.is_empty or g.area <= 0:
+                    del fd[pair]
+                else:
+                    fd[pair] = g
     for fd in geoms:
         for g in fd.values():
             shapely.prepare(g)
@@ -241,7 +266,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None) -> BlockedSets:
     circ = unique_circles(np.concatenate(circles)) if circles else np.zeros((0, 3))
     stats["contact_circles"] = len(circ)
     return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, trees=trees, circles=circ,
-                       space_dimension=asm.dimension, stats=stats)
+                       space_dimension=asm.dimension, stats=stats, domain=dom)
 
 
 #: The chart map of the antipodal map ``d -> -d``: a direction at ``(s, t)`` on face ``f``
@@ -302,161 +327,22 @@ def _thaw(value: tuple) -> tuple[np.ndarray, np.ndarray, list]:
 # The arrangement and the NDBG
 # --------------------------------------------------------------------------------------------
 
-@dataclass(frozen=True)
-class Cell:
-    """One region of the arrangement on one cube face: its dimension (2, 1 or 0 after the
-    thin-region rule), a representative unit direction strictly inside it (``(3,)``), and its
-    chart geometry."""
-
-    dimension: int
-    direction: np.ndarray
-    face: int
-    geom: object
-    seam: bool = False
+#: Most cells re-tested with the open-set semantics (0-dimensional first, then seams, then
+#: 1-dimensional cells on contact circles); the others keep the closed sets' DBG, which has
+#: more arcs: a partitioning may be missed there, none is made up. The section says how many.
+EXACT_CELLS = 2000
 
 
-def arrangement_cells(bs: BlockedSets) -> list[Cell]:
-    """The regions of the arrangement of all ``B_ij`` boundaries, face by face.
-
-    The boundaries of every ``U_ij`` on a face, with the chart square, are noded and
-    polygonized; each polygon is a region. A region thinner than ``eta`` (width ``2 area /
-    perimeter``) is 1-dimensional, one smaller than ``eta`` across (bounding box) is
-    0-dimensional. The noded boundaries give the 1-dimensional cells (segments) and the
-    0-dimensional ones (their end points). Cells on the contact circles but off every
-    boundary are *seam candidates* (``seam=True``): :func:`build_infinite` keeps those whose
-    exact DBG differs from the one around them (a slot's or a bore's free directions).
-    """
-    from .cubemap import SQUARE_MARGIN, direction_of
-
-    r = 1.0 + SQUARE_MARGIN
-    square = shapely.box(-r, -r, r, r)
-    cells: list[Cell] = []
-    for face in range(6):
-        lines = [shapely.boundary(g) for g in bs.geoms[face].values()]
-        lines.append(square.boundary)
-        noded = shapely.union_all(lines, grid_size=GRID)
-        circ = circle_lines(bs.circles, face)
-        if circ:
-            with_circles = shapely.union_all([noded, *circ], grid_size=GRID)
-            seams = [c for c in _edge_cells(with_circles, face)
-                     if shapely.distance(noded, shapely.Point(_chart(c))) > 10 * GRID]
-            cells.extend(Cell(c.dimension, c.direction, face, c.geom, seam=True)
-                         for c in seams)
-        faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
-        faces = faces[shapely.area(faces) > 0]
-        if not len(faces):
-            continue
-        pts = shapely.point_on_surface(faces)
-        xy = shapely.get_coordinates(pts)
-        area = shapely.area(faces)
-        width = 2 * area / np.maximum(shapely.length(faces), 1e-300)
-        b = shapely.bounds(faces)
-        extent = np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])
-        dims = np.where(extent < bs.eta, 0, np.where(width < bs.eta, 1, 2))
-        cent = shapely.get_coordinates(shapely.centroid(faces))
-        use = np.where((dims == 0)[:, None], cent, xy)
-        dirs = direction_of(face, use)
-        for k in range(len(faces)):
-            cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
-        cells.extend(_edge_cells(noded, face))
-    return cells
-
-
-def _chart(c: Cell) -> tuple[float, float]:
-    """Chart coordinates of a cell's representative direction on its face."""
-    e, u, v = FACES[c.face]
-    de = float(c.direction @ e)
-    return float(c.direction @ u) / de, float(c.direction @ v) / de
-
-
-def circle_lines(normals: np.ndarray, face: int) -> list[object]:
-    """Chart segments of the great circles ``d . n = 0`` crossing ``face``'s square."""
-    from .cubemap import SQUARE_MARGIN
-
-    e, u, v = FACES[face]
-    r = 1.0 + SQUARE_MARGIN
-    out = []
-    for n in normals:
-        a, b, c = n @ u, n @ v, n @ e  # a s + b t + c = 0
-        if max(abs(a), abs(b)) < 1e-12:
-            continue
-        if abs(a) >= abs(b):
-            t = np.array([-r, r])
-            s_ = -(b * t + c) / a
-            pts = np.stack([s_, t], axis=1)
-        else:
-            s_ = np.array([-r, r])
-            t = -(a * s_ + c) / b
-            pts = np.stack([s_, t], axis=1)
-        seg = shapely.clip_by_rect(shapely.LineString(pts), -r, -r, r, r)
-        if not seg.is_empty and seg.length > 0:
-            out.append(seg)
-    return out
-
-
-def _edge_cells(noded: object, face: int) -> list[Cell]:
-    """The 1- and 0-dimensional cells of a face: the noded boundary segments and their end
-    points, leaving out those on the chart square's border (cube-edge artefacts)."""
-    from .cubemap import direction_of
-
-    segs = shapely.get_parts(shapely.get_parts(noded))
-    segs = segs[shapely.get_type_id(segs) == 1]
-    if not len(segs):
-        return []
-    lim = 1.0 - 1e-7
-    mids = shapely.get_coordinates(shapely.line_interpolate_point(segs, 0.5, normalized=True))
-    inside = (np.abs(mids) < lim).all(axis=1)
-    segs, mids = segs[inside], mids[inside]
-    cells = [Cell(1, d, face, g) for d, g in zip(direction_of(face, mids), segs)] \
-        if len(segs) else []
-    ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
-                           shapely.get_coordinates(shapely.get_point(segs, -1))]) \
-        if len(segs) else np.zeros((0, 2))
-    ends = ends[(np.abs(ends) < lim).all(axis=1)]
-    if len(ends):
-        ends = np.unique(np.round(ends / GRID) * GRID, axis=0)
-        cells.extend(Cell(0, d, face, shapely.Point(p))
-                     for d, p in zip(direction_of(face, ends), ends))
-    return cells
-
-
-def equator_cells(bs: BlockedSets) -> list[Cell]:
-    """For 2D assemblies: the regions on S^1 (the equator ``z = 0`` of the extruded model).
-
-    The equator crosses the four side faces along a chart line; the ``U_ij`` boundaries cut it
-    into intervals (1-dimensional regions, 0-dimensional when shorter than ``eta``).
-    """
-    from .cubemap import direction_of
-
-    cells: list[Cell] = []
-    for face in range(4):
-        e, u, v = FACES[face]
-        # Chart line of z = 0: the chart coordinate whose axis is z is zero.
-        zc = 0 if abs(u[2]) > 0 else 1
-        seg = shapely.LineString([(-1, 0), (1, 0)] if zc == 1 else [(0, -1), (0, 1)])
-        cuts = [shapely.intersection(seg, shapely.boundary(g)) for g in bs.geoms[face].values()]
-        ts = [-1.0, 1.0]
-        for c in cuts:
-            if not c.is_empty:
-                xy = shapely.get_coordinates(c)
-                ts.extend(xy[:, 1 - zc].tolist())
-        ts = np.unique(np.round(ts, 12))
-        for a, b in zip(ts[:-1], ts[1:]):
-            mid = 0.5 * (a + b)
-            pt = (mid, 0.0) if zc == 1 else (0.0, mid)
-            dim = 0 if b - a < bs.eta else 1
-            cells.append(Cell(dim, direction_of(face, np.array([pt]))[0], face,
-                              shapely.LineString([(a, 0), (b, 0)] if zc == 1
-                                                 else [(0, a), (0, b)])))
-    return cells
-
-
-def build_infinite(asm: Assembly, cache: PairCache | None = None) -> NDBG:
+def build_infinite(asm: Assembly, cache: PairCache | None = None,
+                   domain: np.ndarray | None = None) -> NDBG:
     """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
     (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
-    reuses per-pair blocked sets (:func:`blocked_sets`)."""
+    reuses per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map
+    cells, :func:`ndbg_cli.domain.free_domain`) only the cells of the arrangement inside it
+    are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
+    outside), not for its subassemblies'; the stats say ``restricted``."""
     t0 = time.perf_counter()
-    bs = blocked_sets(asm, cache)
+    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None)
     t1 = time.perf_counter()
     cells = equator_cells(bs) if asm.dimension == 2 else arrangement_cells(bs)
     t2 = time.perf_counter()
@@ -470,6 +356,12 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None) -> NDBG:
         on_circle = (np.abs(dirs @ bs.circles.T) < 1e-7).any(axis=1)
     recheck = np.nonzero(seam | (lower & on_circle))[0]
     keep = ~seam
+    skipped = 0
+    if len(recheck) > EXACT_CELLS:
+        dim = np.array([c.dimension for c in cells])[recheck]
+        order = np.lexsort((recheck, ~seam[recheck], dim))
+        skipped = len(recheck) - EXACT_CELLS
+        recheck = np.sort(recheck[order[:EXACT_CELLS]])
     if len(recheck):
         for k, g in zip(recheck, bs.dbgs(dirs[recheck], exact=True)):
             if seam[k] and g.succ != dbgs[k].succ:
@@ -493,7 +385,10 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None) -> NDBG:
         "length_tolerance": asm.length_tolerance, "angular_tolerance": bs.eta,
         "time_blocked_sets_s": t1 - t0, "time_arrangement_s": t2 - t1,
         "time_dbgs_s": t3 - t2, "time_total_s": t3 - t0,
+        "restricted": bs.domain is not None, "exact_cells_skipped": skipped,
     })
+    if bs.domain is not None:
+        ndbg.stats["domain_area"] = float(sum(g.area for g in bs.domain if g is not None))
     object.__setattr__(ndbg, "_blocked_sets", bs)
     return ndbg
 

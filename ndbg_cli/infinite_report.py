@@ -36,7 +36,10 @@ def infinite_section(asm: Assembly, ndbg: NDBG, partitionings: list[Partitioning
     dbgs = [{"arcs": [[ndbg.ids[i], ndbg.ids[j]] for i, j in dbg.arcs()],
              "regions": len(rs)} for dbg, rs in distinct]
     stats = ndbg.stats
+    extra = {"exact_cells_skipped": stats["exact_cells_skipped"]} \
+        if stats.get("exact_cells_skipped") else {}
     return {
+        **extra,
         "family": FAMILY,
         "regions_by_dimension": stats.get("regions_by_dimension", ndbg.region_counts()),
         "regions": len(ndbg.regions), "distinct_dbgs": len(distinct),

@@ -122,7 +122,8 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         sec.pop("assembly", None)
         sections[INFINITESIMAL] = sec
     if INFINITE in families:
-        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected, cache))
+        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected, cache,
+                                                    ca))
         if got is None:
             sections[INFINITE] = {"family": INFINITE, "skipped": True,
                                   "why": _infinite_skip_reason(asm, options)}
@@ -131,7 +132,15 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
                                        + sections[INFINITE]["why"], file=asm.source or None))
         else:
             nd, sec, parts = got
-            ndbgs[INFINITE] = nd
+            if nd.stats.get("restricted"):
+                # right for the whole assembly's partitionings only: no plans or classes
+                warnings.append(Diagnostic(
+                    "warning", "infinite-restricted",
+                    "infinite-translation NDBG restricted to the directions where the "
+                    "infinitesimal NDBG frees a subassembly: " + sec["domain"]["why"],
+                    file=asm.source or None))
+            else:
+                ndbgs[INFINITE] = nd
             sections[INFINITE] = sec
             partitionings += parts
     if GENERALIZED in families and asm.dimension == 3:
@@ -211,21 +220,41 @@ def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
     from .infinite import triangle_pairs
 
     return (f"{triangle_pairs(asm)} facing triangle pairs exceed the budget of "
-            f"{options.infinite_budget} (raise it with --infinite-budget)")
+            f"{options.infinite_budget} (raise it with --infinite-budget; --motion infinite "
+            "computes it where the infinitesimal NDBG frees something)")
 
 
-def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None
+def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None, ca=None
               ) -> tuple[NDBG, dict, list[dict]] | None:
+    """The infinite-translation NDBG, its section and partitionings. Above the budget (3D)
+    it is skipped (``None``), unless ``--motion infinite`` asks for it: then it is computed
+    only where the infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.domain`), which
+    gives the same partitionings of the whole assembly and nothing else (``None`` again with
+    more than 62 parts)."""
+    from .domain import free_domain
     from .generalized import block_threads
     from .infinite import build_infinite, triangle_pairs
     from .infinite_report import infinite_section
+    from .infinitesimal import contact_pairs
     from .ndbg import partitionings
 
+    domain = None
     if asm.dimension == 3 and triangle_pairs(asm) > options.infinite_budget:
-        return None
-    nd = block_threads(build_infinite(asm, cache), threaded)
+        if options.motion != "infinite":  # asked for explicitly only: it takes minutes
+            return None
+        domain = free_domain(len(asm.parts), contact_pairs(asm, ca),
+                             float(getattr(ca, "angle_tolerance", 0.0)))
+        if domain is None:
+            return None
+    nd = block_threads(build_infinite(asm, cache, domain), threaded)
     parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
     sec = infinite_section(asm, nd, parts, trunc)
+    if domain is not None:
+        sec["domain"] = {
+            "restricted": True, "area": nd.stats.get("domain_area"),
+            "why": f"{_infinite_skip_reason(asm, options)}; the regions are those inside "
+                   "the domain (cut by its boundary), the whole assembly's partitionings "
+                   "are all of them, and the family is not used for plans or classes"}
     if options.region_limit is not None and len(sec["region_list"]) > options.region_limit:
         sec["region_list"] = sec["region_list"][:options.region_limit]
         sec["region_list_truncated"] = True

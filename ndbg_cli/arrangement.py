@@ -1,0 +1,249 @@
+"""The arrangement of the blocked-direction sets on the cube map: its cells (regions of
+dimension 2, 1 and 0), face by face, from the chart geometry of
+:class:`ndbg_cli.infinite.BlockedSets`, and the seam candidates on the contact circles.
+
+Chart coordinates are those of :mod:`ndbg_cli.cubemap` (about radians near a face's centre);
+linework is snapped to :data:`~ndbg_cli.blocking_cones.GRID`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import shapely
+
+from .blocking_cones import GRID
+from .cubemap import FACES
+
+if TYPE_CHECKING:
+    from .infinite import BlockedSets
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One region of the arrangement on one cube face: its dimension (2, 1 or 0 after the
+    thin-region rule), a representative unit direction strictly inside it (``(3,)``), and its
+    chart geometry."""
+
+    dimension: int
+    direction: np.ndarray
+    face: int
+    geom: object
+    seam: bool = False
+
+
+def arrangement_cells(bs: BlockedSets) -> list[Cell]:
+    """The regions of the arrangement of all ``B_ij`` boundaries, face by face.
+
+    The boundaries of every ``U_ij`` on a face, with the chart square, are noded and
+    polygonized; each polygon is a region. A region thinner than ``eta`` (width ``2 area /
+    perimeter``) is 1-dimensional, one smaller than ``eta`` across (bounding box) is
+    0-dimensional. The noded boundaries give the 1-dimensional cells (segments) and the
+    0-dimensional ones (their end points). Cells on the contact circles but off every
+    boundary are *seam candidates* (``seam=True``): :func:`build_infinite` keeps those whose
+    exact DBG differs from the one around them (a slot's or a bore's free directions).
+    """
+    from .cubemap import SQUARE_MARGIN, direction_of
+
+    r = 1.0 + SQUARE_MARGIN
+    square = shapely.box(-r, -r, r, r)
+    cells: list[Cell] = []
+    for face in range(6):
+        dom = None if bs.domain is None else bs.domain[face]
+        if bs.domain is not None and dom is None:
+            continue
+        lines = [shapely.boundary(g) for g in bs.geoms[face].values()]
+        lines.append(square.boundary)
+        if dom is not None:
+            lines.append(shapely.boundary(dom))
+        noded = shapely.union_all(lines, grid_size=GRID)
+        cells.extend(seam_cells(noded, bs.circles, face, dom, bs.eta))
+        faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+        faces = faces[shapely.area(faces) > 0]
+        if dom is not None and len(faces):
+            # the domain's boundary is in the linework: each face is inside it or outside
+            faces = faces[shapely.contains(dom, shapely.point_on_surface(faces))]
+        if not len(faces):
+            if dom is not None:
+                cells.extend(_edge_cells(noded, face, dom))
+            continue
+        pts = shapely.point_on_surface(faces)
+        xy = shapely.get_coordinates(pts)
+        area = shapely.area(faces)
+        width = 2 * area / np.maximum(shapely.length(faces), 1e-300)
+        b = shapely.bounds(faces)
+        extent = np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])
+        dims = np.where(extent < bs.eta, 0, np.where(width < bs.eta, 1, 2))
+        cent = shapely.get_coordinates(shapely.centroid(faces))
+        use = np.where((dims == 0)[:, None], cent, xy)
+        dirs = direction_of(face, use)
+        for k in range(len(faces)):
+            cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
+        cells.extend(_edge_cells(noded, face, dom))
+    return cells
+
+
+#: Most circles through one face (inside the domain) whose pieces are seam candidates; with
+#: more, only their crossings are.
+SEAM_CIRCLES = 256
+
+
+def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object, eta: float
+               ) -> list[Cell]:
+    """Seam candidates on ``face``: directions on the contact circles (normals ``(c, 3)``)
+    off the noded ``B_ij`` boundaries (farther than ``10 GRID``), where the open-set
+    semantics may free what the closed sets block. One per piece of a circle between two
+    boundary crossings (its midpoint, 1-dimensional) and one per crossing of two circles
+    (0-dimensional; crossings closer than ``eta`` merged, as the nearly concurrent circles of
+    a tessellated cylinder's facets all are near its axis). Only inside ``dom`` when given.
+
+    The circles are not noded with each other: ``k`` circles through one window would cost
+    ``k^2`` pieces, and a change of the DBG along a circle happens at a boundary crossing or
+    at another circle's crossing, both candidates here."""
+    from .cubemap import direction_of
+
+    circ = circle_lines(normals, face)
+    if dom is not None and circ:
+        circ = [g for g in shapely.intersection(circ, dom) if not g.is_empty]
+    if not circ:
+        return []
+    lim = 1.0 - 1e-7
+    mids = []
+    # the pieces of a pencil of many circles (a tessellated cylinder's facets, around its
+    # axis) are each blocked by the neighbouring facets: past SEAM_CIRCLES only crossings
+    for line in circ if len(circ) <= SEAM_CIRCLES else []:
+        for seg in shapely.get_parts(line):
+            if shapely.get_type_id(seg) != 1 or seg.length <= 0:
+                continue
+            hit = shapely.get_coordinates(shapely.intersection(seg, noded))
+            at = np.sort(np.concatenate([[0.0, seg.length], shapely.line_locate_point(
+                seg, shapely.points(hit)) if len(hit) else []]))
+            m = 0.5 * (at[1:] + at[:-1])
+            m = m[np.diff(at) > 20 * GRID]
+            if len(m):
+                mids.append(shapely.get_coordinates(shapely.line_interpolate_point(seg, m)))
+    pts1 = np.concatenate(mids) if mids else np.zeros((0, 2))
+    # crossings of two circles: d = n_a x n_b, on this face
+    e, u, v = FACES[face]
+    n = normals
+    a, b = np.triu_indices(len(n), k=1)
+    pts0 = np.zeros((0, 2))
+    for s0 in range(0, len(a), 1_000_000):
+        d = np.cross(n[a[s0:s0 + 1_000_000]], n[b[s0:s0 + 1_000_000]])
+        ln = np.linalg.norm(d, axis=1)
+        d = d[ln > 1e-12] / ln[ln > 1e-12, None]
+        d = np.concatenate([d, -d])
+        de = d @ e
+        d = d[de > 0]
+        st = np.stack([(d @ u) / (d @ e), (d @ v) / (d @ e)], axis=1)
+        st = st[(np.abs(st) < lim).all(axis=1)]
+        if dom is not None and len(st):
+            st = st[shapely.contains_xy(dom, st[:, 0], st[:, 1])]
+        if len(st):
+            _, first = np.unique(np.round(st / max(eta, GRID)), axis=0, return_index=True)
+            pts0 = np.concatenate([pts0, st[np.sort(first)]])
+    if len(pts0):
+        _, first = np.unique(np.round(pts0 / max(eta, GRID)), axis=0, return_index=True)
+        pts0 = pts0[np.sort(first)]
+    out: list[Cell] = []
+    for dim, pts in ((1, pts1), (0, pts0)):
+        if not len(pts):
+            continue
+        pts = pts[(np.abs(pts) < lim).all(axis=1)]
+        if dom is not None and len(pts):
+            pts = pts[shapely.contains_xy(dom, pts[:, 0], pts[:, 1])]
+        if len(pts):
+            far = shapely.distance(noded, shapely.points(pts)) > 10 * GRID
+            pts = pts[far]
+        out.extend(Cell(dim, d, face, shapely.Point(p), seam=True)
+                   for d, p in zip(direction_of(face, pts), pts))
+    return out
+
+
+def circle_lines(normals: np.ndarray, face: int) -> list[object]:
+    """Chart segments of the great circles ``d . n = 0`` crossing ``face``'s square."""
+    from .cubemap import SQUARE_MARGIN
+
+    e, u, v = FACES[face]
+    r = 1.0 + SQUARE_MARGIN
+    out = []
+    for n in normals:
+        a, b, c = n @ u, n @ v, n @ e  # a s + b t + c = 0
+        if max(abs(a), abs(b)) < 1e-12:
+            continue
+        if abs(a) >= abs(b):
+            t = np.array([-r, r])
+            s_ = -(b * t + c) / a
+            pts = np.stack([s_, t], axis=1)
+        else:
+            s_ = np.array([-r, r])
+            t = -(a * s_ + c) / b
+            pts = np.stack([s_, t], axis=1)
+        seg = shapely.clip_by_rect(shapely.LineString(pts), -r, -r, r, r)
+        if not seg.is_empty and seg.length > 0:
+            out.append(seg)
+    return out
+
+
+def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:
+    """The 1- and 0-dimensional cells of a face: the noded boundary segments and their end
+    points, leaving out those on the chart square's border (cube-edge artefacts) and, with a
+    domain ``dom`` (chart geometry), those not strictly inside it."""
+    from .cubemap import direction_of
+
+    segs = shapely.get_parts(shapely.get_parts(noded))
+    segs = segs[shapely.get_type_id(segs) == 1]
+    if not len(segs):
+        return []
+    lim = 1.0 - 1e-7
+    mids = shapely.get_coordinates(shapely.line_interpolate_point(segs, 0.5, normalized=True))
+    inside = (np.abs(mids) < lim).all(axis=1)
+    if dom is not None:
+        inside &= shapely.contains_xy(dom, mids[:, 0], mids[:, 1])
+    segs, mids = segs[inside], mids[inside]
+    cells = [Cell(1, d, face, g) for d, g in zip(direction_of(face, mids), segs)] \
+        if len(segs) else []
+    ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
+                           shapely.get_coordinates(shapely.get_point(segs, -1))]) \
+        if len(segs) else np.zeros((0, 2))
+    ends = ends[(np.abs(ends) < lim).all(axis=1)]
+    if dom is not None and len(ends):
+        ends = ends[shapely.contains_xy(dom, ends[:, 0], ends[:, 1])]
+    if len(ends):
+        ends = np.unique(np.round(ends / GRID) * GRID, axis=0)
+        cells.extend(Cell(0, d, face, shapely.Point(p))
+                     for d, p in zip(direction_of(face, ends), ends))
+    return cells
+
+
+def equator_cells(bs: BlockedSets) -> list[Cell]:
+    """For 2D assemblies: the regions on S^1 (the equator ``z = 0`` of the extruded model).
+
+    The equator crosses the four side faces along a chart line; the ``U_ij`` boundaries cut it
+    into intervals (1-dimensional regions, 0-dimensional when shorter than ``eta``).
+    """
+    from .cubemap import direction_of
+
+    cells: list[Cell] = []
+    for face in range(4):
+        e, u, v = FACES[face]
+        # Chart line of z = 0: the chart coordinate whose axis is z is zero.
+        zc = 0 if abs(u[2]) > 0 else 1
+        seg = shapely.LineString([(-1, 0), (1, 0)] if zc == 1 else [(0, -1), (0, 1)])
+        cuts = [shapely.intersection(seg, shapely.boundary(g)) for g in bs.geoms[face].values()]
+        ts = [-1.0, 1.0]
+        for c in cuts:
+            if not c.is_empty:
+                xy = shapely.get_coordinates(c)
+                ts.extend(xy[:, 1 - zc].tolist())
+        ts = np.unique(np.round(ts, 12))
+        for a, b in zip(ts[:-1], ts[1:]):
+            mid = 0.5 * (a + b)
+            pt = (mid, 0.0) if zc == 1 else (0.0, mid)
+            dim = 0 if b - a < bs.eta else 1
+            cells.append(Cell(dim, direction_of(face, np.array([pt]))[0], face,
+                              shapely.LineString([(a, 0), (b, 0)] if zc == 1
+                                                 else [(0, a), (0, b)])))
+    return cells

@@ -1,0 +1,217 @@
+"""An inner approximation of a union of open cones on the cube map, for pruning tests: a
+raster of chart cells per cube face, a cell *covered* when it lies wholly inside one of the
+cones' chart polygons eroded by :data:`SHRINK` (see :class:`Cover`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes, compact, cone_normals
+
+#: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
+#: direction is at least this far inside a kept cone, far above the 1e-6 of the open test.
+SHRINK = 1e-5
+#: Cells per side of the pruning raster of each cube face (:class:`Cover`).
+RASTER = 512
+
+
+def run_offsets(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For runs of lengths ``counts`` ``(n,)`` laid end to end: the run of each position and
+    its offset within the run (two ``(counts.sum(),)`` arrays)."""
+    run = np.repeat(np.arange(len(counts)), counts)
+    return run, np.arange(len(run)) - (np.cumsum(counts) - counts)[run]
+
+
+class Cover:
+    """An inner approximation of the union of the kept terms, for the pruning test: per cube
+    face, a raster of :data:`RASTER` x :data:`RASTER` chart cells, a cell being *covered* when
+    it lies wholly inside some kept term's polygon eroded by :data:`SHRINK`. A cone whose
+    polygon's bounding box meets only covered cells, on every face it meets, is therefore
+    strictly inside the kept union (by at least ``SHRINK``): :meth:`covers`.
+
+    Adding a term costs a few array operations per raster row it spans (cross-sections of a
+    convex polygon at the grid lines), a test one summed-area-table lookup per face: unlike an
+    exact polygon union, neither grows with the number of terms kept. The price is a margin of
+    about one cell (``2 / RASTER`` chart units) along the union's boundary where nothing is
+    pruned; what is computed there is exact."""
+
+    def __init__(self, raster: int = RASTER, domain: np.ndarray | None = None) -> None:
+        self.r = raster
+        self.h = 2.0 / raster
+        self.covered = np.zeros((6, raster, raster), dtype=bool)
+        self.sat: list[np.ndarray | None] = [None] * 6  # summed-area tables, built lazily
+        self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
+        self.empty = True
+        if domain is not None:
+            # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
+            # count as covered from the start, so whatever lies only there is pruned.
+            k = raster // domain.shape[1]
+            self.covered = ~domain.repeat(k, axis=1).repeat(k, axis=2)
+            self.empty = not self.covered.any()
+
+    def window(self, face: int) -> tuple[float, float, float, float] | None:
+        """The chart rectangle ``(x0, y0, x1, y1)`` of the cells of ``face`` not yet covered
+        (their bounding box, on cell boundaries; the chart square's margin on its border), or
+        ``None`` when every cell is covered. Cones are clipped to it only: outside it there
+        is nothing to mark or to test."""
+        if self.win[face] is False:
+            open_ = ~self.covered[face]
+            rows = np.nonzero(open_.any(axis=1))[0]
+            if not len(rows):
+                self.win[face] = None
+            else:
+                cols = np.nonzero(open_.any(axis=0))[0]
+                r, h, m = self.r, self.h, 1.0 + SQUARE_MARGIN
+                lo = [-m if c == 0 else -1.0 + c * h for c in (cols[0], rows[0])]
+                hi = [m if c == r else -1.0 + c * h for c in (cols[-1] + 1, rows[-1] + 1)]
+                self.win[face] = (lo[0], lo[1], hi[0], hi[1])
+        return self.win[face]
+
+    def add(self, cones: np.ndarray) -> None:
+        """Mark the cells wholly inside the eroded polygons of the open cones ``(p, k, 3)``."""
+        for face in range(6):
+            win = self.window(face)
+            if win is None:
+                continue
+            poly, cnt = clip_halfplanes(cones, face, shrink=SHRINK, rect=win)
+            keep = cnt >= 3
+            if keep.any():
+                self._mark(face, poly[keep], cnt[keep])
+
+    def _mark(self, face: int, poly: np.ndarray, cnt: np.ndarray) -> None:
+        r, h = self.r, self.h
+        m = poly.shape[1]
+        k = np.arange(m)[None, :]
+        valid = k < cnt[:, None]
+        nxt = np.where(k + 1 < cnt[:, None], k + 1, 0)
+        a = poly
+        b = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
+        # A convex polygon holding a cell has inradius >= h / 2, and its inradius is at most
+        # 2 area / perimeter: slivers, most of the terms, cover no cell and are skipped.
+        area = 0.5 * np.abs(np.where(valid, a[:, :, 0] * b[:, :, 1] - a[:, :, 1] * b[:, :, 0],
+                                     0.0).sum(axis=1))
+        perim = np.where(valid, np.linalg.norm(b - a, axis=2), 0.0).sum(axis=1)
+        fat = 4.0 * area >= h * perim
+        if not fat.all():
+            a, b, valid, poly = a[fat], b[fat], valid[fat], poly[fat]
+            if not len(poly):
+                return
+        ys = np.where(valid, poly[:, :, 1], np.nan)
+        g0 = np.ceil((np.nanmin(ys, axis=1) + 1.0) / h).astype(np.int64)
+        g1 = np.floor((np.nanmax(ys, axis=1) + 1.0) / h).astype(np.int64)
+        g0, g1 = np.maximum(g0, 0), np.minimum(g1, r)
+        nlines = np.maximum(g1 - g0 + 1, 0)
+        if not (nlines >= 2).any():  # a band needs two grid lines inside the polygon
+            return
+        owner, line = run_offsets(nlines)
+        base = np.cumsum(nlines) - nlines
+        left = np.full(len(owner), np.inf)
+        right = np.full(len(left), -np.inf)
+        # Each grid line meets a convex polygon in one edge going down (the left chain of a
+        # counter-clockwise polygon) and one going up (the right chain): intersect per edge.
+        pe, ke = np.nonzero(valid & (a[:, :, 1] != b[:, :, 1]))
+        ya, yb = a[pe, ke, 1], b[pe, ke, 1]
+        xa, xb = a[pe, ke, 0], b[pe, ke, 0]
+        e0 = np.maximum(np.ceil((np.minimum(ya, yb) + 1.0) / h).astype(np.int64), g0[pe])
+        e1 = np.minimum(np.floor((np.maximum(ya, yb) + 1.0) / h).astype(np.int64), g1[pe])
+        edge, k = run_offsets(np.maximum(e1 - e0 + 1, 0))
+        g = e0[edge] + k
+        y = -1.0 + g * h
+        x = xa[edge] + (y - ya[edge]) * ((xb - xa) / (yb - ya))[edge]
+        slot = base[pe[edge]] + g - g0[pe[edge]]
+        down = (yb < ya)[edge]
+        np.minimum.at(left, slot[down], x[down])
+        np.maximum.at(right, slot[~down], x[~down])
+        g = g0[owner] + line
+        # band [y_g, y_g+1] of one polygon: rows of consecutive lines of the same owner; a
+        # convex polygon's cross-section there contains the intersection of the two ends'
+        same = owner[1:] == owner[:-1]
+        lo = np.maximum(left[1:], left[:-1])[same]
+        hi = np.minimum(right[1:], right[:-1])[same]
+        row = g[:-1][same]
+        fin = np.isfinite(lo) & np.isfinite(hi) & (lo < hi)
+        lo, hi, row = lo[fin], hi[fin], row[fin]
+        c0 = np.ceil((lo + 1.0) / h).astype(np.int64)
+        c1 = np.floor((hi + 1.0) / h).astype(np.int64)  # one past the last whole cell
+        c0, c1 = np.maximum(c0, 0), np.minimum(c1, r)
+        ok = (c1 > c0) & (row < r)
+        if not ok.any():
+            return
+        rows, slot = np.unique(row[ok], return_inverse=True)
+        w = r + 1
+        spans = np.bincount(slot * w + c0[ok], minlength=len(rows) * w) \
+            - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
+        inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
+        self.covered[face, rows] |= inside
+        self.sat[face] = None
+        self.win[face] = False
+        self.empty = False
+
+    def _table(self, face: int) -> np.ndarray:
+        if self.sat[face] is None:
+            sat = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
+            np.cumsum(self.covered[face], axis=0, dtype=np.int32, out=sat[1:, 1:])
+            np.cumsum(sat[1:, 1:], axis=1, out=sat[1:, 1:])
+            self.sat[face] = sat
+        return self.sat[face]
+
+    def covers_spanned(self, gens: np.ndarray) -> np.ndarray:
+        """``(p,)`` whether each closed cone spanned by generators ``gens`` ``(p, g, 3)``
+        lies in covered cells on every face it meets. On a face whose axis ``e`` has
+        ``g . e > 0`` for every generator, the cone's chart image is the convex hull of the
+        generators' charts, so their bounding box is used (no clipping); a face with no
+        generator in front of it is missed. A cone with generators on both sides of some
+        face's plane is clipped (:meth:`covers` of its H-representation)."""
+        if self.empty:
+            return np.zeros(len(gens), dtype=bool)
+        se = gens @ FACES[:, 0].T  # (p, g, 6)
+        front = se > 0.0
+        mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
+        ok = np.ones(len(gens), dtype=bool)
+        if mixed.any():
+            ok[mixed] = self.covers(compact(cone_normals(gens[mixed])))
+        for face in range(6):
+            e, u, v = FACES[face]
+            sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
+            if not len(sel):
+                continue
+            g, w = gens[sel], se[sel, :, face]
+            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2)
+            lo, hi = st.min(axis=1), st.max(axis=1)
+            meet = np.all(hi >= -1.0, axis=1) & np.all(lo <= 1.0, axis=1)
+            sel, lo, hi = sel[meet], lo[meet], hi[meet]
+            ok[sel[~self._box_covered(face, lo, hi)]] = False
+        return ok
+
+    def _box_covered(self, face: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether every cell meeting the chart boxes ``lo..hi`` (``(p, 2)``, clipped to the
+        face) is covered."""
+        r, h = self.r, self.h
+        c0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(np.int64)
+        c1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(np.int64)
+        s = self._table(face)
+        x0, y0, x1, y1 = c0[:, 0], c0[:, 1], c1[:, 0], c1[:, 1]
+        got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
+        return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+
+    def covers(self, cones: np.ndarray) -> np.ndarray:
+        """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every
+        face it meets."""
+        if self.empty:
+            return np.zeros(len(cones), dtype=bool)
+        ok = np.ones(len(cones), dtype=bool)
+        for face in range(6):
+            win = self.window(face)
+            if win is None:  # every cell of the face is covered
+                continue
+            poly, cnt = clip_halfplanes(cones, face, rect=win)
+            hit = cnt >= 3
+            if not hit.any():
+                continue
+            idx = np.nonzero(hit)[0]
+            poly, cnt = poly[hit], cnt[hit]
+            valid = (np.arange(poly.shape[1])[None, :] < cnt[:, None])[:, :, None]
+            lo = np.where(valid, poly, np.inf).min(axis=1)
+            hi = np.where(valid, poly, -np.inf).max(axis=1)
+            ok[idx[~self._box_covered(face, lo, hi)]] = False
+        return ok

@@ -1,0 +1,140 @@
+"""Where the infinite-translation NDBG can free anything: a conservative raster of directions.
+
+A contact arc of the infinitesimal DBG is also an arc of the infinite one: if ``P_i`` moving
+along ``d`` immediately enters ``P_j`` at a contact, its sweep meets ``P_j``'s interior. So at
+a direction where the infinitesimal DBG is strongly connected, the infinite DBG (more arcs) is
+too, and no subassembly comes out there by one translation. The *free domain* is the closure
+of the directions where the infinitesimal DBG is not strongly connected; every partitioning of
+the infinite NDBG of the whole assembly lies in it (paper 5.3 with 4.2). Subassemblies are not
+covered: a part of the assembly can be free where the whole is not.
+
+:func:`free_domain` marks the cube-map cells (``(6, r, r)``, chart cells of
+:class:`ndbg_cli.cover.Cover`) that may meet it. Per cell, an arc is *certain* when it
+holds at every direction within the cell's angular radius ``rho`` (plus :data:`MARGIN`) of its
+centre: with unit normals, ``n . d`` moves by at most that much, so the test of
+:func:`ndbg_cli.infinitesimal.dbg_at` (``n . d > tol``) is applied at ``tol + rho``. A cell
+whose certain arcs already make a strongly connected DBG is outside the domain; every other
+cell is in it (conservative: a cell is never left out wrongly).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from .cover import RASTER
+from .cubemap import FACES
+from .dbg import DBG, strong_components
+
+#: Extra angular margin (radians) around each cell, for the contact normals' own noise.
+MARGIN = 1e-3
+#: Cells per side of the raster on which the domain is decided first (each maps to a block of
+#: the pruning raster, :data:`~ndbg_cli.cover.RASTER`, decided next).
+COARSE = 64
+
+
+def cell_directions(r: int, face: np.ndarray, row: np.ndarray, col: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Unit centre directions ``(m, 3)`` of the chart cells ``(face, row, col)`` (arrays of
+    ``m`` indices; row = ``t``, column = ``s``) of an ``r x r`` raster per cube face, and
+    their angular radii ``(m,)`` (radians; the largest angle from the centre to a corner,
+    which bounds the angle to any point of the cell)."""
+    h = 2.0 / r
+    s = -1.0 + h * (col + 0.5)
+    t = -1.0 + h * (row + 0.5)
+    e, u, v = FACES[face, 0], FACES[face, 1], FACES[face, 2]
+
+    def at(ss, tt):
+        k = e + ss[:, None] * u + tt[:, None] * v
+        return k / np.linalg.norm(k, axis=1, keepdims=True)
+
+    c = at(s, t)
+    rad = np.zeros(len(c))
+    for ds in (-0.5 * h, 0.5 * h):
+        for dt in (-0.5 * h, 0.5 * h):
+            cos = np.clip((c * at(s + ds, t + dt)).sum(axis=1), -1.0, 1.0)
+            rad = np.maximum(rad, np.arccos(cos))
+    return c, rad
+
+
+def free_domain(n: int, pairs: Sequence[tuple], tol: float, r: int = RASTER,
+                coarse: int = COARSE) -> np.ndarray | None:
+    """``(6, r, r)`` bool: the cells that may contain a direction where the infinitesimal DBG
+    of ``n`` parts with contact ``pairs`` (``(a, b, normals[, mode])`` as in
+    :func:`ndbg_cli.infinitesimal.dbg_at`, tolerance ``tol`` radians) is not strongly
+    connected. Decided on a ``coarse`` raster first, then on the cells of ``r`` inside the
+    coarse cells kept. Symmetric under ``d -> -d``. ``None`` when it is every cell, or when
+    there are more than 62 parts (no restriction is computed)."""
+    if n > 62:
+        return None
+    f, y, x = np.nonzero(np.ones((6, coarse, coarse), dtype=bool))
+    keep = _may_free(n, pairs, tol, *cell_directions(coarse, f, y, x))
+    k = r // coarse
+    f, y, x = f[keep], y[keep], x[keep]
+    sub = np.arange(k)
+    f = np.repeat(f, k * k)
+    y = (y[:, None, None] * k + sub[None, :, None] + 0 * sub[None, None, :]).reshape(-1)
+    x = (x[:, None, None] * k + 0 * sub[None, :, None] + sub[None, None, :]).reshape(-1)
+    dom = np.zeros((6, r, r), dtype=bool)
+    if len(f):
+        keep = _may_free(n, pairs, tol, *cell_directions(r, f, y, x))
+        dom[f[keep], y[keep], x[keep]] = True
+    for g in range(0, 6, 2):  # the antipodal map: (s, t) on face g -> (-t, -s) on g ^ 1
+        dom[g] |= dom[g ^ 1][::-1, ::-1].T
+        dom[g ^ 1] = dom[g][::-1, ::-1].T
+    return None if dom.all() else dom
+
+
+def _may_free(n: int, pairs: Sequence[tuple], tol: float, d: np.ndarray, rad: np.ndarray
+              ) -> np.ndarray:
+    """``(m,)`` whether the infinitesimal DBG may be not strongly connected somewhere within
+    ``rad`` (``(m,)``, radians) of the directions ``d`` ``(m, 3)``."""
+    lim = tol + rad + MARGIN
+    succ = np.zeros((len(d), n), dtype=np.int64)
+    for entry in pairs:
+        a, b, normals = entry[:3]
+        nm = np.asarray(normals, dtype=float).reshape(-1, 3)
+        nm = nm / np.linalg.norm(nm, axis=1, keepdims=True)
+        dots = d @ nm.T
+        if len(entry) > 3 and entry[3] == "all":
+            fwd, back = dots.min(axis=1) > lim, dots.max(axis=1) < -lim
+        else:
+            fwd, back = dots.max(axis=1) > lim, dots.min(axis=1) < -lim
+        succ[fwd, a] |= np.int64(1) << b
+        succ[back, b] |= np.int64(1) << a
+    if not len(d):
+        return np.zeros(0, dtype=bool)
+    rows, inv = np.unique(succ, axis=0, return_inverse=True)
+    free = np.array([len(strong_components(DBG(tuple(int(x) for x in row)))) > 1
+                     for row in rows])
+    return free[inv.reshape(-1)]
+
+
+def upsample(dom: np.ndarray, r: int) -> np.ndarray:
+    """The domain ``(6, c, c)`` on a finer raster ``(6, r, r)`` (``r`` a multiple of ``c``)."""
+    k = r // dom.shape[1]
+    return dom.repeat(k, axis=1).repeat(k, axis=2)
+
+
+def domain_polygons(dom: np.ndarray) -> list[object]:
+    """Per face, the chart geometry (shapely, closed) of the domain cells; ``None`` where the
+    face has none."""
+    import shapely
+
+    r = dom.shape[1]
+    h = 2.0 / r
+    out: list[object] = []
+    for f in range(6):
+        # one box per run of domain cells in a row
+        pad = np.zeros((r, r + 2), dtype=np.int8)
+        pad[:, 1:-1] = dom[f]
+        step = np.diff(pad, axis=1)
+        y, x0 = np.nonzero(step == 1)
+        _, x1 = np.nonzero(step == -1)
+        if not len(y):
+            out.append(None)
+            continue
+        boxes = shapely.box(-1.0 + x0 * h, -1.0 + y * h, -1.0 + x1 * h, -1.0 + (y + 1) * h)
+        out.append(shapely.union_all(boxes, grid_size=1e-12))
+    return out

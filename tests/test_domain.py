@@ -1,0 +1,102 @@
+"""The free domain (:mod:`ndbg_cli.domain`) and the infinite NDBG restricted to it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import ndbg_cli
+from ndbg_cli.contacts import analyze_contacts
+from ndbg_cli.cover import RASTER
+from ndbg_cli.cubemap import face_of, random_directions
+from ndbg_cli.dbg import strong_components
+from ndbg_cli.domain import cell_directions, free_domain
+from ndbg_cli.infinite import boundary_distance, build_infinite, lookup
+from ndbg_cli.infinitesimal import contact_pairs, dbg_at
+from ndbg_cli.ndbg import partitionings
+
+from helpers import run_cli
+
+
+def _domain(name: str):
+    asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+    ca = analyze_contacts(asm)
+    pairs = contact_pairs(asm, ca)
+    return asm, pairs, ca.angle_tolerance, free_domain(len(asm.parts), pairs, ca.angle_tolerance)
+
+
+def _cell(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    f, st = face_of(d)
+    col = np.clip(np.floor((st[:, 0] + 1.0) * RASTER / 2), 0, RASTER - 1).astype(int)
+    row = np.clip(np.floor((st[:, 1] + 1.0) * RASTER / 2), 0, RASTER - 1).astype(int)
+    return f, row, col
+
+
+@pytest.mark.parametrize("name, restricted", [("peg-37", True), ("slot-37", True),
+                                              ("stack", False)])
+def test_domain_holds_every_direction_where_something_is_free(name, restricted):
+    asm, pairs, tol, dom = _domain(name)
+    d = np.concatenate([random_directions(3000, seed=5), np.eye(3), -np.eye(3)])
+    free = np.array([len(strong_components(dbg_at(len(asm.parts), pairs, x, tol))) > 1
+                     for x in d])
+    # a real restriction where parts hold each other (a stack of boxes comes apart upwards
+    # or downwards: everywhere, and then there is none)
+    assert (dom is not None) == restricted
+    if dom is None:
+        return
+    assert dom.mean() < 0.5
+    f, row, col = _cell(d)
+    assert dom[f, row, col][free].all()
+    # symmetric under d -> -d
+    f2, row2, col2 = _cell(-d)
+    assert (dom[f, row, col] == dom[f2, row2, col2]).all()
+
+
+def test_peg_domain_is_around_its_axis():
+    asm, pairs, tol, dom = _domain("peg-37")
+    v = np.asarray(asm.parts[asm.index("peg")].mesh.vertices)
+    axis = np.linalg.svd(v - v.mean(axis=0), full_matrices=False)[2][0]  # the long axis
+    f, row, col = _cell(np.array([axis, -axis, [1.0, 0.0, 0.0]]))
+    inside = dom[f, row, col]
+    assert inside[0] and inside[1]
+    assert not inside[2]  # across the axis the peg is held
+
+
+@pytest.mark.parametrize("name", ["peg-37", "slot-37"])
+def test_restricted_ndbg_has_the_same_partitionings(name):
+    asm, pairs, tol, dom = _domain(name)
+    full = build_infinite(asm)
+    part = build_infinite(asm, domain=dom)
+    assert part.stats["restricted"] and not full.stats["restricted"]
+    assert part.stats["domain_area"] < 1.0  # of 24 square chart units: a small window
+    got = sorted(p.moved for p in partitionings(part)[0])
+    want = sorted(p.moved for p in partitionings(full)[0])
+    assert got and got == want
+    # inside the domain the blocked sets are the full ones: the same DBG at directions
+    # sampled in its cells (away from the B_ij boundaries, where the chart lookup is robust)
+    f, row, col = np.nonzero(dom)
+    pick = np.random.default_rng(3).choice(len(f), size=min(400, len(f)), replace=False)
+    d = cell_directions(RASTER, f[pick], row[pick], col[pick])[0]
+    d = d[boundary_distance(full, d) > 1e-6]
+    assert len(d) > 50
+    assert [g.succ for g in lookup(part, d)] == [g.succ for g in lookup(full, d)]
+    assert [g.succ for g in lookup(part, d, exact=True)] == \
+        [g.succ for g in lookup(full, d, exact=True)]
+
+
+def test_analyze_over_budget_reports_the_restricted_section(tmp_path):
+    out = tmp_path / "peg.json"
+    r = run_cli("analyze", "assemblies/peg-37.yaml", "--motion", "infinite", "--format",
+                "json", "--out", out, "--infinite-budget", "1")
+    assert r.returncode in (0, 1), r.stderr
+    rep = json.loads(out.read_text())
+    sec = rep["ndbg"]["infinite_translation"]
+    assert sec["domain"]["restricted"] is True and not sec.get("skipped")
+    moved = [p["moved"] for p in rep["partitionings"] if p["family"] == "infinite_translation"]
+    assert ["peg"] in moved or ["block"] in moved
+    assert any(w["code"] == "infinite-restricted" for w in rep["warnings"])
+    # no plan or classes from the restricted family
+    assert rep["plan"]["family"] != "infinite_translation"
+    assert "infinite_translation" not in rep["classes"]
