@@ -15,10 +15,14 @@ import numpy as np
 import shapely
 
 from .blocking_cones import GRID
-from .cubemap import FACES
+from .cubemap import FACES, SQUARE_MARGIN, direction_of
 
 if TYPE_CHECKING:
     from .infinite import BlockedSets
+
+#: Chart points at least this close to the square's border (cube edges) are left to the
+#: neighbouring face.
+_INSIDE = 1.0 - 1e-7
 
 
 @dataclass(frozen=True)
@@ -45,10 +49,9 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
     boundary are *seam candidates* (``seam=True``): :func:`build_infinite` keeps those whose
     exact DBG differs from the one around them (a slot's or a bore's free directions).
     """
-    from .cubemap import SQUARE_MARGIN, direction_of
-
     r = 1.0 + SQUARE_MARGIN
     square = shapely.box(-r, -r, r, r)
+    crossings = circle_crossings(bs.circles, bs.eta, bs.domain)
     cells: list[Cell] = []
     for face in range(6):
         dom = None if bs.domain is None else bs.domain[face]
@@ -59,7 +62,7 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
         if dom is not None:
             lines.append(shapely.boundary(dom))
         noded = shapely.union_all(lines, grid_size=GRID)
-        cells.extend(seam_cells(noded, bs.circles, face, dom, bs.eta))
+        cells.extend(seam_cells(noded, bs.circles, face, dom, crossings[face]))
         faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
         faces = faces[shapely.area(faces) > 0]
         if dom is not None and len(faces):
@@ -90,26 +93,23 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
 SEAM_CIRCLES = 256
 
 
-def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object, eta: float
-               ) -> list[Cell]:
+def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object,
+               pts0: np.ndarray) -> list[Cell]:
     """Seam candidates on ``face``: directions on the contact circles (normals ``(c, 3)``)
     off the noded ``B_ij`` boundaries (farther than ``10 GRID``), where the open-set
     semantics may free what the closed sets block. One per piece of a circle between two
     boundary crossings (its midpoint, 1-dimensional) and one per crossing of two circles
-    (0-dimensional; crossings closer than ``eta`` merged, as the nearly concurrent circles of
-    a tessellated cylinder's facets all are near its axis). Only inside ``dom`` when given.
+    (0-dimensional: ``pts0`` ``(k, 2)``, this face's entry of :func:`circle_crossings`). Only
+    inside ``dom`` when given.
 
     The circles are not noded with each other: ``k`` circles through one window would cost
     ``k^2`` pieces, and a change of the DBG along a circle happens at a boundary crossing or
     at another circle's crossing, both candidates here."""
-    from .cubemap import direction_of
-
     circ = circle_lines(normals, face)
     if dom is not None and circ:
         circ = [g for g in shapely.intersection(circ, dom) if not g.is_empty]
     if not circ:
         return []
-    lim = 1.0 - 1e-7
     mids = []
     # the pieces of a pencil of many circles (a tessellated cylinder's facets, around its
     # axis) are each blocked by the neighbouring facets: past SEAM_CIRCLES only crossings
@@ -125,33 +125,11 @@ def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object, eta: 
             if len(m):
                 mids.append(shapely.get_coordinates(shapely.line_interpolate_point(seg, m)))
     pts1 = np.concatenate(mids) if mids else np.zeros((0, 2))
-    # crossings of two circles: d = n_a x n_b, on this face
-    e, u, v = FACES[face]
-    n = normals
-    a, b = np.triu_indices(len(n), k=1)
-    pts0 = np.zeros((0, 2))
-    for s0 in range(0, len(a), 1_000_000):
-        d = np.cross(n[a[s0:s0 + 1_000_000]], n[b[s0:s0 + 1_000_000]])
-        ln = np.linalg.norm(d, axis=1)
-        d = d[ln > 1e-12] / ln[ln > 1e-12, None]
-        d = np.concatenate([d, -d])
-        de = d @ e
-        d = d[de > 0]
-        st = np.stack([(d @ u) / (d @ e), (d @ v) / (d @ e)], axis=1)
-        st = st[(np.abs(st) < lim).all(axis=1)]
-        if dom is not None and len(st):
-            st = st[shapely.contains_xy(dom, st[:, 0], st[:, 1])]
-        if len(st):
-            _, first = np.unique(np.round(st / max(eta, GRID)), axis=0, return_index=True)
-            pts0 = np.concatenate([pts0, st[np.sort(first)]])
-    if len(pts0):
-        _, first = np.unique(np.round(pts0 / max(eta, GRID)), axis=0, return_index=True)
-        pts0 = pts0[np.sort(first)]
     out: list[Cell] = []
     for dim, pts in ((1, pts1), (0, pts0)):
         if not len(pts):
             continue
-        pts = pts[(np.abs(pts) < lim).all(axis=1)]
+        pts = pts[(np.abs(pts) < _INSIDE).all(axis=1)]
         if dom is not None and len(pts):
             pts = pts[shapely.contains_xy(dom, pts[:, 0], pts[:, 1])]
         if len(pts):
@@ -162,10 +140,47 @@ def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object, eta: 
     return out
 
 
+#: Circle pairs crossed per vectorised chunk in :func:`circle_crossings`.
+CROSS_CHUNK = 1_000_000
+
+
+def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
+                     ) -> list[np.ndarray]:
+    """Per cube face, chart points ``(k, 2)`` of the crossings of two great circles (normals
+    ``(c, 3)``; both antipodal points ``+-n_a x n_b``) strictly inside the face's square and,
+    with ``domain`` (per face chart geometry or ``None``), inside it. Crossings closer than
+    ``eta`` are merged (the first kept), as the nearly concurrent circles of a tessellated
+    cylinder's facets all are near its axis."""
+    n = normals
+    a, b = np.triu_indices(len(n), k=1)
+    found: list[list[np.ndarray]] = [[] for _ in range(6)]
+
+    def first(pts: np.ndarray) -> np.ndarray:
+        _, k = np.unique(np.round(pts / max(eta, GRID)), axis=0, return_index=True)
+        return pts[np.sort(k)]
+
+    for s0 in range(0, len(a), CROSS_CHUNK):
+        d = np.cross(n[a[s0:s0 + CROSS_CHUNK]], n[b[s0:s0 + CROSS_CHUNK]])
+        ln = np.linalg.norm(d, axis=1)
+        d = d[ln > 1e-12] / ln[ln > 1e-12, None]
+        d = np.concatenate([d, -d])
+        owner = np.argmax(d @ FACES[:, 0].T, axis=1)  # the one face a direction can be on
+        for face in range(6):
+            if domain is not None and domain[face] is None:
+                continue
+            e, u, v = FACES[face]
+            df = d[owner == face]
+            st = np.stack([(df @ u) / (df @ e), (df @ v) / (df @ e)], axis=1)
+            st = st[(np.abs(st) < _INSIDE).all(axis=1)]
+            if domain is not None and len(st):
+                st = st[shapely.contains_xy(domain[face], st[:, 0], st[:, 1])]
+            if len(st):
+                found[face].append(first(st))
+    return [first(np.concatenate(f)) if f else np.zeros((0, 2)) for f in found]
+
+
 def circle_lines(normals: np.ndarray, face: int) -> list[object]:
     """Chart segments of the great circles ``d . n = 0`` crossing ``face``'s square."""
-    from .cubemap import SQUARE_MARGIN
-
     e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
     out = []
@@ -191,15 +206,12 @@ def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:
     """The 1- and 0-dimensional cells of a face: the noded boundary segments and their end
     points, leaving out those on the chart square's border (cube-edge artefacts) and, with a
     domain ``dom`` (chart geometry), those not strictly inside it."""
-    from .cubemap import direction_of
-
     segs = shapely.get_parts(shapely.get_parts(noded))
     segs = segs[shapely.get_type_id(segs) == 1]
     if not len(segs):
         return []
-    lim = 1.0 - 1e-7
     mids = shapely.get_coordinates(shapely.line_interpolate_point(segs, 0.5, normalized=True))
-    inside = (np.abs(mids) < lim).all(axis=1)
+    inside = (np.abs(mids) < _INSIDE).all(axis=1)
     if dom is not None:
         inside &= shapely.contains_xy(dom, mids[:, 0], mids[:, 1])
     segs, mids = segs[inside], mids[inside]
@@ -208,7 +220,7 @@ def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:
     ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
                            shapely.get_coordinates(shapely.get_point(segs, -1))]) \
         if len(segs) else np.zeros((0, 2))
-    ends = ends[(np.abs(ends) < lim).all(axis=1)]
+    ends = ends[(np.abs(ends) < _INSIDE).all(axis=1)]
     if dom is not None and len(ends):
         ends = ends[shapely.contains_xy(dom, ends[:, 0], ends[:, 1])]
     if len(ends):
@@ -224,8 +236,6 @@ def equator_cells(bs: BlockedSets) -> list[Cell]:
     The equator crosses the four side faces along a chart line; the ``U_ij`` boundaries cut it
     into intervals (1-dimensional regions, 0-dimensional when shorter than ``eta``).
     """
-    from .cubemap import direction_of
-
     cells: list[Cell] = []
     for face in range(4):
         e, u, v = FACES[face]

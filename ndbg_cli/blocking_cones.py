@@ -363,8 +363,9 @@ class _Walk:
         self.stats = {"node_pairs": 0, "terms": 0, "kept": 0}
 
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Near
-        node pairs (gap <= 4 eps) and boxes around the origin are kept."""
+        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Boxes
+        around the origin are kept, and so are near node pairs (gap <= 4 eps) unless the box
+        cone lies wholly outside the domain."""
         if not len(a) or self.cover.empty:
             return a, b
         ti, tj, eps = self.tree_i, self.tree_j, self.eps
@@ -373,20 +374,17 @@ class _Walk:
         dhi = tj.hi[b] - ti.lo[a] + grow
         gap = np.maximum(tj.lo[b] - ti.hi[a], ti.lo[a] - tj.hi[b]).max(axis=1)
         around = np.all((dlo < 0) & (dhi > 0), axis=1)
-        test = (gap > 4 * eps) & ~around
-        self.stats["node_pairs"] += int(test.sum())
+        far = gap > 4 * eps
+        self.stats["node_pairs"] += int((far & ~around).sum())
         drop = np.zeros(len(a), dtype=bool)
-        if test.any():
-            sel = np.nonzero(test)[0]
+        # near pairs' terms and contact circles only matter inside the domain: a seam there
+        # lies between terms there, whose near pairs are kept
+        for sel, cover in ((far & ~around, self.cover), (~far & ~around, self.outside)):
+            if cover is None or cover.empty or not sel.any():
+                continue
+            sel = np.nonzero(sel)[0]
             gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
-            drop[sel] = self.cover.covers_spanned(gens)
-        near = (gap <= 4 * eps) & ~around
-        if self.outside is not None and not self.outside.empty and near.any():
-            # Their terms and contact circles only matter inside the domain: a seam there
-            # lies between terms there, whose near pairs are kept.
-            sel = np.nonzero(near)[0]
-            gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
-            drop[sel] = self.outside.covers_spanned(gens)
+            drop[sel] = cover.covers_spanned(gens)
         return a[~drop], b[~drop]
 
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:

@@ -22,10 +22,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+import shapely
 
 from .cover import RASTER
 from .cubemap import FACES
 from .dbg import DBG, strong_components
+from .infinitesimal import blocking_sides
 
 #: Extra angular margin (radians) around each cell, for the contact normals' own noise.
 MARGIN = 1e-3
@@ -72,10 +74,10 @@ def free_domain(n: int, pairs: Sequence[tuple], tol: float, r: int = RASTER,
     keep = _may_free(n, pairs, tol, *cell_directions(coarse, f, y, x))
     k = r // coarse
     f, y, x = f[keep], y[keep], x[keep]
-    sub = np.arange(k)
+    dy, dx = np.divmod(np.arange(k * k), k)  # the k x k fine cells of a coarse one
     f = np.repeat(f, k * k)
-    y = (y[:, None, None] * k + sub[None, :, None] + 0 * sub[None, None, :]).reshape(-1)
-    x = (x[:, None, None] * k + 0 * sub[None, :, None] + sub[None, None, :]).reshape(-1)
+    y = (y[:, None] * k + dy).reshape(-1)
+    x = (x[:, None] * k + dx).reshape(-1)
     dom = np.zeros((6, r, r), dtype=bool)
     if len(f):
         keep = _may_free(n, pairs, tol, *cell_directions(r, f, y, x))
@@ -96,11 +98,7 @@ def _may_free(n: int, pairs: Sequence[tuple], tol: float, d: np.ndarray, rad: np
         a, b, normals = entry[:3]
         nm = np.asarray(normals, dtype=float).reshape(-1, 3)
         nm = nm / np.linalg.norm(nm, axis=1, keepdims=True)
-        dots = d @ nm.T
-        if len(entry) > 3 and entry[3] == "all":
-            fwd, back = dots.min(axis=1) > lim, dots.max(axis=1) < -lim
-        else:
-            fwd, back = dots.max(axis=1) > lim, dots.min(axis=1) < -lim
+        fwd, back = blocking_sides(d @ nm.T, entry[3] if len(entry) > 3 else "any", lim)
         succ[fwd, a] |= np.int64(1) << b
         succ[back, b] |= np.int64(1) << a
     if not len(d):
@@ -111,17 +109,9 @@ def _may_free(n: int, pairs: Sequence[tuple], tol: float, d: np.ndarray, rad: np
     return free[inv.reshape(-1)]
 
 
-def upsample(dom: np.ndarray, r: int) -> np.ndarray:
-    """The domain ``(6, c, c)`` on a finer raster ``(6, r, r)`` (``r`` a multiple of ``c``)."""
-    k = r // dom.shape[1]
-    return dom.repeat(k, axis=1).repeat(k, axis=2)
-
-
 def domain_polygons(dom: np.ndarray) -> list[object]:
     """Per face, the chart geometry (shapely, closed) of the domain cells; ``None`` where the
     face has none."""
-    import shapely
-
     r = dom.shape[1]
     h = 2.0 / r
     out: list[object] = []

@@ -350,7 +350,8 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     dbgs = bs.dbgs(dirs) if len(dirs) else []
     # Seam candidates: keep those where the open-set semantics frees something.
     seam = np.array([c.seam for c in cells], dtype=bool)
-    lower = np.array([c.dimension < 2 for c in cells], dtype=bool)
+    dims = np.array([c.dimension for c in cells], dtype=int)
+    lower = dims < 2
     on_circle = np.zeros(len(cells), dtype=bool)
     if len(bs.circles) and len(dirs):
         on_circle = (np.abs(dirs @ bs.circles.T) < 1e-7).any(axis=1)
@@ -358,8 +359,7 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     keep = ~seam
     skipped = 0
     if len(recheck) > EXACT_CELLS:
-        dim = np.array([c.dimension for c in cells])[recheck]
-        order = np.lexsort((recheck, ~seam[recheck], dim))
+        order = np.lexsort((recheck, ~seam[recheck], dims[recheck]))
         skipped = len(recheck) - EXACT_CELLS
         recheck = np.sort(recheck[order[:EXACT_CELLS]])
     if len(recheck):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .infinitesimal import MAX_DIRECTIONS
+from .infinitesimal import partitioning_record
 from .ndbg import NDBG, Partitioning
 
 if TYPE_CHECKING:
@@ -17,17 +17,10 @@ FAMILY = "infinite_translation"
 # --------------------------------------------------------------------------------------------
 
 def partitioning_records(ndbg: NDBG, parts: list[Partitioning]) -> list[dict]:
-    """Partitionings as report records, with the directions of (at most
-    :data:`~ndbg_cli.infinitesimal.MAX_DIRECTIONS`) regions they come from, lowest-dimensional
-    first, and the number of those regions (AS1: up to 2,900 for one nut)."""
-    out = []
-    for p in parts:
-        order = sorted((k for k in p.regions if ndbg.regions[k].direction is not None),
-                       key=lambda k: (ndbg.regions[k].dimension, k))
-        dirs = [list(ndbg.regions[k].direction) for k in order[:MAX_DIRECTIONS]]
-        out.append({"moved": ndbg.names(p.moved), "rest": ndbg.names(p.rest),
-                    "family": FAMILY, "directions": dirs, "regions": len(p.regions)})
-    return out
+    """Partitionings as report records (:func:`~ndbg_cli.infinitesimal.partitioning_record`:
+    at most ``MAX_DIRECTIONS`` region directions, lowest-dimensional first, and the number of
+    regions; AS1 has up to 2,900 for one nut)."""
+    return [partitioning_record(ndbg, p) for p in parts]
 
 
 def infinite_section(asm: Assembly, ndbg: NDBG, partitionings: list[Partitioning],

@@ -109,15 +109,23 @@ def dbg_at(n: int, pairs: Sequence[PairNormals], d: np.ndarray,
     for entry in pairs:
         a, b, normals = entry[:3]
         dots = unit(np.asarray(normals, dtype=float).reshape(-1, len(d))) @ d
-        if len(entry) > 3 and entry[3] == "all":
-            fwd, back = dots.min() > tol, dots.max() < -tol
-        else:
-            fwd, back = dots.max() > tol, dots.min() < -tol
+        fwd, back = blocking_sides(dots, entry[3] if len(entry) > 3 else "any", tol)
         if fwd:
             succ[a] |= 1 << b
         if back:
             succ[b] |= 1 << a
     return DBG(tuple(succ))
+
+
+def blocking_sides(dots: np.ndarray, mode: str, tol) -> tuple[np.ndarray, np.ndarray]:
+    """Whether a contact pair ``(a, b)`` blocks ``a`` (``fwd``: ``b`` in the way) and ``b``
+    (``back``), from ``dots`` ``(..., k)``: its ``k`` unit normals (out of ``a``) dotted with a
+    direction. ``"any"``: one normal facing the motion by more than ``tol`` blocks; ``"all"``
+    (a curved contact's facets): every one must. ``tol`` (radians, about) is a scalar or
+    broadcasts against ``dots.shape[:-1]``."""
+    if mode == "all":
+        return dots.min(axis=-1) > tol, dots.max(axis=-1) < -tol
+    return dots.max(axis=-1) > tol, dots.min(axis=-1) < -tol
 
 
 def _direction(v) -> tuple[float, ...]:

@@ -216,12 +216,16 @@ def contacts_2d_section(asm: Assembly, found) -> list[dict]:
             for c in found.contacts]
 
 
-def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
+def _over_budget(asm: Assembly, options: Any) -> str:
     from .infinite import triangle_pairs
 
     return (f"{triangle_pairs(asm)} facing triangle pairs exceed the budget of "
-            f"{options.infinite_budget} (raise it with --infinite-budget; --motion infinite "
-            "computes it where the infinitesimal NDBG frees something)")
+            f"{options.infinite_budget}")
+
+
+def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
+    return (f"{_over_budget(asm, options)} (raise it with --infinite-budget; --motion "
+            "infinite computes it where the infinitesimal NDBG frees something)")
 
 
 def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None, ca=None
@@ -235,7 +239,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     from .generalized import block_threads
     from .infinite import build_infinite, triangle_pairs
     from .infinite_report import infinite_section
-    from .infinitesimal import contact_pairs
+    from .infinitesimal import DEFAULT_ANGLE_TOL, contact_pairs
     from .ndbg import partitionings
 
     domain = None
@@ -243,7 +247,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
         if options.motion != "infinite":  # asked for explicitly only: it takes minutes
             return None
         domain = free_domain(len(asm.parts), contact_pairs(asm, ca),
-                             float(getattr(ca, "angle_tolerance", 0.0)))
+                             float(getattr(ca, "angle_tolerance", DEFAULT_ANGLE_TOL)))
         if domain is None:
             return None
     nd = block_threads(build_infinite(asm, cache, domain), threaded)
@@ -252,7 +256,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     if domain is not None:
         sec["domain"] = {
             "restricted": True, "area": nd.stats.get("domain_area"),
-            "why": f"{_infinite_skip_reason(asm, options)}; the regions are those inside "
+            "why": f"{_over_budget(asm, options)}; the regions are those inside "
                    "the domain (cut by its boundary), the whole assembly's partitionings "
                    "are all of them, and the family is not used for plans or classes"}
     if options.region_limit is not None and len(sec["region_list"]) > options.region_limit:
