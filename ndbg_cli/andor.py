@@ -30,9 +30,14 @@ this (and backtracks, within the budget, when a ``connected`` filter breaks it).
 
 from __future__ import annotations
 
+import gc
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
 
 from .dbg import bits
 from .ndbg import NDBG, ConnectivityTest
@@ -47,11 +52,11 @@ class Budget:
     split_limit: int | None = 5_000
 
 
-@dataclass(frozen=True)
-class Hyperarc:
+class Hyperarc(NamedTuple):
     """A candidate partitioning of ``node`` into ``left`` (the side holding the lowest part of
     ``node``) and ``right``; ``moves`` lists each admissible orientation as ``(moved side,
-    regions where it is free)``, sorted by moved mask."""
+    regions where it is free)``, sorted by moved mask. (A named tuple: the AND/OR graph of a
+    product holds millions of them.)"""
 
     node: int
     left: int
@@ -67,6 +72,30 @@ class Hyperarc:
     def balance(self) -> int:
         """Size of the larger side (smaller is more balanced)."""
         return max(self.left.bit_count(), self.right.bit_count())
+
+
+@contextmanager
+def gc_paused() -> Iterator[None]:
+    """Cyclic garbage collection off while an AND/OR search allocates (its sets, lists and
+    tuples of ints hold no reference cycles; the collector's repeated scans of the growing
+    graph took about a quarter of AS1's build). The previous state is restored on exit."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def contains(big: NDBG, small: NDBG) -> bool:
+    """Whether every DBG of ``small`` is a DBG of ``big`` (same parts): then every candidate
+    partitioning of every subassembly under ``small`` is one under ``big`` (e.g. the
+    generalized hybrid NDBG holds the infinitesimal-translation regions)."""
+    if big.ids != small.ids:
+        return False
+    have = {r.dbg.succ for r in big.regions}
+    return all(r.dbg.succ in have for r in small.regions)
 
 
 def strongly_connected(succ: Sequence[int], mask: int) -> bool:
@@ -244,6 +273,62 @@ def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None,
     return out
 
 
+class _Groups:
+    """The distinct DBGs of an NDBG, grouped per subassembly by their induced DBG.
+
+    Regions with equal DBGs are merged once (:meth:`NDBG.distinct`); for ``n <= 64`` parts
+    the DBGs are rows of a ``(D, n)`` ``uint64`` array, and the DBGs induced on a mask are
+    grouped by a hash of the masked rows, checked exactly against each group's first row (a
+    collision falls back to exact tuples). Built once per NDBG (:func:`_groups_of`)."""
+
+    def __init__(self, ndbg: NDBG) -> None:
+        dist = ndbg.distinct()
+        self.succ = [d.succ for d, _ in dist]
+        self.regions = [regs for _, regs in dist]
+        self.mat = None
+        if 0 < ndbg.n <= 64 and dist:
+            self.mat = np.array(self.succ, dtype=np.uint64)
+            rng = np.random.default_rng(0x9E3779B9)
+            self.weights = rng.integers(1, 2**63, size=ndbg.n, dtype=np.uint64) | np.uint64(1)
+
+    def of(self, mask: int) -> list[tuple[tuple[int, ...], list[int]]]:
+        """``(succ of a representative DBG, its region ids sorted)`` per distinct DBG induced
+        on ``mask``, in order of first region."""
+        if self.mat is None or len(self.succ) == 1:
+            return self._exact(mask)
+        idx = np.fromiter(bits(mask), dtype=np.intp)
+        sub = self.mat[:, idx] & np.uint64(mask)
+        h = (sub * self.weights[idx]).sum(axis=1)  # wraps modulo 2**64 (a hash)
+        _, first, inv = np.unique(h, return_index=True, return_inverse=True)
+        if not np.array_equal(sub, sub[first[inv]]):
+            return self._exact(mask)  # a hash collision: never seen, but stay exact
+        out = []
+        for g in np.argsort(first, kind="stable").tolist():
+            members = np.flatnonzero(inv == g).tolist()
+            regs = self.regions[members[0]] if len(members) == 1 else \
+                sorted(k for d in members for k in self.regions[d])
+            out.append((self.succ[members[0]], regs))
+        return out
+
+    def _exact(self, mask: int) -> list[tuple[tuple[int, ...], list[int]]]:
+        groups: dict[tuple[int, ...], list[int]] = {}
+        first: dict[tuple[int, ...], int] = {}
+        for d, succ in enumerate(self.succ):
+            key = tuple([succ[i] & mask for i in bits(mask)])
+            first.setdefault(key, d)
+            groups.setdefault(key, []).extend(self.regions[d])
+        return [(self.succ[first[key]], sorted(regs)) for key, regs in groups.items()]
+
+
+def _groups_of(ndbg: NDBG) -> _Groups:
+    """The :class:`_Groups` of ``ndbg``, kept on the (frozen) instance after the first call."""
+    got = ndbg.__dict__.get("_andor_groups")
+    if got is None:
+        got = _Groups(ndbg)
+        object.__setattr__(ndbg, "_andor_groups", got)
+    return got
+
+
 def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                 connected: ConnectivityTest | None = None,
                 limit: int | None = None, avoid: int = 0) -> tuple[list[Hyperarc], bool]:
@@ -251,15 +336,13 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     free in the DBG of some region induced on ``mask``) merged by unordered pair, regions
     grouped by identical induced DBG. With ``base`` (a part index) in ``mask``, only
     orientations whose moved side leaves the base (and every part of ``avoid``) out are kept;
-    with ``connected`` both sides
-    must pass the test. At most ``limit`` distinct moved sets are collected. Returns
+    with ``connected`` both sides must pass the test. At most ``limit`` distinct moved sets
+    are collected; a cut list always holds every part's minimal free set (its closure) in
+    every DBG, so the greedy and deepening searches keep the linear moves. Returns
     ``(hyperarcs sorted by (balance, left), truncated)``."""
     if mask.bit_count() < 2:
         return [], False
-    groups: dict[tuple[int, ...], list[int]] = {}
-    for k, r in enumerate(ndbg.regions):
-        succ = r.dbg.succ
-        groups.setdefault(tuple([succ[i] & mask for i in bits(mask)]), []).append(k)
+    groups = _groups_of(ndbg).of(mask)
     # parts that never move: the base, and ``avoid`` (e.g. a target kept in place)
     base_bit = ((0 if base is None else 1 << base) | avoid) & mask
     found: dict[int, list[int]] = {}
@@ -268,26 +351,29 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     def ok(s: int) -> bool:
         return connected is None or (connected(s) and connected(mask & ~s))
 
+    conds = []  # the condensation of each group's DBG (None: one strong component)
+    for succ, _ in groups:
+        cond = None if strongly_connected(succ, mask) else condense(succ, mask)
+        conds.append(None if cond is None or len(cond[0]) < 2 else cond)
     if limit is not None:
         # A cut enumeration keeps at least every part's minimal free set (its closure) in
         # every DBG, so the greedy and deepening searches always have the linear moves.
-        for regs in groups.values():
-            dbg = ndbg.regions[regs[0]].dbg
+        for (_, regs), cond in zip(groups, conds):
+            if cond is None:
+                continue  # every closure is the whole node
+            closure = _closures(*cond)
             for i in bits(mask & ~base_bit):
-                c = dbg.closure(1 << i, mask)
+                c = closure[i]
                 if c == mask or c & base_bit:
                     continue
                 if c in found:
                     found[c].extend(regs)
                 elif len(found) < limit and ok(c):
                     found[c] = list(regs)
-    for regs in groups.values():
-        succ = ndbg.regions[regs[0]].dbg.succ
-        if strongly_connected(succ, mask):
+    for (_, regs), cond in zip(groups, conds):
+        if cond is None:
             continue
-        comps, comp_succ = condense(succ, mask)
-        if len(comps) < 2:
-            continue
+        comps, comp_succ = cond
         # sets failing the connectivity test do not count against the limit, up to 8x
         room = None if limit is None else (limit - len(found) + 2) * (8 if connected else 1)
         # one set more than room: its presence tells a cut list from one that just fits
@@ -311,15 +397,52 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
             truncated = True
         if truncated:
             break
+    return _hyperarcs(mask, found), truncated
+
+
+def _closures(comps: list[int], comp_succ: list[int]) -> dict[int, int]:
+    """Part index -> its closure (the union of the components its component reaches) in a
+    condensed DBG (:func:`condense`)."""
+    reach: list[int] = [-1] * len(comps)  # bitmask over components, -1: not yet known
+    for c0 in range(len(comps)):
+        stack = [c0]
+        while stack:
+            c = stack[-1]
+            todo = [d for d in bits(comp_succ[c]) if reach[d] < 0]
+            if todo:
+                stack.extend(todo)
+                continue
+            stack.pop()
+            if reach[c] < 0:
+                r = 1 << c
+                for d in bits(comp_succ[c]):
+                    r |= reach[d]
+                reach[c] = r
+    out: dict[int, int] = {}
+    for c, comp in enumerate(comps):
+        parts = 0
+        for d in bits(reach[c]):
+            parts |= comps[d]
+        for i in bits(comp):
+            out[i] = parts
+    return out
+
+
+def _balance_left(h: Hyperarc) -> tuple[int, int]:
+    return max(h.left.bit_count(), h.right.bit_count()), h.left
+
+
+def _hyperarcs(mask: int, found: dict[int, list[int]]) -> list[Hyperarc]:
+    """Moved sets merged by unordered pair into hyperarcs, sorted by ``(balance, left)``."""
     low = mask & -mask
     merged: dict[int, dict[int, tuple[int, ...]]] = {}
     for s, regs in found.items():
         left = s if s & low else mask & ~s
         merged.setdefault(left, {})[s] = tuple(sorted(set(regs)))
-    arcs = [Hyperarc(node=mask, left=left, right=mask & ~left,
-                     moves=tuple(sorted(moves.items()))) for left, moves in merged.items()]
-    arcs.sort(key=lambda h: (h.balance, h.left))
-    return arcs, truncated
+    arcs = [Hyperarc(mask, left, mask & ~left, tuple(sorted(moves.items())))
+            for left, moves in merged.items()]
+    arcs.sort(key=_balance_left)
+    return arcs
 
 
 class AndOrGraph:
@@ -337,6 +460,11 @@ class AndOrGraph:
         self.truncated = False
         self.split_truncated = False
         self.elapsed = 0.0
+        #: why :meth:`build` stopped early: ``"nodes"`` (more subassemblies than
+        #: ``max_nodes``), ``"time"`` (``time_limit``), ``"splits"`` (a node's partitionings
+        #: were cut at ``split_limit``), or ``None``
+        self.cut_by: str | None = None
+        self.cut_from: AndOrGraph | None = None
         self._built = False
 
     def expand(self, mask: int) -> list[Hyperarc]:
@@ -358,23 +486,29 @@ class AndOrGraph:
         deadline = None if self.budget.time_limit is None else start + self.budget.time_limit
         stack = [self.root]
         seen = {self.root}
-        while stack:
-            if len(self.arcs) >= self.budget.max_nodes or (
-                    deadline is not None and time.perf_counter() > deadline):
-                self.truncated = True
-                break
-            m = stack.pop()
-            arcs = self.expand(m)
-            if self.split_truncated:
-                # A node's partitionings were cut: the graph cannot be complete, so the exact
-                # counts are out of reach; stop now and leave the rest to the anytime searches.
-                self.truncated = True
-                break
-            for h in arcs:
-                for child in (h.right, h.left):
-                    if child not in seen:
-                        seen.add(child)
-                        stack.append(child)
+        with gc_paused():
+            while stack:
+                # every subassembly seen must be expanded: more than max_nodes of them can
+                # never make a complete graph, so stop at once (deterministic, unlike the clock)
+                if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
+                    self.truncated, self.cut_by = True, "nodes"
+                    break
+                if deadline is not None and time.perf_counter() > deadline:
+                    self.truncated, self.cut_by = True, "time"
+                    break
+                m = stack.pop()
+                arcs = self.expand(m)
+                if self.split_truncated:
+                    # A node's partitionings were cut: the graph cannot be complete, so the
+                    # exact counts are out of reach; stop now and leave the rest to the
+                    # anytime searches.
+                    self.truncated, self.cut_by = True, "splits"
+                    break
+                for h in arcs:
+                    for child in (h.right, h.left):
+                        if child not in seen:
+                            seen.add(child)
+                            stack.append(child)
         self.elapsed = time.perf_counter() - start
         self._built = True
         self._dp: dict[str, dict[int, int | None]] = {}
@@ -384,6 +518,33 @@ class AndOrGraph:
     @property
     def complete(self) -> bool:
         return self._built and not self.truncated
+
+    def cut_as_supergraph_of(self, other: AndOrGraph) -> AndOrGraph:
+        """Mark this graph truncated without building it, when ``other`` (built, truncated,
+        same root, base and filter) is a subgraph of it: every DBG of ``other``'s NDBG is one
+        of this NDBG's (:func:`contains`), so each node of ``other`` is a node here with at
+        least its partitionings, and the budget that cut ``other`` (nodes, partitionings per
+        node, or time, each node costing more here) cuts this one too. Hyperarcs are still
+        expanded on demand by the anytime searches."""
+        self.truncated, self.cut_by, self.cut_from = True, "supergraph", other
+        self._built = True
+        self._dp = {}
+        return self
+
+    def cut_reason(self) -> str:
+        """Why the graph is truncated, in words that do not depend on the machine's speed
+        (the number of nodes expanded before a time limit would)."""
+        b = self.budget
+        if self.cut_by == "nodes":
+            return f"AND/OR graph has over {b.max_nodes} subassemblies (--max-nodes)"
+        if self.cut_by == "time":
+            return f"AND/OR graph cut by the time limit ({b.time_limit:g} s)"
+        if self.cut_by == "supergraph":
+            return (f"AND/OR graph not built: it contains the {self.cut_from.ndbg.family} one, "
+                    f"which was cut ({self.cut_from.cut_reason()})")
+        if self.cut_by == "splits" or self.split_truncated:
+            return f"a subassembly has over {b.split_limit} candidate partitionings"
+        return "AND/OR graph not built"
 
     @property
     def node_count(self) -> int:

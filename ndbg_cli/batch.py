@@ -77,16 +77,26 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
         return
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     pool = ProcessPoolExecutor(max_workers=min(jobs, len(targets)), initializer=_worker_init)
+    done = False
     try:
         futures: list[Future] = [pool.submit(analyze_one, t, options, debug) for t in targets]
         for f in futures:
             yield f.result()
+        done = True
     finally:
-        procs = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for proc in procs:
-            if proc.is_alive():
-                proc.terminate()
+        if done:
+            # every worker is idle: a waiting shutdown is quick, and it lets the pool's
+            # manager thread finish before the interpreter's exit (ending the workers under
+            # it once printed an OSError traceback from that thread at exit)
+            pool.shutdown(wait=True)
+        else:  # interrupted, or the consumer stopped early: end the workers now
+            procs = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in procs:
+                if proc.is_alive():
+                    proc.terminate()
+            for proc in procs:
+                proc.join(timeout=5)
         signal.signal(signal.SIGTERM, previous)
 
 

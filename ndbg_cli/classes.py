@@ -36,6 +36,7 @@ from .andor import (
     Budget,
     Hyperarc,
     condense,
+    contains,
     greedy_tree,
     lower_bound_depth,
     node_splits,
@@ -516,8 +517,17 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
     graph (built once, reused by the planner)."""
     items = ndbgs.values() if isinstance(ndbgs, dict) else ndbgs
     out: dict = {}
-    for nd in sorted(items, key=lambda x: x.family):
-        graph = AndOrGraph(nd, base=base, budget=budget or DEFAULT_BUDGET).build()
+    built: list[AndOrGraph] = []
+    # the translational families first: a graph they cut need not be built for a family
+    # holding their regions (the generalized hybrid), see AndOrGraph.cut_as_supergraph_of
+    for nd in sorted(items, key=lambda x: (len(x.regions), x.family)):
+        graph = AndOrGraph(nd, base=base, budget=budget or DEFAULT_BUDGET)
+        sub = next((g for g in built if g.truncated and contains(nd, g.ndbg)), None)
+        if sub is not None:
+            graph.cut_as_supergraph_of(sub)
+        else:
+            graph.build()
+        built.append(graph)
         if graphs is not None:
             graphs[nd.family] = graph
         out[nd.family] = classify(nd, base=base, budget=budget, graph=graph)

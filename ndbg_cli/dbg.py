@@ -17,6 +17,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 
 def bits(mask: int) -> Iterator[int]:
     """Indices of the set bits of ``mask``, ascending."""
@@ -24,6 +26,14 @@ def bits(mask: int) -> Iterator[int]:
         low = mask & -mask
         yield low.bit_length() - 1
         mask ^= low
+
+
+def bit_rows(masks: Sequence[int], n: int) -> np.ndarray:
+    """``(len(masks), n)`` bool array: bit ``i`` of each bitmask (any ``n``)."""
+    width = max((n + 7) // 8, 1)
+    raw = np.frombuffer(b"".join(m.to_bytes(width, "little") for m in masks),
+                        dtype=np.uint8).reshape(len(masks), width)
+    return np.unpackbits(raw, axis=1, bitorder="little")[:, :n].astype(bool)
 
 
 def mask_of(indices: Iterable[int]) -> int:

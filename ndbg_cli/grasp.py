@@ -24,7 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .dbg import bits, condensation
+from .dbg import bit_rows, bits, condensation
 from .ndbg import NDBG
 
 Face = tuple[int, Sequence[float], Sequence[float] | None]
@@ -53,28 +53,33 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
     reqs = requirements(ndbg, m)
-    dirs = {k: np.asarray(ndbg.regions[k].direction, dtype=float) for k, _ in reqs}
-    cover: list[set[int]] = []
-    for part, normal, _ in faces:
-        nv = np.asarray(normal, dtype=float)
-        cover.append({q for q, (k, c) in enumerate(reqs)
-                      if (c >> part) & 1 and float(dirs[k] @ nv) > tol})
-    left = set(range(len(reqs)))
+    # cover[q, f]: finger f holds requirement q (its part in the sink component, d . n > 0)
+    cover = np.zeros((len(reqs), len(faces)), dtype=bool)
+    if reqs and faces:
+        dirs = np.array([ndbg.regions[k].direction for k, _ in reqs], dtype=float)
+        normals = np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces])
+        part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
+        inside = bit_rows([c for _, c in reqs], ndbg.n)
+        cover = inside[:, part_of] & (dirs @ normals.T > tol)
+    left = np.ones(len(reqs), dtype=bool)
     chosen: list[int] = []
-    while left:
-        best = max(range(len(faces)), key=lambda f: (len(cover[f] & left), -faces[f][0], -f),
-                   default=None)
-        if best is None or not cover[best] & left:
+    # most uncovered requirements first; ties: lowest part, then first face
+    tie = np.lexsort((np.arange(len(faces)), [p for p, _, _ in faces])) if faces else None
+    while left.any() and faces:
+        gain = cover[left].sum(axis=0)
+        best = int(tie[np.argmax(gain[tie])])
+        if gain[best] == 0:
             break
         chosen.append(best)
-        left -= cover[best]
+        left &= ~cover[:, best]
     fingers = []
     for f in chosen:
         part, normal, point = faces[f]
         fingers.append({"part": ndbg.ids[part], "normal": [float(x) for x in normal],
                         "point": None if point is None else [float(x) for x in point],
-                        "covers": len(cover[f])})
-    uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1])} for q in sorted(left)]
+                        "covers": int(cover[:, f].sum())})
+    uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1])}
+                 for q in np.flatnonzero(left).tolist()]
     why = (f"{len(fingers)} finger(s) hold every sink component of all "
            f"{len({k for k, _ in reqs})} directional DBGs ({len(reqs)} requirements)")
     if uncovered:

@@ -21,20 +21,13 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from .dbg import bit_rows
 from .motion_lp import Thread, free_motion_rows, sliding_motion
 from .twist import LP_SLACK, ContactRows, Motion, classify, from_scaled, same_twist
 
 #: Most frequent distinct contact normals tried (both senses) as translations by
 #: :meth:`MotionSolver.translation_frees`, besides the axes and the suggested translations.
 WITNESS_NORMALS = 24
-
-
-def _bit_rows(masks: Sequence[int], n: int) -> np.ndarray:
-    """``(len(masks), n)`` bool: bit ``i`` of each bitmask."""
-    width = max((n + 7) // 8, 1)
-    buf = b"".join(m.to_bytes(width, "little") for m in masks)
-    raw = np.frombuffer(buf, dtype=np.uint8).reshape(len(masks), width)
-    return np.unpackbits(raw, axis=1, bitorder="little")[:, :n].astype(bool)
 
 
 class PairSpeeds:
@@ -76,8 +69,8 @@ class PairSpeeds:
         step = max(1, 1_000_000 // max(P * r, 1))
         for lo in range(0, len(splits), step):
             part = splits[lo:lo + step]
-            inm = _bit_rows([m for m, _ in part], n)
-            inr = _bit_rows([q for _, q in part], n)
+            inm = bit_rows([m for m, _ in part], n)
+            inr = bit_rows([q for _, q in part], n)
             f = (inm[:, pa] & inr[:, pb])[:, :, None]
             b = (inr[:, pa] & inm[:, pb])[:, :, None]
             pen = np.maximum(np.where(f, self.hi, -np.inf).max(axis=1, initial=-np.inf),
@@ -157,7 +150,7 @@ class MotionSolver:
     def crossing_pairs(self, moved: int, rest: int) -> tuple[np.ndarray, np.ndarray]:
         """Bool masks over the row pairs: ``a`` moved and ``b`` resting, and the reverse."""
         self.scaled_rows  # noqa: B018 (builds the layout)
-        inm, inr = _bit_rows([moved, rest], self.rows.n)
+        inm, inr = bit_rows([moved, rest], self.rows.n)
         return inm[self.pair_a] & inr[self.pair_b], inr[self.pair_a] & inm[self.pair_b]
 
     def crossing_threads(self, moved: int, rest: int) -> list[int]:

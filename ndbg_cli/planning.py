@@ -163,7 +163,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
                                  graph=g)
             if r.upper is not None:
                 out.exact = r.exact
-                out.notes.append(f"AND/OR graph truncated at {g.node_count} nodes; depth by "
+                out.notes.append(f"{g.cut_reason()}; depth by "
                                  f"iterative deepening ({r.expanded} nodes): "
                                  + ("optimal" if r.exact else
                                     f"between {r.lower} and {r.upper}"))
@@ -171,7 +171,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
                     out.steps[m] = orient(ndbg, h)
                 return out
         out.exact = False
-        out.notes.append(f"AND/OR graph truncated at {g.node_count} nodes; greedy tree "
+        out.notes.append(f"{g.cut_reason()}; greedy tree "
                          "(an upper bound on the optimum)")
         chooser = prefer_balanced if strategy == "shortest" else prefer_linear
         return _from_greedy(out, ndbg, root, base, connected, chooser, budget, None)

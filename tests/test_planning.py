@@ -626,3 +626,80 @@ def test_cut_partitioning_lists_never_claim_an_exact_depth():
     assert got["exact"] is False and got["lower_bound"] == 3 and got["upper_bound"] >= 3
     full = AndOrGraph(nd, budget=Budget(split_limit=None)).build()
     assert full.complete and full.min_depth() == 3
+
+
+# --------------------------------------------------- grouping, truncation reasons, supergraphs
+def test_grouping_by_induced_dbg_merges_regions_on_a_subassembly():
+    # Two regions differ only in an arc into part 2: on the whole product they are two
+    # DBGs, on {0, 1} one, so the hyperarc there lists both regions for the same moved set.
+    nd = mk("ABC", [(UP, [(0, 1), (0, 2)]), (DOWN, [(0, 1)]), (PX, [(1, 0)])])
+    from ndbg_cli.andor import _groups_of
+
+    groups = _groups_of(nd)
+    assert [regs for _, regs in groups.of(0b111)] == [[0], [1], [2]]
+    assert [regs for _, regs in groups.of(0b011)] == [[0, 1], [2]]
+    assert groups.of(0b011) == groups._exact(0b011)
+    arcs, cut = node_splits(nd, 0b011)
+    assert not cut and len(arcs) == 1
+    # B (1) moves free of A in regions 0 and 1; A (0) moves free of B in region 2
+    assert dict(arcs[0].moves) == {0b010: (0, 1), 0b001: (2,)}
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_hashed_grouping_equals_exact_grouping(seed):
+    rng = random.Random(seed)
+    n = rng.choice([5, 9, 40, 64])
+    base = [[(i, j) for i in range(n) for j in range(n) if i != j and rng.random() < 0.2]
+            for _ in range(6)]
+    # regions repeat a few DBGs (with extra arcs outside small masks) so groups merge
+    regions = []
+    for k in range(40):
+        arcs = list(base[k % 6])
+        if k % 4 == 0:
+            arcs.append((rng.randrange(n), n - 1))
+        regions.append((UP, arcs))
+    nd = mk([f"P{i}" for i in range(n)], regions)
+    from ndbg_cli.andor import _groups_of
+
+    groups = _groups_of(nd)
+    for _ in range(30):
+        mask = rng.getrandbits(n) | 1
+        assert groups.of(mask) == groups._exact(mask)
+
+
+def test_plan_note_says_why_the_graph_was_cut_not_how_far_it_got():
+    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])  # 6 free parts: 203 subassemblies
+    p = plan(nd, "shortest", budget=Budget(max_nodes=10, time_limit=None))
+    assert p.found and p.notes
+    assert p.notes[0].startswith("AND/OR graph has over 10 subassemblies (--max-nodes)")
+    g = AndOrGraph(nd, budget=Budget(max_nodes=10, time_limit=None)).build()
+    assert g.truncated and g.cut_by == "nodes" and g.node_count <= 10
+
+
+def test_supergraph_of_a_cut_graph_is_not_built_and_gives_the_same_measures():
+    # The hybrid holds the translational regions plus one more: its graph contains the
+    # translational one, so a budget that cuts the latter cuts it too.
+    n = 7
+    trans = mk([f"P{i}" for i in range(n)], [(UP, [(i, i + 1) for i in range(n - 1)]),
+                                              (DOWN, [(i + 1, i) for i in range(n - 1)])])
+    extra = Region(-1, None, DBG.from_arcs(n, [(i, 0) for i in range(1, n)]),
+                   motion={"type": "rotation"})
+    hyb = NDBG("generalized", trans.ids, trans.regions + (extra,))
+    budget = Budget(max_nodes=5, time_limit=None)
+    graphs: dict = {}
+    sec = classes_section({"generalized": hyb, "infinitesimal_translation": trans},
+                          budget=budget, graphs=graphs)
+    g = graphs["generalized"]
+    assert graphs["infinitesimal_translation"].cut_by == "nodes"
+    assert g.cut_by == "supergraph" and g.truncated
+    assert "contains the infinitesimal_translation one" in g.cut_reason()
+    built = AndOrGraph(hyb, budget=budget).build()
+    assert built.truncated  # what building would have said
+    alone = classes_section({"generalized": hyb}, budget=budget)
+    assert sec["generalized"] == alone["generalized"]
+    # an NDBG that does not hold the other's DBGs is built as usual
+    other = mk(trans.ids, [(PX, [])], family="generalized")
+    graphs = {}
+    classes_section({"generalized": other, "infinitesimal_translation": trans},
+                    budget=budget, graphs=graphs)
+    assert graphs["generalized"].cut_by != "supergraph"
