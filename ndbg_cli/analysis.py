@@ -36,7 +36,7 @@ class Options:
     connected: bool = False  # partitionings: both sides connected in the contact graph
     max_partitions: int = 1000  # partitionings listed per family (the report says truncated)
     region_limit: int | None = 2000  # regions listed per family (counts stay complete)
-    max_nodes: int = 20_000  # AND/OR graph budget: expanded subassemblies
+    max_nodes: int = 2_000  # AND/OR graph budget: subassemblies per search
     time_limit: float = 2.0  # AND/OR graph budget: seconds per search
     infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)

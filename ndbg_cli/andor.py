@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import gc
 import time
+from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -479,15 +480,18 @@ class AndOrGraph:
         return got
 
     def build(self) -> AndOrGraph:
-        """Expand every node reachable from the root, depth-first, within the budget."""
+        """Expand every node reachable from the root, breadth-first (larger subassemblies
+        first, the ones the anytime searches ask for when the graph is cut), within the
+        budget. The node budget counts every subassembly seen: a graph with more than
+        ``max_nodes`` of them cannot be completed, and breadth-first order sees that early."""
         if self._built:
             return self
         start = time.perf_counter()
         deadline = None if self.budget.time_limit is None else start + self.budget.time_limit
-        stack = [self.root]
+        queue = deque([self.root])
         seen = {self.root}
         with gc_paused():
-            while stack:
+            while queue:
                 # every subassembly seen must be expanded: more than max_nodes of them can
                 # never make a complete graph, so stop at once (deterministic, unlike the clock)
                 if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
@@ -496,7 +500,7 @@ class AndOrGraph:
                 if deadline is not None and time.perf_counter() > deadline:
                     self.truncated, self.cut_by = True, "time"
                     break
-                m = stack.pop()
+                m = queue.popleft()
                 arcs = self.expand(m)
                 if self.split_truncated:
                     # A node's partitionings were cut: the graph cannot be complete, so the
@@ -508,7 +512,7 @@ class AndOrGraph:
                     for child in (h.right, h.left):
                         if child not in seen:
                             seen.add(child)
-                            stack.append(child)
+                            queue.append(child)
         self.elapsed = time.perf_counter() - start
         self._built = True
         self._dp: dict[str, dict[int, int | None]] = {}

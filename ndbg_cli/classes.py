@@ -45,7 +45,7 @@ from .dbg import bits
 from .ndbg import NDBG, ConnectivityTest
 
 #: AND/OR graph budget when none is given (the CLI's --max-nodes / --time-limit defaults).
-DEFAULT_BUDGET = Budget(max_nodes=20_000, time_limit=2.0)
+DEFAULT_BUDGET = Budget(max_nodes=2_000, time_limit=2.0)
 
 # ------------------------------------------------------------- exact min depth, no full graph
 @dataclass
@@ -399,7 +399,7 @@ def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -
 def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
              graph: AndOrGraph | None = None) -> dict:
     """All NDBG-based measures of one motion family (see the module docstring). The default
-    budget keeps the AND/OR graph to 20,000 nodes / 2 s (bounds are reported beyond)."""
+    budget keeps the AND/OR graph to 2,000 nodes / 2 s (bounds are reported beyond)."""
     budget = budget or DEFAULT_BUDGET
     fam = ndbg.family
     full = (1 << ndbg.n) - 1

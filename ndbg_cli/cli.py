@@ -147,8 +147,9 @@ def _common_load_options(f):
               "classes keep the paper's definitions).")
 @click.option("--max-partitions", type=click.IntRange(1), default=1000, show_default=True,
               help="Partitionings listed per motion family (the report says when it cut).")
-@click.option("--max-nodes", type=click.IntRange(1), default=20_000, show_default=True,
-              help="AND/OR graph budget: subassemblies expanded per search.")
+@click.option("--max-nodes", type=click.IntRange(1), default=2_000, show_default=True,
+              help="AND/OR graph budget: subassemblies per search (a graph with more is "
+              "cut at once; the measures then come from anytime searches).")
 @click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=2.0,
               show_default=True, help="AND/OR graph budget: seconds per search.")
 @click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,

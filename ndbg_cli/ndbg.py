@@ -153,25 +153,36 @@ def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = No
 
 class ConnectivityTest:
     """``test(mask)``: is the subassembly ``mask`` connected in an undirected graph given as
-    neighbour bitmasks (e.g. the contact graph)?"""
+    neighbour bitmasks (e.g. the contact graph)? Answers are memoised (the AND/OR graph asks
+    for the same sides again and again), up to :attr:`MEMO` of them."""
+
+    #: Answers kept (then the memo starts over).
+    MEMO = 1 << 20
 
     def __init__(self, neighbours: list[int]):
         self.neighbours = neighbours
+        self._memo: dict[int, bool] = {}
 
     def __call__(self, mask: int) -> bool:
+        got = self._memo.get(mask)
+        if got is not None:
+            return got
         if mask == 0:
             return False
-        start = mask & -mask
-        seen = start
-        frontier = start
+        nb = self.neighbours
+        seen = frontier = mask & -mask
         while frontier:
             new = 0
-            for i in bits(frontier):
-                new |= self.neighbours[i]
-            new &= mask & ~seen
-            seen |= new
-            frontier = new
-        return seen == mask
+            while frontier:  # the bits of frontier, inline (the hot loop of connected plans)
+                low = frontier & -frontier
+                frontier ^= low
+                new |= nb[low.bit_length() - 1]
+            frontier = new & mask & ~seen
+            seen |= frontier
+        if len(self._memo) >= self.MEMO:
+            self._memo.clear()
+        self._memo[mask] = got = seen == mask
+        return got
 
 
 def iter_free_regions(ndbg: NDBG, moved: int, mask: int | None = None) -> Iterator[int]:

@@ -703,3 +703,23 @@ def test_supergraph_of_a_cut_graph_is_not_built_and_gives_the_same_measures():
     classes_section({"generalized": other, "infinitesimal_translation": trans},
                     budget=budget, graphs=graphs)
     assert graphs["generalized"].cut_by != "supergraph"
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_connectivity_test_against_networkx(seed):
+    import networkx as nx
+
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    rng = random.Random(seed)
+    n = rng.choice([6, 12, 70])
+    g = nx.gnp_random_graph(n, 2.5 / n, seed=seed)
+    nb = [0] * n
+    for a, b in g.edges:
+        nb[a] |= 1 << b
+        nb[b] |= 1 << a
+    test = ConnectivityTest(nb)
+    for _ in range(300):
+        mask = rng.getrandbits(n)
+        want = mask != 0 and nx.is_connected(g.subgraph(list(bits(mask))))
+        assert test(mask) == want and test(mask) == want  # the memoised answer too
