@@ -94,7 +94,8 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
         if sub.shape[0] == 0:
             basis = np.eye(len(keep))
         else:
-            _, s, vt = np.linalg.svd(sub)
+            # only V is needed: no (rows x rows) U (AS1: thousands of normals, 0.3 s)
+            _, s, vt = np.linalg.svd(sub, full_matrices=sub.shape[0] < sub.shape[1])
             rank = int(np.sum(s > tol * max(1.0, float(s.max()) if s.size else 1.0)))
             basis = vt[rank:]
         if len(basis):
