@@ -3,9 +3,10 @@
 Nodes are the distinct subassemblies (part bitmasks) reachable from the whole product by
 candidate partitionings; the hyperarcs of a node are its candidate partitionings
 ``{S, M \\ S}``, each listed once however many regions (and whichever orientation) make it
-free. The graph is built lazily (depth-first from the root) with memoization and an explicit
-budget (``max_nodes`` expanded nodes, ``time_limit`` seconds, ``split_limit`` partitionings per
-node); when the budget stops the build, ``truncated`` is set and the exact measures below are
+free. The graph is built breadth-first from the root with memoization and an explicit budget
+(``max_nodes`` subassemblies seen, ``time_limit`` seconds, ``split_limit`` partitionings per
+node; :attr:`AndOrGraph.cut_by` says which one stopped it, :meth:`AndOrGraph.cut_reason` in
+words); when the budget stops the build, ``truncated`` is set and the exact measures below are
 not available (``None``): use :func:`greedy_tree` for an anytime upper bound, or
 :func:`classes.min_depth_search` for the exact minimum depth without the whole graph (the
 report section :func:`classes.andor_section` does both).
@@ -46,7 +47,8 @@ from .ndbg import NDBG, ConnectivityTest
 
 @dataclass(frozen=True)
 class Budget:
-    """Limits of a search: expanded nodes, wall-clock seconds, partitionings per node."""
+    """Limits of a search: nodes (for :meth:`AndOrGraph.build`, subassemblies seen; for the
+    anytime searches, subassemblies expanded), wall-clock seconds, partitionings per node."""
 
     max_nodes: int = 200_000
     time_limit: float | None = 30.0
