@@ -32,6 +32,7 @@ this (and backtracks, within the budget, when a ``connected`` filter breaks it).
 from __future__ import annotations
 
 import gc
+import itertools
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -232,12 +233,17 @@ def _condense_dense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int
 
 def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None,
               avoid: int = 0) -> list[int]:
+    """The first ``limit`` (all if ``None``) sets of :func:`iter_free_sets`."""
+    return list(itertools.islice(iter_free_sets(comps, comp_succ, avoid), limit))
+
+
+def iter_free_sets(comps: list[int], comp_succ: list[int], avoid: int = 0) -> Iterator[int]:
     """Every successor-closed union of components (free set), the empty set and the whole
     included, by binary branching on the lowest *available* component (all its successors
     already taken): both branches always lead to outputs, so the search visits fewer than two
     nodes per output. With ``avoid`` (a part bitmask, e.g. the fixed base), only the sets
     disjoint from it are enumerated (its components and all their ancestors are never taken),
-    so a ``limit`` counts useful sets only."""
+    so a caller's limit counts useful sets only."""
     k = len(comps)
     comp_pred = [0] * k
     sinks = 0
@@ -255,14 +261,11 @@ def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None,
             for a in bits(frontier):
                 nxt |= comp_pred[a]
             frontier = nxt & ~banned
-    out: list[int] = []
     stack = [(0, 0, sinks & ~banned)]
     while stack:
         chosen, parts, avail = stack.pop()
         if not avail:
-            out.append(parts)
-            if limit is not None and len(out) >= limit:
-                break
+            yield parts
             continue
         c = avail & -avail
         ci = c.bit_length() - 1
@@ -273,7 +276,6 @@ def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None,
             if comp_succ[p] & ~taken == 0:
                 rest |= 1 << p
         stack.append((taken, parts | comps[ci], rest))
-    return out
 
 
 class _Groups:
@@ -308,7 +310,7 @@ class _Groups:
         out = []
         for g in np.argsort(first, kind="stable").tolist():
             members = np.flatnonzero(inv == g).tolist()
-            regs = self.regions[members[0]] if len(members) == 1 else \
+            regs = list(self.regions[members[0]]) if len(members) == 1 else \
                 sorted(k for d in members for k in self.regions[d])
             out.append((self.succ[members[0]], regs))
         return out
@@ -377,14 +379,15 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
         if cond is None:
             continue
         comps, comp_succ = cond
-        # sets failing the connectivity test do not count against the limit, up to 8x
-        room = None if limit is None else (limit - len(found) + 2) * (8 if connected else 1)
-        # one set more than room: its presence tells a cut list from one that just fits
-        sets = free_sets(comps, comp_succ, None if room is None else room + 1, avoid=base_bit)
-        cut_here = room is not None and len(sets) > room
-        if cut_here:
-            sets = sets[:room]
-        for s in sets:
+        # Sets failing the connectivity test do not count against the limit, but this DBG's
+        # enumeration stops after 8x the room left (the list may then be cut). Without the
+        # test, the list is cut exactly when a new set finds it full (sets already found,
+        # e.g. closures, cost nothing).
+        cap = None if limit is None or connected is None else (limit - len(found) + 2) * 8
+        for k, s in enumerate(iter_free_sets(comps, comp_succ, avoid=base_bit)):
+            if cap is not None and k >= cap:
+                truncated = True
+                break
             if s == 0 or s == mask or s & base_bit:
                 continue
             got = found.get(s)
@@ -396,8 +399,6 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                     break
                 found[s] = got = []
             got.extend(regs)
-        if cut_here:
-            truncated = True
         if truncated:
             break
     return _hyperarcs(mask, found), truncated
@@ -529,9 +530,13 @@ class AndOrGraph:
         """Mark this graph truncated without building it, when ``other`` (built, truncated,
         same root, base and filter) is a subgraph of it: every DBG of ``other``'s NDBG is one
         of this NDBG's (:func:`contains`), so each node of ``other`` is a node here with at
-        least its partitionings, and the budget that cut ``other`` (nodes, partitionings per
-        node, or time, each node costing more here) cuts this one too. Hyperarcs are still
-        expanded on demand by the anytime searches."""
+        least its partitionings, and a size budget that cut ``other`` (``cut_by`` ``"nodes"``,
+        ``"splits"`` or ``"supergraph"``: more subassemblies, or more partitionings at one
+        of them, than the same budget allows) cuts this one too. Not for a cut by the clock,
+        which proves nothing. Hyperarcs are still expanded on demand by the anytime
+        searches."""
+        if other.cut_by not in ("nodes", "splits", "supergraph"):
+            raise ValueError(f"not cut by its size: {other.cut_by!r}")
         self.truncated, self.cut_by, self.cut_from = True, "supergraph", other
         self._built = True
         self._dp = {}

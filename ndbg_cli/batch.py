@@ -84,20 +84,22 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
             yield f.result()
         done = True
     finally:
-        if done:
-            # every worker is idle: a waiting shutdown is quick, and it lets the pool's
-            # manager thread finish before the interpreter's exit (ending the workers under
-            # it once printed an OSError traceback from that thread at exit)
-            pool.shutdown(wait=True)
-        else:  # interrupted, or the consumer stopped early: end the workers now
-            procs = list((getattr(pool, "_processes", None) or {}).values())
-            pool.shutdown(wait=False, cancel_futures=True)
-            for proc in procs:
-                if proc.is_alive():
-                    proc.terminate()
-            for proc in procs:
-                proc.join(timeout=5)
-        signal.signal(signal.SIGTERM, previous)
+        try:
+            if done:
+                # every worker is idle: a waiting shutdown is quick, and it lets the pool's
+                # manager thread finish before the interpreter's exit (ending the workers
+                # under it once printed an OSError traceback from that thread at exit)
+                pool.shutdown(wait=True)
+            else:  # interrupted, or the consumer stopped early: end the workers now
+                procs = list((getattr(pool, "_processes", None) or {}).values())
+                pool.shutdown(wait=False, cancel_futures=True)
+                for proc in procs:
+                    if proc.is_alive():
+                        proc.terminate()
+                for proc in procs:
+                    proc.join(timeout=5)
+        finally:  # a SIGTERM during the shutdown still leaves the caller's handler back
+            signal.signal(signal.SIGTERM, previous)
 
 
 DASK_MISSING = "--scheduler needs dask.distributed: pip install 'ndbg-cli[dask]'"

@@ -518,11 +518,14 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
     items = ndbgs.values() if isinstance(ndbgs, dict) else ndbgs
     out: dict = {}
     built: list[AndOrGraph] = []
-    # the translational families first: a graph they cut need not be built for a family
-    # holding their regions (the generalized hybrid), see AndOrGraph.cut_as_supergraph_of
+    done: dict[str, dict] = {}
+    # the translational families first: a graph they cut by its size (nodes, partitionings
+    # per node) need not be built for a family holding their DBGs (the generalized hybrid),
+    # see AndOrGraph.cut_as_supergraph_of; a cut by the clock proves nothing
     for nd in sorted(items, key=lambda x: (len(x.regions), x.family)):
         graph = AndOrGraph(nd, base=base, budget=budget or DEFAULT_BUDGET)
-        sub = next((g for g in built if g.truncated and contains(nd, g.ndbg)), None)
+        sub = next((g for g in built if g.cut_by in ("nodes", "splits", "supergraph")
+                    and contains(nd, g.ndbg)), None)
         if sub is not None:
             graph.cut_as_supergraph_of(sub)
         else:
@@ -530,7 +533,9 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
         built.append(graph)
         if graphs is not None:
             graphs[nd.family] = graph
-        out[nd.family] = classify(nd, base=base, budget=budget, graph=graph)
+        done[nd.family] = classify(nd, base=base, budget=budget, graph=graph)
+    for fam in sorted(done):  # the section lists the families alphabetically
+        out[fam] = done[fam]
     if interlock is not None:
         out.setdefault("infinitesimal_translation", {})["interlocked"] = interlock
     for fam, g in (grasps or {}).items():

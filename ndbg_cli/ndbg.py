@@ -157,7 +157,7 @@ class ConnectivityTest:
     for the same sides again and again), up to :attr:`MEMO` of them."""
 
     #: Answers kept (then the memo starts over).
-    MEMO = 1 << 20
+    MEMO = 1 << 18
 
     def __init__(self, neighbours: list[int]):
         self.neighbours = neighbours

@@ -723,3 +723,13 @@ def test_connectivity_test_against_networkx(seed):
         mask = rng.getrandbits(n)
         want = mask != 0 and nx.is_connected(g.subgraph(list(bits(mask))))
         assert test(mask) == want and test(mask) == want  # the memoised answer too
+
+
+def test_a_list_that_fits_its_limit_is_not_called_cut():
+    # A chain 1 -> 2 -> 3 with part 0 the base: exactly 3 moved sets ({3}, {2,3}, {1,2,3}).
+    # The closures are found first and used to be counted again against the limit.
+    nd = NDBG("infinitesimal_translation", tuple("abcd"),
+              (Region(2, UP, DBG((0, 0b100, 0b1000, 0))),))
+    for limit, cut in ((2, True), (3, False), (4, False), (None, False)):
+        arcs, truncated = node_splits(nd, 0b1111, base=0, limit=limit)
+        assert truncated is cut and len(arcs) == (2 if cut else 3)
