@@ -32,7 +32,6 @@ this (and backtracks, within the budget, when a ``connected`` filter breaks it).
 from __future__ import annotations
 
 import gc
-import itertools
 import time
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -42,7 +41,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .dbg import bits
+from .dbg import bits, closure_table
 from .ndbg import NDBG, ConnectivityTest
 
 
@@ -231,13 +230,7 @@ def _condense_dense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int
     return comps, comp_succ
 
 
-def free_sets(comps: list[int], comp_succ: list[int], limit: int | None = None,
-              avoid: int = 0) -> list[int]:
-    """The first ``limit`` (all if ``None``) sets of :func:`iter_free_sets`."""
-    return list(itertools.islice(iter_free_sets(comps, comp_succ, avoid), limit))
-
-
-def iter_free_sets(comps: list[int], comp_succ: list[int], avoid: int = 0) -> Iterator[int]:
+def free_sets(comps: list[int], comp_succ: list[int], avoid: int = 0) -> Iterator[int]:
     """Every successor-closed union of components (free set), the empty set and the whole
     included, by binary branching on the lowest *available* component (all its successors
     already taken): both branches always lead to outputs, so the search visits fewer than two
@@ -363,10 +356,10 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     if limit is not None:
         # A cut enumeration keeps at least every part's minimal free set (its closure) in
         # every DBG, so the greedy and deepening searches always have the linear moves.
-        for (_, regs), cond in zip(groups, conds):
+        for (succ, regs), cond in zip(groups, conds):
             if cond is None:
                 continue  # every closure is the whole node
-            closure = _closures(*cond)
+            closure = closure_table(succ, mask)
             for i in bits(mask & ~base_bit):
                 c = closure[i]
                 if c == mask or c & base_bit:
@@ -384,7 +377,7 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
         # test, the list is cut exactly when a new set finds it full (sets already found,
         # e.g. closures, cost nothing).
         cap = None if limit is None or connected is None else (limit - len(found) + 2) * 8
-        for k, s in enumerate(iter_free_sets(comps, comp_succ, avoid=base_bit)):
+        for k, s in enumerate(free_sets(comps, comp_succ, avoid=base_bit)):
             if cap is not None and k >= cap:
                 truncated = True
                 break
@@ -404,38 +397,6 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     return _hyperarcs(mask, found), truncated
 
 
-def _closures(comps: list[int], comp_succ: list[int]) -> dict[int, int]:
-    """Part index -> its closure (the union of the components its component reaches) in a
-    condensed DBG (:func:`condense`)."""
-    reach: list[int] = [-1] * len(comps)  # bitmask over components, -1: not yet known
-    for c0 in range(len(comps)):
-        stack = [c0]
-        while stack:
-            c = stack[-1]
-            todo = [d for d in bits(comp_succ[c]) if reach[d] < 0]
-            if todo:
-                stack.extend(todo)
-                continue
-            stack.pop()
-            if reach[c] < 0:
-                r = 1 << c
-                for d in bits(comp_succ[c]):
-                    r |= reach[d]
-                reach[c] = r
-    out: dict[int, int] = {}
-    for c, comp in enumerate(comps):
-        parts = 0
-        for d in bits(reach[c]):
-            parts |= comps[d]
-        for i in bits(comp):
-            out[i] = parts
-    return out
-
-
-def _balance_left(h: Hyperarc) -> tuple[int, int]:
-    return max(h.left.bit_count(), h.right.bit_count()), h.left
-
-
 def _hyperarcs(mask: int, found: dict[int, list[int]]) -> list[Hyperarc]:
     """Moved sets merged by unordered pair into hyperarcs, sorted by ``(balance, left)``."""
     low = mask & -mask
@@ -445,7 +406,7 @@ def _hyperarcs(mask: int, found: dict[int, list[int]]) -> list[Hyperarc]:
         merged.setdefault(left, {})[s] = tuple(sorted(set(regs)))
     arcs = [Hyperarc(mask, left, mask & ~left, tuple(sorted(moves.items())))
             for left, moves in merged.items()]
-    arcs.sort(key=_balance_left)
+    arcs.sort(key=lambda h: (h.balance, h.left))
     return arcs
 
 
@@ -482,6 +443,7 @@ class AndOrGraph:
             self.arcs[mask] = got
         return got
 
+    @gc_paused()
     def build(self) -> AndOrGraph:
         """Expand every node reachable from the root, breadth-first (larger subassemblies
         first, the ones the anytime searches ask for when the graph is cut), within the
@@ -493,29 +455,28 @@ class AndOrGraph:
         deadline = None if self.budget.time_limit is None else start + self.budget.time_limit
         queue = deque([self.root])
         seen = {self.root}
-        with gc_paused():
-            while queue:
-                # every subassembly seen must be expanded: more than max_nodes of them can
-                # never make a complete graph, so stop at once (deterministic, unlike the clock)
-                if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
-                    self.truncated, self.cut_by = True, "nodes"
-                    break
-                if deadline is not None and time.perf_counter() > deadline:
-                    self.truncated, self.cut_by = True, "time"
-                    break
-                m = queue.popleft()
-                arcs = self.expand(m)
-                if self.split_truncated:
-                    # A node's partitionings were cut: the graph cannot be complete, so the
-                    # exact counts are out of reach; stop now and leave the rest to the
-                    # anytime searches.
-                    self.truncated, self.cut_by = True, "splits"
-                    break
-                for h in arcs:
-                    for child in (h.right, h.left):
-                        if child not in seen:
-                            seen.add(child)
-                            queue.append(child)
+        while queue:
+            # every subassembly seen must be expanded: more than max_nodes of them can
+            # never make a complete graph, so stop at once (deterministic, unlike the clock)
+            if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
+                self.truncated, self.cut_by = True, "nodes"
+                break
+            if deadline is not None and time.perf_counter() > deadline:
+                self.truncated, self.cut_by = True, "time"
+                break
+            m = queue.popleft()
+            arcs = self.expand(m)
+            if self.split_truncated:
+                # A node's partitionings were cut: the graph cannot be complete, so the
+                # exact counts are out of reach; stop now and leave the rest to the
+                # anytime searches.
+                self.truncated, self.cut_by = True, "splits"
+                break
+            for h in arcs:
+                for child in (h.right, h.left):
+                    if child not in seen:
+                        seen.add(child)
+                        queue.append(child)
         self.elapsed = time.perf_counter() - start
         self._built = True
         self._dp: dict[str, dict[int, int | None]] = {}
@@ -691,6 +652,7 @@ class GreedyResult:
         return (0 if h.linear else 1) + self.nonlinear(h.left) + self.nonlinear(h.right)
 
 
+@gc_paused()
 def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
                 connected: ConnectivityTest | None = None, chooser: Chooser = prefer_balanced,
                 budget: Budget | None = None,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 
-from .dbg import bits
+from .dbg import bits, closure_table, reach
 from .ndbg import NDBG, Partitioning
 
 #: Cap on the candidate partitionings listed (and checked) per call.
@@ -22,22 +22,6 @@ DEFAULT_CANDIDATE_LIMIT = 200
 DEFAULT_SEARCH_BUDGET = 50_000
 
 
-def _reach(x: int, adj: Sequence[int], within: int) -> int:
-    """Everything reachable from ``x`` inside ``within`` along ``adj`` (bitmask lists)."""
-    seen = x & within
-    frontier = seen
-    while frontier:
-        new = 0
-        while frontier:
-            low = frontier & -frontier
-            new |= adj[low.bit_length() - 1]
-            frontier ^= low
-        new &= within & ~seen
-        seen |= new
-        frontier = new
-    return seen
-
-
 def _predecessors(succ: Sequence[int], m: int) -> list[int]:
     """The reversed arcs of ``succ`` inside ``m`` (bitmask lists over all parts)."""
     pred = [0] * len(succ)
@@ -45,19 +29,6 @@ def _predecessors(succ: Sequence[int], m: int) -> list[int]:
         for j in bits(succ[i] & m):
             pred[j] |= 1 << i
     return pred
-
-
-def _closure_table(adj: Sequence[int], m: int) -> dict[int, int]:
-    """Reflexive-transitive closure of ``adj`` inside ``m``, per part (Warshall on
-    bitsets)."""
-    members = list(bits(m))
-    reach = {i: (adj[i] & m) | (1 << i) for i in members}
-    for k in members:
-        bit, via = 1 << k, reach[k]
-        for i in members:
-            if reach[i] & bit:
-                reach[i] |= via
-    return reach
 
 
 def _connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget: list[int]
@@ -72,8 +43,8 @@ def _connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget:
     closed under predecessors). The side without the pivot, usually the base, is the small
     one, which keeps the search short."""
     # what each part drags along, and what drags it along
-    down = _closure_table(succ, m)
-    up = _closure_table(_predecessors(succ, m), m)
+    down = closure_table(succ, m)
+    up = closure_table(_predecessors(succ, m), m)
     pivot = max(bits(m), key=lambda i: ((nb[i] & m).bit_count(), -i))
     yield from _closed_sets(down, up, nb, m, 1 << pivot, budget)
     for t in _closed_sets(up, down, nb, m, 1 << pivot, budget):
@@ -108,7 +79,7 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
                 return
             budget[0] -= 1
             inside, out = stack.pop()
-            if out & ~_reach(out & -out, nb, m & ~inside):
+            if out & ~reach(out & -out, nb, m & ~inside):
                 continue  # the rest would fall apart
             around = 0
             for i in bits(inside):
@@ -116,8 +87,8 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
             frontier = around & m & ~inside & ~out
             if not frontier:
                 rest = m & ~inside
-                if (_reach(inside & -inside, nb, inside) == inside
-                        and _reach(rest & -rest, nb, rest) == rest):
+                if (reach(inside & -inside, nb, inside) == inside
+                        and reach(rest & -rest, nb, rest) == rest):
                     yield inside
                 continue
             f = (frontier & -frontier).bit_length() - 1
@@ -168,7 +139,7 @@ def connected_partitionings(ndbg: NDBG, neighbours: Sequence[int], mask: int | N
     dbgs = [(ndbg.regions[ids[0]].dbg.succ, ids) for ids in groups.values()]
     if limit is not None:
         alone = [i for i in members  # the rest holds together without part i
-                 if (c := m & ~(1 << i)) and _reach(c & -c, neighbours, c) == c]
+                 if (c := m & ~(1 << i)) and reach(c & -c, neighbours, c) == c]
         for succ, ids in dbgs:
             for i in alone:
                 if not succ[i] & m and not take(1 << i, ids):

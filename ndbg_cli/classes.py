@@ -37,6 +37,7 @@ from .andor import (
     Hyperarc,
     condense,
     contains,
+    gc_paused,
     greedy_tree,
     lower_bound_depth,
     node_splits,
@@ -63,6 +64,7 @@ class DepthResult:
     expanded: int
 
 
+@gc_paused()
 def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
                      connected: ConnectivityTest | None = None, budget: Budget | None = None,
                      graph: AndOrGraph | None = None) -> DepthResult:

@@ -54,17 +54,17 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
     m = (1 << ndbg.n) - 1 if mask is None else mask
     reqs = requirements(ndbg, m)
     # cover[q, f]: finger f holds requirement q (its part in the sink component, d . n > 0)
+    part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
     cover = np.zeros((len(reqs), len(faces)), dtype=bool)
     if reqs and faces:
         dirs = np.array([ndbg.regions[k].direction for k, _ in reqs], dtype=float)
         normals = np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces])
-        part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
         inside = bit_rows([c for _, c in reqs], ndbg.n)
         cover = inside[:, part_of] & (dirs @ normals.T > tol)
     left = np.ones(len(reqs), dtype=bool)
     chosen: list[int] = []
     # most uncovered requirements first; ties: lowest part, then first face
-    tie = np.lexsort((np.arange(len(faces)), [p for p, _, _ in faces])) if faces else None
+    tie = np.lexsort((np.arange(len(faces)), part_of))
     while left.any() and faces:
         gain = cover[left].sum(axis=0)
         best = int(tie[np.argmax(gain[tie])])

@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from .dbg import DBG, bits, free_subsets, mask_of
+from .dbg import DBG, bits, free_subsets, mask_of, reach
 
 FAMILIES = ("infinitesimal_translation", "infinite_translation", "generalized")
 
@@ -169,16 +169,7 @@ class ConnectivityTest:
             return got
         if mask == 0:
             return False
-        nb = self.neighbours
-        seen = frontier = mask & -mask
-        while frontier:
-            new = 0
-            while frontier:  # the bits of frontier, inline (the hot loop of connected plans)
-                low = frontier & -frontier
-                frontier ^= low
-                new |= nb[low.bit_length() - 1]
-            frontier = new & mask & ~seen
-            seen |= frontier
+        seen = reach(mask & -mask, self.neighbours, mask)
         if len(self._memo) >= self.MEMO:
             self._memo.clear()
         self._memo[mask] = got = seen == mask

@@ -160,20 +160,11 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     out["partitionings"] = partitionings
 
     # -- planning and measures ---------------------------------------------------------
-    from .andor import Budget, gc_paused
-
-    budget = Budget(max_nodes=options.max_nodes, time_limit=options.time_limit)
-    with gc_paused():  # allocation-heavy searches without reference cycles
-        _plan_stages(out, asm, ca, ndbgs, options, budget, clock, threaded, neighbours)
-    return out, warnings
-
-
-def _plan_stages(out: dict, asm: Assembly, ca, ndbgs: dict[str, NDBG], options: Any,
-                 budget, clock: _Clock, threaded: set, neighbours: list[int]) -> None:
-    """Classes, measures and the reported plan (the last stages of :func:`run_stages`)."""
+    from .andor import Budget
     from .classes import classes_section
     from .planning import plan, plan_section
 
+    budget = Budget(max_nodes=options.max_nodes, time_limit=options.time_limit)
     base = asm.index(asm.base) if asm.base is not None else None
     extra = clock("interlock_s", lambda: _interlock_and_grasp(asm, ca, ndbgs))
     graphs: dict = {}
@@ -213,6 +204,7 @@ def _plan_stages(out: dict, asm: Assembly, ca, ndbgs: dict[str, NDBG], options: 
         out["plan"] = {"family": None, "strategy": options.strategy, "found": False,
                        "exact": True, "depth": None, "tree": None, "sequence": [],
                        "notes": ["no motion family computed"]}
+    return out, warnings
 
 
 def contacts_2d_section(asm: Assembly, found) -> list[dict]:
