@@ -62,6 +62,7 @@ class DepthResult:
     upper: int | None
     choice: dict[int, Hyperarc]
     expanded: int
+    why: str = ""
 
 
 @gc_paused()
@@ -399,9 +400,17 @@ def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -
 
 
 def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
-             graph: AndOrGraph | None = None) -> dict:
+             graph: AndOrGraph | None = None,
+             contained: tuple[str, dict] | None = None) -> dict:
     """All NDBG-based measures of one motion family (see the module docstring). The default
-    budget keeps the AND/OR graph to 2,000 nodes / 2 s (bounds are reported beyond)."""
+    budget keeps the AND/OR graph to 2,000 nodes / 2 s (bounds are reported beyond).
+
+    ``contained``: ``(family, measures)`` of a family whose every DBG is a DBG of ``ndbg``
+    (:func:`andor.contains`; the generalized hybrid holds the infinitesimal translations), as
+    this function returned them for the same ``base``. Every tree of that family is then a
+    tree of this one, so when its exact minimum depth already equals ``ceil(log2 n)``, no
+    tree can be shallower and this family's is the same, exact, without a search.
+    """
     budget = budget or DEFAULT_BUDGET
     fam = ndbg.family
     full = (1 << ndbg.n) - 1
@@ -453,7 +462,9 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
         out["min_depth"] = {"value": d, "exact": True, "lower_bound": d, "upper_bound": d,
                             "why": f"exact over {graph.node_count} AND/OR nodes"}
     else:
-        r = min_depth_search(ndbg, full, base=base, budget=budget, graph=graph)
+        r = _depth_from_contained(contained, full)
+        if r is None:
+            r = min_depth_search(ndbg, full, base=base, budget=budget, graph=graph)
         if lin_stuck is None:
             out["min_nonlinear"] = {"value": 0, "exact": True, "lower_bound": 0,
                                     "assembly_lines": 1,
@@ -467,11 +478,14 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
                                     "graph truncated)"}
         out["min_depth"] = {"value": r.upper, "exact": r.exact, "lower_bound": r.lower,
                             "upper_bound": r.upper,
-                            "why": ("exact" if r.exact else "upper bound (best tree found), "
-                                    f"lower bound {r.lower}") + " by iterative deepening over "
-                            f"{r.expanded} subassemblies (AND/OR graph truncated)"}
+                            "why": r.why or (("exact" if r.exact else "upper bound (best tree "
+                                              f"found), lower bound {r.lower}")
+                                             + " by iterative deepening over "
+                                             f"{r.expanded} subassemblies (AND/OR graph "
+                                             "truncated)")}
 
-    acyclic = [k for k, r in enumerate(ndbg.regions) if r.dbg.is_acyclic(full)]
+    acyclic = [] if fam == "generalized" else \
+        [k for k, r in enumerate(ndbg.regions) if r.dbg.is_acyclic(full)]
     if fam == "generalized":
         out["stack_product"] = {"value": None, "why": "stack products are defined for "
                                 "translations"}
@@ -488,6 +502,22 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
     md = min_directions(ndbg, base=base, budget=budget)
     out["min_directions"] = {k: v for k, v in md.items() if k != "stuck"}
     return out
+
+
+def _depth_from_contained(contained: tuple[str, dict] | None, full: int
+                          ) -> DepthResult | None:
+    """The minimum depth when the contained family's is exact and equals the lower bound
+    ``ceil(log2 n)`` (see :func:`classify`), else ``None`` (search needed)."""
+    if contained is None:
+        return None
+    fam, measures = contained
+    md = measures.get("min_depth") or {}
+    d = lower_bound_depth(full)
+    if md.get("value") != d or not md.get("exact"):
+        return None
+    return DepthResult(d, True, d, d, {}, 0,
+                       why=f"exact: the {fam} family, whose DBGs are all DBGs of this one, has "
+                       f"a tree of height {d} = ceil(log2 n), the lower bound")
 
 
 def _linear_first(arcs):
@@ -526,8 +556,9 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
     # see AndOrGraph.cut_as_supergraph_of; a cut by the clock proves nothing
     for nd in sorted(items, key=lambda x: (len(x.regions), x.family)):
         graph = AndOrGraph(nd, base=base, budget=budget or DEFAULT_BUDGET)
-        sub = next((g for g in built if g.cut_by in ("nodes", "splits", "supergraph")
-                    and contains(nd, g.ndbg)), None)
+        inside = [g for g in built if contains(nd, g.ndbg)]
+        sub = next((g for g in inside if g.cut_by in ("nodes", "splits", "supergraph")),
+                   None)
         if sub is not None:
             graph.cut_as_supergraph_of(sub)
         else:
@@ -535,7 +566,11 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
         built.append(graph)
         if graphs is not None:
             graphs[nd.family] = graph
-        done[nd.family] = classify(nd, base=base, budget=budget, graph=graph)
+        contained = next(((g.ndbg.family, done[g.ndbg.family]) for g in inside
+                          if _depth_from_contained((g.ndbg.family, done[g.ndbg.family]),
+                                                   (1 << nd.n) - 1) is not None), None)
+        done[nd.family] = classify(nd, base=base, budget=budget, graph=graph,
+                                   contained=contained)
     for fam in sorted(done):  # the section lists the families alphabetically
         out[fam] = done[fam]
     if interlock is not None:

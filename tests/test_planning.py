@@ -705,6 +705,47 @@ def test_supergraph_of_a_cut_graph_is_not_built_and_gives_the_same_measures():
     assert graphs["generalized"].cut_by != "supergraph"
 
 
+def test_hybrid_min_depth_follows_from_a_contained_family_at_the_lower_bound():
+    # An 8-part stack: up, part i is blocked by every part above it (down, by every part
+    # below). Halving it gives depth 3 = ceil(log2 8), the lower bound for any tree, so the
+    # hybrid (the same regions plus a rotation freeing part 0) has depth 3 too.
+    from ndbg_cli.classes import min_depth_search
+
+    n = 8
+    trans = mk([f"P{i}" for i in range(n)],
+               [(UP, [(i, j) for i in range(n) for j in range(i + 1, n)]),
+                (DOWN, [(j, i) for i in range(n) for j in range(i + 1, n)])])
+    extra = Region(-1, None, DBG.from_arcs(n, [(i, 0) for i in range(1, n)]),
+                   motion={"type": "rotation"})
+    hyb = NDBG("generalized", trans.ids, trans.regions + (extra,))
+    budget = Budget(max_nodes=20, time_limit=None)  # 36 subassemblies (the intervals)
+    graphs: dict = {}
+    sec = classes_section({"generalized": hyb, "infinitesimal_translation": trans},
+                          budget=budget, graphs=graphs)
+    assert graphs["infinitesimal_translation"].cut_by == "nodes"
+    assert graphs["generalized"].cut_by == "supergraph"
+    t, g = sec["infinitesimal_translation"]["min_depth"], sec["generalized"]["min_depth"]
+    assert (t["value"], t["exact"]) == (3, True)
+    assert (g["value"], g["exact"], g["lower_bound"], g["upper_bound"]) == (3, True, 3, 3)
+    assert "infinitesimal_translation family" in g["why"]
+    r = min_depth_search(hyb, budget=Budget(split_limit=None, time_limit=None))
+    assert (r.depth, r.exact) == (3, True)
+    # above the lower bound nothing follows: 5 parts of which only one at a time comes off
+    # (region k frees part k alone) need depth 4 > 3; the hybrid, whose extra motion frees
+    # everything, has depth 3 and is searched
+    n = 5
+    single = mk([f"P{i}" for i in range(n)],
+                [(UP, [(i, j) for i in range(n) for j in range(n) if i != j and i != k])
+                 for k in range(n)])
+    hyb = NDBG("generalized", single.ids, single.regions + (
+        Region(-1, None, DBG.empty(n), motion={"type": "rotation"}),))
+    sec = classes_section({"generalized": hyb, "infinitesimal_translation": single},
+                          budget=Budget(max_nodes=8, time_limit=None))
+    assert sec["infinitesimal_translation"]["min_depth"]["value"] == 4
+    assert sec["generalized"]["min_depth"]["value"] == 3
+    assert "iterative deepening" in sec["generalized"]["min_depth"]["why"]
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_connectivity_test_against_networkx(seed):
     import networkx as nx
