@@ -41,8 +41,13 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .candidates import connected_free_sets
 from .dbg import bits, closure_table
 from .ndbg import NDBG, ConnectivityTest
+
+#: Search nodes per subassembly for its contact-connected partitionings (with a
+#: ``split_limit``; see :func:`node_splits`). The search costs a few nodes per set found.
+CONNECTED_SEARCH = 200_000
 
 
 @dataclass(frozen=True)
@@ -349,17 +354,14 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     def ok(s: int) -> bool:
         return connected is None or (connected(s) and connected(mask & ~s))
 
-    conds = []  # the condensation of each group's DBG (None: one strong component)
-    for succ, _ in groups:
-        cond = None if strongly_connected(succ, mask) else condense(succ, mask)
-        conds.append(None if cond is None or len(cond[0]) < 2 else cond)
+    # the DBGs with a proper free set (not one strong component), and their closures
+    live = [(succ, regs) for succ, regs in groups if not strongly_connected(succ, mask)]
+    closures: list[dict[int, int] | None] = [None] * len(live)
     if limit is not None:
         # A cut enumeration keeps at least every part's minimal free set (its closure) in
         # every DBG, so the greedy and deepening searches always have the linear moves.
-        for (succ, regs), cond in zip(groups, conds):
-            if cond is None:
-                continue  # every closure is the whole node
-            closure = closure_table(succ, mask)
+        for k, (succ, regs) in enumerate(live):
+            closures[k] = closure = closure_table(succ, mask)
             for i in bits(mask & ~base_bit):
                 c = closure[i]
                 if c == mask or c & base_bit:
@@ -368,30 +370,26 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                     found[c].extend(regs)
                 elif len(found) < limit and ok(c):
                     found[c] = list(regs)
-    for (_, regs), cond in zip(groups, conds):
-        if cond is None:
-            continue
-        comps, comp_succ = cond
-        # Sets failing the connectivity test do not count against the limit, but this DBG's
-        # enumeration stops after 8x the room left (the list may then be cut). Without the
-        # test, the list is cut exactly when a new set finds it full (sets already found,
-        # e.g. closures, cost nothing).
-        cap = None if limit is None or connected is None else (limit - len(found) + 2) * 8
-        for k, s in enumerate(free_sets(comps, comp_succ, avoid=base_bit)):
-            if cap is not None and k >= cap:
-                truncated = True
-                break
+    # With the connectivity test, only the sets with both sides connected are searched
+    # (candidates.connected_free_sets, polynomial per set found, within a search budget per
+    # node); the list is cut when a new set finds it full, or when that budget runs out.
+    left = [CONNECTED_SEARCH if limit is not None else 1 << 62]
+    for (succ, regs), closure in zip(live, closures):
+        sets = free_sets(*condense(succ, mask), avoid=base_bit) if connected is None else \
+            connected_free_sets(succ, connected.neighbours, mask, left, avoid=base_bit,
+                                down=closure)
+        for s in sets:
             if s == 0 or s == mask or s & base_bit:
                 continue
             got = found.get(s)
             if got is None:
-                if not ok(s):
-                    continue
                 if limit is not None and len(found) >= limit:
                     truncated = True
                     break
                 found[s] = got = []
             got.extend(regs)
+        if left[0] <= 0:
+            truncated = True
         if truncated:
             break
     return _hyperarcs(mask, found), truncated

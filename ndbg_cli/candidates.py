@@ -31,20 +31,25 @@ def _predecessors(succ: Sequence[int], m: int) -> list[int]:
     return pred
 
 
-def _connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget: list[int]
-                         ) -> Iterator[int]:
+def connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget: list[int],
+                        avoid: int = 0, down: dict[int, int] | None = None) -> Iterator[int]:
     """Free sets ``S`` of the DBG ``succ`` inside ``m`` (proper, non-empty) such that ``S``
     and ``m \\ S`` are both connected in the graph ``nb``; ``budget[0]`` (search nodes) is
-    decremented and the search stops at 0.
+    decremented and the search stops at 0. With ``avoid`` (a part bitmask, e.g. the fixed
+    base), only the sets disjoint from it, searched directly (:func:`_closed_sets`).
+    ``down``: ``closure_table(succ, m)`` when the caller has it.
 
-    A pivot part ``p`` (most neighbours in ``m``) splits them: the sets without ``p`` are
-    searched directly (:func:`_closed_sets`), those with ``p`` as the complements of the sets
-    without ``p`` that are closed under the reversed arcs (``S`` is free iff ``m \\ S`` is
-    closed under predecessors). The side without the pivot, usually the base, is the small
-    one, which keeps the search short."""
+    Otherwise a pivot part ``p`` (most neighbours in ``m``) splits them: the sets without
+    ``p`` are searched directly, those with ``p`` as the complements of the sets without
+    ``p`` that are closed under the reversed arcs (``S`` is free iff ``m \\ S`` is closed
+    under predecessors). The side without the pivot, usually the base, is the small one,
+    which keeps the search short."""
     # what each part drags along, and what drags it along
-    down = closure_table(succ, m)
+    down = closure_table(succ, m) if down is None else down
     up = closure_table(_predecessors(succ, m), m)
+    if avoid & m:
+        yield from _closed_sets(down, up, nb, m, avoid & m, budget)
+        return
     pivot = max(bits(m), key=lambda i: ((nb[i] & m).bit_count(), -i))
     yield from _closed_sets(down, up, nb, m, 1 << pivot, budget)
     for t in _closed_sets(up, down, nb, m, 1 << pivot, budget):
@@ -107,7 +112,7 @@ def connected_partitionings(ndbg: NDBG, neighbours: Sequence[int], mask: int | N
     """The candidate partitionings of :func:`ndbg_cli.ndbg.partitionings` with both sides
     connected in the undirected graph ``neighbours`` (e.g. :func:`contact_neighbours`), found
     without enumerating every free set: per distinct DBG, a search over connected sets
-    (:func:`_connected_free_sets`), polynomial per set found; a DBG whose reverse is also
+    (:func:`connected_free_sets`), polynomial per set found; a DBG whose reverse is also
     one (a motion and its opposite) is searched once, the reverse's sets being the
     complements. Returns ``(list, truncated)`` sorted by (size, mask), like
     ``partitionings``; ``truncated`` when ``limit`` sets were found or the search ran out of
@@ -158,7 +163,7 @@ def connected_partitionings(ndbg: NDBG, neighbours: Sequence[int], mask: int | N
         back_ids = groups.get(back) if back not in done else None
         if back_ids is not None:
             done.add(back)
-        for s in _connected_free_sets(succ, neighbours, m, left):
+        for s in connected_free_sets(succ, neighbours, m, left):
             if not take(s, ids) or (back_ids is not None and not take(m & ~s, back_ids)):
                 truncated = True
                 break

@@ -60,7 +60,10 @@ class Plan:
 
     ``exact`` says whether the strategy's objective is proven optimal (``False`` when a budget
     forced a greedy answer); ``found`` is False when no candidate algorithm exists, ``stuck``
-    then holds a subassembly without any candidate partitioning."""
+    then holds a subassembly without any candidate partitioning. ``depth_lower`` is the best
+    proven lower bound on the height of any tree under the same filter (the minimum depth
+    from a complete AND/OR graph, the deepening's bound), ``None`` when only
+    ``ceil(log2 n)`` is known."""
 
     ndbg: NDBG
     root: int
@@ -70,6 +73,7 @@ class Plan:
     found: bool = True
     stuck: int | None = None
     notes: list[str] = field(default_factory=list)
+    depth_lower: int | None = None
 
     def depth(self, mask: int | None = None) -> int:
         """Tree height (a single part has depth 0)."""
@@ -147,6 +151,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
             if g.depths()[root] is None:
                 _fail(out, g, ndbg)
                 return out
+            out.depth_lower = g.depths()[root]
             stack = [root]
             while stack:
                 m = stack.pop()
@@ -163,6 +168,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
                                  graph=g)
             if r.upper is not None:
                 out.exact = r.exact
+                out.depth_lower = r.lower
                 out.notes.append(f"{g.cut_reason()}; depth by "
                                  f"iterative deepening ({r.expanded} nodes): "
                                  + ("optimal" if r.exact else
@@ -290,7 +296,8 @@ def plan_section(p: Plan) -> dict:
         "found": p.found,
         "exact": p.exact,
         "depth": p.depth() if p.found else None,
-        "depth_lower_bound": lower_bound_depth(p.root),
+        "depth_lower_bound": lower_bound_depth(p.root) if p.depth_lower is None
+        else p.depth_lower,
         "nonlinear_steps": p.nonlinear() if p.found else None,
         "regions_used": p.regions_used(),
         "stuck": None if p.stuck is None else p.ndbg.names(p.stuck),

@@ -571,6 +571,45 @@ def test_node_splits_agree_with_shared_partitionings():
             assert not trunc and got == want
 
 
+def test_connected_node_splits_with_base_and_limit_against_brute_force():
+    # every proper S of the mask free in some region, both sides connected, S missing the
+    # base and the avoided parts: the search for connected sets must list exactly these,
+    # and a limited list must be a true part of them, cut only when they do not fit
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    for seed in range(60):
+        rng = random.Random(1000 + seed)
+        n = rng.randint(3, 9)
+        nd = random_ndbg(rng, n, rng.randint(1, 4), rng.choice([0.1, 0.25, 0.4]))
+        mask = rng.randrange(1, 1 << n) | 0b11
+        neigh = [rng.randrange(1 << n) & ~(1 << i) for i in range(n)]
+        for i in range(n):
+            for j in bits(neigh[i]):
+                neigh[j] |= 1 << i
+        conn = ConnectivityTest(neigh)
+        base = rng.choice([None] + list(bits(mask)))
+        avoid = rng.choice([0, 1 << rng.randrange(n)])
+        fixed = ((0 if base is None else 1 << base) | avoid) & mask
+        want: dict[int, set[int]] = {}
+        for s in range(1, mask):
+            if s & ~mask or s & fixed or not (conn(s) and conn(mask & ~s)):
+                continue
+            regs = {k for k, r in enumerate(nd.regions) if r.dbg.is_free(s, mask)}
+            if regs:
+                want[s] = regs
+        arcs, cut = node_splits(nd, mask, base=base, avoid=avoid, connected=conn)
+        got = {m: set(regs) for h in arcs for m, regs in h.moves}
+        assert not cut and got == want
+        for limit in (1, 3, 10):
+            arcs, cut = node_splits(nd, mask, base=base, avoid=avoid, connected=conn,
+                                    limit=limit)
+            some = {m: set(regs) for h in arcs for m, regs in h.moves}
+            assert len(some) <= limit and set(some) <= set(want)
+            assert cut == (len(want) > limit)
+            if not cut:
+                assert some == want
+
+
 def test_insertion_direction_is_opposite_of_removal():
     p = plan(stack3(), "shortest")
     for s in plan_section(p)["sequence"]:
@@ -674,6 +713,22 @@ def test_plan_note_says_why_the_graph_was_cut_not_how_far_it_got():
     assert p.notes[0].startswith("AND/OR graph has over 10 subassemblies (--max-nodes)")
     g = AndOrGraph(nd, budget=Budget(max_nodes=10, time_limit=None)).build()
     assert g.truncated and g.cut_by == "nodes" and g.node_count <= 10
+
+
+def test_plan_reports_the_proven_depth_lower_bound():
+    # 5 parts of which only one at a time comes off (region k frees part k alone): every tree
+    # is linear, depth 4, above ceil(log2 5) = 3; proven from the complete graph, and by the
+    # deepening when the graph is cut
+    n = 5
+    nd = mk([f"P{i}" for i in range(n)],
+            [(UP, [(i, j) for i in range(n) for j in range(n) if i != j and i != k])
+             for k in range(n)])
+    for budget in (Budget(), Budget(max_nodes=8, time_limit=None)):
+        sec = plan_section(plan(nd, "shortest", budget=budget))
+        assert (sec["depth"], sec["exact"], sec["depth_lower_bound"]) == (4, True, 4)
+    # a greedy answer proves nothing beyond ceil(log2 n)
+    sec = plan_section(plan(nd, "balanced"))
+    assert (sec["depth"], sec["depth_lower_bound"]) == (4, 3)
 
 
 def test_supergraph_of_a_cut_graph_is_not_built_and_gives_the_same_measures():
