@@ -134,7 +134,12 @@ class BlockedSets:
 
     def _exact(self, mask: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
         """Re-test the directions ``d[mask]`` against the open cones of pair ``(i, j)``
-        whose chart polygons contain them (STR-tree point location)."""
+        whose chart polygons may contain them (STR-tree, by bounding box: a superset).
+
+        A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices:
+        each direction's candidates are tested in batches growing 4x, and it drops out at its
+        first hit. Only the directions in no open cone (seams, boundaries) test all their
+        candidates."""
         out = np.zeros_like(mask)
         sel = np.nonzero(mask)[0]
         f, st = face_of(d[sel])
@@ -145,14 +150,31 @@ class BlockedSets:
             if entry is None:
                 continue
             tree, index = entry
-            rows = np.nonzero(f == face)[0]
-            pt, item = tree.query(shapely.points(st[rows]), predicate="intersects")
+            rows = sel[np.nonzero(f == face)[0]]
+            pt, item = tree.query(shapely.points(st[f == face]))
             if not len(pt):
                 continue
-            c = index[item]
-            v = np.einsum("hkx,hx->hk", cones[c], d[sel[rows[pt]]])
-            inside = np.all((v > OPEN_TOL) | zero[c], axis=1)
-            out[sel[rows[pt[inside]]]] = True
+            if np.any(pt[1:] < pt[:-1]):  # shapely lists them by point already
+                order = np.argsort(pt, kind="stable")
+                pt, item = pt[order], item[order]
+            pos = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]])  # each direction's run
+            end = np.r_[pos[1:], len(pt)]
+            who = rows[pt[pos]]
+            live = np.ones(len(pos), dtype=bool)
+            width = 1
+            while live.any():
+                k = np.flatnonzero(live)
+                take = np.minimum(end[k] - pos[k], width)
+                rep = np.repeat(k, take)
+                h = pos[rep] + np.arange(len(rep)) - np.repeat(np.cumsum(take) - take, take)
+                c = index[item[h]]
+                v = np.einsum("hkx,hx->hk", cones[c], d[who[rep]])
+                hit = np.unique(rep[np.all((v > OPEN_TOL) | zero[c], axis=1)])
+                out[who[hit]] = True
+                live[hit] = False
+                pos[k] += take
+                live &= pos < end
+                width *= 4
         return out
 
 

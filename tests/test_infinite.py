@@ -381,6 +381,26 @@ def test_reversed_pair_is_the_antipodal_image(name):
                     assert shapely.symmetric_difference(got, want).area < 1e-12, (i, j, face)
 
 
+@pytest.mark.parametrize("name", ["slot-37", "peg-37"])
+def test_exact_lookup_on_cell_directions_equals_every_cone_tested(name):
+    """The exact re-test stops at a direction's first open cone (:meth:`BlockedSets._exact`,
+    growing batches): at every region's representative direction (on seams and boundaries,
+    where the open-set semantics decides) and at random ones, the same DBG as testing every
+    cone of every pair."""
+    from ndbg_cli.infinite import build_infinite
+
+    asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+    nd = build_infinite(asm)
+    bs = nd._blocked_sets
+    d = np.array([r.direction for r in nd.regions] + list(random_directions(500, seed=9)))
+    assert (np.array([r.dimension for r in nd.regions]) < 2).any()
+    got = bs.dbgs(d, exact=True)
+    for (i, j), cones in bs.cones.items():
+        want = _open_member(cones, d / np.linalg.norm(d, axis=1, keepdims=True))
+        assert np.array_equal(np.array([bool(g.succ[i] >> j & 1) for g in got]), want), \
+            (i, j)
+
+
 def test_dbg_of_the_opposite_direction_is_the_reversed_dbg():
     """``P_j`` blocks ``P_i`` along ``d`` exactly when ``P_i`` blocks ``P_j`` along ``-d``:
     at every region's representative direction (thin 1- and 0-dimensional regions along the
