@@ -156,8 +156,13 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     found: list[list[np.ndarray]] = [[] for _ in range(6)]
 
     def first(pts: np.ndarray) -> np.ndarray:
-        _, k = np.unique(np.round(pts / max(eta, GRID)), axis=0, return_index=True)
-        return pts[np.sort(k)]
+        # np.unique(axis=0) keeps each rounded point's first occurrence, but sorts rows as
+        # structured records (slow on millions); a stable two-key sort gives the same rows
+        q = np.round(pts / max(eta, GRID))
+        order = np.lexsort((q[:, 1], q[:, 0]))
+        qs = q[order]
+        new = np.r_[True, np.any(qs[1:] != qs[:-1], axis=1)] if len(qs) else np.zeros(0, bool)
+        return pts[np.sort(order[new])]
 
     for s0 in range(0, len(a), CROSS_CHUNK):
         d = np.cross(n[a[s0:s0 + CROSS_CHUNK]], n[b[s0:s0 + CROSS_CHUNK]])
