@@ -43,7 +43,19 @@ def connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget: 
     ``p`` are searched directly, those with ``p`` as the complements of the sets without
     ``p`` that are closed under the reversed arcs (``S`` is free iff ``m \\ S`` is closed
     under predecessors). The side without the pivot, usually the base, is the small one,
-    which keeps the search short."""
+    which keeps the search short.
+
+    When ``m`` itself is not connected in ``nb``, no search: with two components they are
+    the only split with both sides connected, with more there is none."""
+    first = reach(m & -m, nb, m)
+    if first != m:
+        other = m & ~first
+        if reach(other & -other, nb, other) == other:  # exactly two components
+            for s in (first, other):
+                closed = all(not (succ[i] & m & ~s) for i in bits(s))
+                if closed and not s & avoid:
+                    yield s
+        return
     # what each part drags along, and what drags it along
     down = closure_table(succ, m) if down is None else down
     up = closure_table(_predecessors(succ, m), m)

@@ -610,6 +610,22 @@ def test_connected_node_splits_with_base_and_limit_against_brute_force():
                 assert some == want
 
 
+def test_connected_splits_of_a_disconnected_subassembly():
+    # contact graph 0-1, 2-3, 4 alone; every part free (no arcs): {0,1,2,3} splits only into
+    # its two components, {0,1,2,3,4} (three components) not at all, and a DBG in which 0
+    # needs 2 to move along leaves only {2,3} movable
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    conn = ConnectivityTest([0b00010, 0b00001, 0b01000, 0b00100, 0])
+    free = mk("ABCDE", [(UP, [])])
+    arcs, cut = node_splits(free, 0b01111, connected=conn)
+    assert not cut and [(h.left, h.right) for h in arcs] == [(0b00011, 0b01100)]
+    assert node_splits(free, 0b11111, connected=conn) == ([], False)
+    dragging = mk("ABCDE", [(UP, [(0, 2)])])
+    arcs, _ = node_splits(dragging, 0b01111, connected=conn)
+    assert [dict(h.moves) for h in arcs] == [{0b01100: (0,)}]
+
+
 def test_insertion_direction_is_opposite_of_removal():
     p = plan(stack3(), "shortest")
     for s in plan_section(p)["sequence"]:
