@@ -391,7 +391,7 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                     break
                 found[s] = got = []
             got.extend(regs)
-        if left[0] <= 0:
+        if left[0] < 0:
             truncated = True
         if truncated:
             break

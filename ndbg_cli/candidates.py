@@ -35,8 +35,9 @@ def connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget: 
                         avoid: int = 0, down: dict[int, int] | None = None) -> Iterator[int]:
     """Free sets ``S`` of the DBG ``succ`` inside ``m`` (proper, non-empty) such that ``S``
     and ``m \\ S`` are both connected in the graph ``nb``; ``budget[0]`` (search nodes) is
-    decremented and the search stops at 0. With ``avoid`` (a part bitmask, e.g. the fixed
-    base), only the sets disjoint from it, searched directly (:func:`_closed_sets`).
+    decremented and the search stops at 0, setting it to -1 when work was left (the list
+    is then cut). With ``avoid`` (a part bitmask, e.g. the fixed base), only the sets
+    disjoint from it, searched directly (:func:`_closed_sets`).
     ``down``: ``closure_table(succ, m)`` when the caller has it.
 
     Otherwise a pivot part ``p`` (most neighbours in ``m``) splits them: the sets without
@@ -93,6 +94,7 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
         stack = [(inside, out)]
         while stack:
             if budget[0] <= 0:
+                budget[0] = -1  # out of budget with work left (0 alone: all done)
                 return
             budget[0] -= 1
             inside, out = stack.pop()
@@ -179,7 +181,7 @@ def connected_partitionings(ndbg: NDBG, neighbours: Sequence[int], mask: int | N
             if not take(s, ids) or (back_ids is not None and not take(m & ~s, back_ids)):
                 truncated = True
                 break
-        if left[0] <= 0:
+        if left[0] < 0:
             truncated = True
     out = [Partitioning(moved=s, rest=m & ~s, family=ndbg.family,
                         regions=tuple(sorted(regs))) for s, regs in found.items()]

@@ -626,6 +626,26 @@ def test_connected_splits_of_a_disconnected_subassembly():
     assert [dict(h.moves) for h in arcs] == [{0b01100: (0,)}]
 
 
+def test_a_search_that_ends_on_its_last_budgeted_node_is_not_called_cut(monkeypatch):
+    # a contact path 0-1-2-3, nothing blocks: 3 splits. With exactly the search nodes it
+    # needs, the list is complete; one node fewer and it is cut.
+    import ndbg_cli.andor as andor
+    from ndbg_cli.candidates import connected_free_sets
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    nb = [0b0010, 0b0101, 0b1010, 0b0100]
+    nd = mk("ABCD", [(UP, [])])
+    left = [10_000]
+    assert len(list(connected_free_sets(nd.regions[0].dbg.succ, nb, 0b1111, left))) == 6
+    need = 10_000 - left[0]
+    full, _ = node_splits(nd, 0b1111, connected=ConnectivityTest(nb), limit=100)
+    assert len(full) == 3
+    for budget, cut in ((need, False), (need - 1, True)):
+        monkeypatch.setattr(andor, "CONNECTED_SEARCH", budget)
+        arcs, truncated = node_splits(nd, 0b1111, connected=ConnectivityTest(nb), limit=100)
+        assert truncated is cut and (cut or arcs == full)
+
+
 def test_insertion_direction_is_opposite_of_removal():
     p = plan(stack3(), "shortest")
     for s in plan_section(p)["sequence"]:
