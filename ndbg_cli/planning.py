@@ -63,7 +63,8 @@ class Plan:
     then holds a subassembly without any candidate partitioning. ``depth_lower`` is the best
     proven lower bound on the height of any tree under the same filter (the minimum depth
     from a complete AND/OR graph, the deepening's bound), ``None`` when only
-    ``ceil(log2 n)`` is known."""
+    ``ceil(log2 n)`` is known. ``connected``: only splits whose two sides are connected in
+    the contact graph were searched (the depth and its bounds are for such trees)."""
 
     ndbg: NDBG
     root: int
@@ -74,6 +75,7 @@ class Plan:
     stuck: int | None = None
     notes: list[str] = field(default_factory=list)
     depth_lower: int | None = None
+    connected: bool = False
 
     def depth(self, mask: int | None = None) -> int:
         """Tree height (a single part has depth 0)."""
@@ -142,7 +144,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
         raise ValueError(f"unknown strategy {strategy!r}; expected one of {STRATEGIES}")
     budget = budget or Budget()
     root = (1 << ndbg.n) - 1 if mask is None else mask
-    out = Plan(ndbg=ndbg, root=root, strategy=strategy)
+    out = Plan(ndbg=ndbg, root=root, strategy=strategy, connected=connected is not None)
     if strategy in ("shortest", "linear"):
         g = graph or AndOrGraph(ndbg, root, base=base, connected=connected, budget=budget)
         g.build()
@@ -198,7 +200,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
     if got.found or connected is None:
         return got
     # the direction count ignores the connectivity filter: fall back to all regions
-    out = Plan(ndbg=ndbg, root=root, strategy=strategy, exact=False,
+    out = Plan(ndbg=ndbg, root=root, strategy=strategy, exact=False, connected=True,
                notes=["no connected tree within the minimum direction set; all regions used"])
     return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None)
 
@@ -298,6 +300,7 @@ def plan_section(p: Plan) -> dict:
         "depth": p.depth() if p.found else None,
         "depth_lower_bound": lower_bound_depth(p.root) if p.depth_lower is None
         else p.depth_lower,
+        "connected": p.connected,
         "nonlinear_steps": p.nonlinear() if p.found else None,
         "regions_used": p.regions_used(),
         "stuck": None if p.stuck is None else p.ndbg.names(p.stuck),
@@ -316,12 +319,21 @@ def _fmt_dir(d: dict) -> str:
     return f"via region {d['region']}"
 
 
+def depth_note(exact: bool, connected: bool, strategy: str) -> str:
+    """What the tree's depth line adds: unproven, or proven among connected trees."""
+    if not exact:
+        return " (not proven optimal)"
+    if connected and strategy == "shortest":
+        return " (minimum for contact-connected subassemblies)"
+    return ""
+
+
 def plan_text(p: Plan) -> list[str]:
     """Designer-readable assembly sequence as numbered steps."""
     if not p.found:
         return [f"No candidate assembly sequence ({p.ndbg.family}): " + "; ".join(p.notes)]
     lines = [f"Assembly sequence ({p.strategy}, {p.ndbg.family}): {len(p.steps)} steps, "
-             f"tree depth {p.depth()}{'' if p.exact else ' (not proven optimal)'}"]
+             f"tree depth {p.depth()}{depth_note(p.exact, p.connected, p.strategy)}"]
     for d in sequence_json(p):
         lines.append(f"  {d['step']}. insert {{{', '.join(d['moved'])}}} onto "
                      f"{{{', '.join(d['onto'])}}} {_fmt_dir(d)}")

@@ -106,7 +106,9 @@ def plan_lines(report: dict) -> list[str]:
     if not p.get("found"):
         return ["", "assembly sequence: none found - " + "; ".join(p.get("notes", []))]
     fam = (p.get("family") or "").replace("_", " ")
-    exact = "" if p.get("exact", True) else " (not proven optimal)"
+    from .planning import depth_note
+
+    exact = depth_note(p.get("exact", True), p.get("connected", False), p.get("strategy", ""))
     lines = ["", f"assembly sequence ({p['strategy']}, {fam}): {len(p['sequence'])} steps, "
              f"tree depth {p['depth']}{exact}"]
     for s in p["sequence"]:

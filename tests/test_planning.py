@@ -646,6 +646,21 @@ def test_a_search_that_ends_on_its_last_budgeted_node_is_not_called_cut(monkeypa
         assert truncated is cut and (cut or arcs == full)
 
 
+def test_plan_says_when_its_depth_is_the_minimum_for_connected_subassemblies():
+    from ndbg_cli.ndbg import ConnectivityTest
+
+    # 4 free parts in a contact path: halving gives depth 2 either way
+    nd = mk("ABCD", [(UP, [])])
+    conn = ConnectivityTest([0b0010, 0b0101, 0b1010, 0b0100])
+    p = plan(nd, "shortest", connected=conn)
+    sec = plan_section(p)
+    assert sec["connected"] is True and sec["exact"] and sec["depth"] == 2
+    assert "minimum for contact-connected subassemblies" in plan_text(p)[0]
+    free = plan(nd, "shortest")
+    assert plan_section(free)["connected"] is False
+    assert plan_text(free)[0].endswith("tree depth 2")
+
+
 def test_insertion_direction_is_opposite_of_removal():
     p = plan(stack3(), "shortest")
     for s in plan_section(p)["sequence"]:
