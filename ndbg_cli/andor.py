@@ -488,6 +488,13 @@ class AndOrGraph:
     def complete(self) -> bool:
         return self._built and not self.truncated
 
+    @property
+    def cut_by_size(self) -> bool:
+        """Whether the build stopped on the graph's size (more subassemblies, or more
+        partitionings at one of them, than the budget allows; or as the supergraph of such a
+        graph): a fact about the graph, unlike a cut by the clock."""
+        return self.cut_by in ("nodes", "splits", "supergraph")
+
     def cut_as_supergraph_of(self, other: AndOrGraph) -> AndOrGraph:
         """Mark this graph truncated without building it, when ``other`` (built, truncated,
         same root, base and filter) is a subgraph of it: every DBG of ``other``'s NDBG is one
@@ -497,7 +504,7 @@ class AndOrGraph:
         of them, than the same budget allows) cuts this one too. Not for a cut by the clock,
         which proves nothing. Hyperarcs are still expanded on demand by the anytime
         searches."""
-        if other.cut_by not in ("nodes", "splits", "supergraph"):
+        if not other.cut_by_size:
             raise ValueError(f"not cut by its size: {other.cut_by!r}")
         self.truncated, self.cut_by, self.cut_from = True, "supergraph", other
         self._built = True

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 
-from .dbg import bits, closure_table, reach
+from .dbg import DBG, bits, closure_table, reach
 from .ndbg import NDBG, Partitioning
 
 #: Cap on the candidate partitionings listed (and checked) per call.
@@ -52,10 +52,8 @@ def connected_free_sets(succ: Sequence[int], nb: Sequence[int], m: int, budget: 
     if first != m:
         other = m & ~first
         if reach(other & -other, nb, other) == other:  # exactly two components
-            for s in (first, other):
-                closed = all(not (succ[i] & m & ~s) for i in bits(s))
-                if closed and not s & avoid:
-                    yield s
+            g = DBG(tuple(succ))
+            yield from (s for s in (first, other) if not s & avoid and g.is_free(s, m))
         return
     # what each part drags along, and what drags it along
     down = closure_table(succ, m) if down is None else down

@@ -401,13 +401,13 @@ def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -
 
 def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
              graph: AndOrGraph | None = None,
-             contained: tuple[str, dict] | None = None) -> dict:
+             contained: Sequence[tuple[str, dict]] = ()) -> dict:
     """All NDBG-based measures of one motion family (see the module docstring). The default
     budget keeps the AND/OR graph to 2,000 nodes / 2 s (bounds are reported beyond).
 
-    ``contained``: ``(family, measures)`` of a family whose every DBG is a DBG of ``ndbg``
+    ``contained``: ``(family, measures)`` of families whose every DBG is a DBG of ``ndbg``
     (:func:`andor.contains`; the generalized hybrid holds the infinitesimal translations), as
-    this function returned them for the same ``base``. Every tree of that family is then a
+    this function returned them for the same ``base``. Every tree of such a family is then a
     tree of this one, so when its exact minimum depth already equals ``ceil(log2 n)``, no
     tree can be shallower and this family's is the same, exact, without a search.
     """
@@ -504,20 +504,18 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
     return out
 
 
-def _depth_from_contained(contained: tuple[str, dict] | None, full: int
+def _depth_from_contained(contained: Sequence[tuple[str, dict]], full: int
                           ) -> DepthResult | None:
-    """The minimum depth when the contained family's is exact and equals the lower bound
+    """The minimum depth when a contained family's is exact and equals the lower bound
     ``ceil(log2 n)`` (see :func:`classify`), else ``None`` (search needed)."""
-    if contained is None:
-        return None
-    fam, measures = contained
-    md = measures.get("min_depth") or {}
     d = lower_bound_depth(full)
-    if md.get("value") != d or not md.get("exact"):
-        return None
-    return DepthResult(d, True, d, d, {}, 0,
-                       why=f"exact: the {fam} family, whose DBGs are all DBGs of this one, has "
-                       f"a tree of height {d} = ceil(log2 n), the lower bound")
+    for fam, measures in contained:
+        md = measures.get("min_depth") or {}
+        if md.get("value") == d and md.get("exact"):
+            return DepthResult(d, True, d, d, {}, 0,
+                               why=f"exact: the {fam} family, whose DBGs are all DBGs of this "
+                               f"one, has a tree of height {d} = ceil(log2 n), the lower bound")
+    return None
 
 
 def _linear_first(arcs):
@@ -557,8 +555,7 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
     for nd in sorted(items, key=lambda x: (len(x.regions), x.family)):
         graph = AndOrGraph(nd, base=base, budget=budget or DEFAULT_BUDGET)
         inside = [g for g in built if contains(nd, g.ndbg)]
-        sub = next((g for g in inside if g.cut_by in ("nodes", "splits", "supergraph")),
-                   None)
+        sub = next((g for g in inside if g.cut_by_size), None)
         if sub is not None:
             graph.cut_as_supergraph_of(sub)
         else:
@@ -566,11 +563,9 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
         built.append(graph)
         if graphs is not None:
             graphs[nd.family] = graph
-        contained = next(((g.ndbg.family, done[g.ndbg.family]) for g in inside
-                          if _depth_from_contained((g.ndbg.family, done[g.ndbg.family]),
-                                                   (1 << nd.n) - 1) is not None), None)
         done[nd.family] = classify(nd, base=base, budget=budget, graph=graph,
-                                   contained=contained)
+                                   contained=[(g.ndbg.family, done[g.ndbg.family])
+                                              for g in inside])
     for fam in sorted(done):  # the section lists the families alphabetically
         out[fam] = done[fam]
     if interlock is not None:

@@ -251,6 +251,15 @@ def random_ndbg(rng: random.Random, n: int, regions: int, prob: float) -> NDBG:
     return mk([f"p{i}" for i in range(n)], regs)
 
 
+def random_neighbours(rng: random.Random, n: int) -> list[int]:
+    """A random undirected graph over ``n`` parts as neighbour bitmasks (symmetric)."""
+    neigh = [rng.randrange(1 << n) & ~(1 << i) for i in range(n)]
+    for i in range(n):
+        for j in bits(neigh[i]):
+            neigh[j] |= 1 << i
+    return neigh
+
+
 def hier_ndbg(rng: random.Random, n: int, regions: int, noise: float) -> NDBG:
     """A random hierarchical product: a random binary tree over the parts; at every internal
     node ``X | Y`` one random region lets ``X`` leave (arcs ``Y -> X`` only), every other region
@@ -559,10 +568,7 @@ def test_node_splits_agree_with_shared_partitionings():
         n = rng.randint(2, 8)
         nd = random_ndbg(rng, n, rng.randint(1, 4), rng.choice([0.1, 0.25, 0.4]))
         mask = rng.randrange(1, 1 << n) | 1
-        neigh = [rng.randrange(1 << n) & ~(1 << i) for i in range(n)]
-        for i in range(n):
-            for j in bits(neigh[i]):
-                neigh[j] |= 1 << i
+        neigh = random_neighbours(rng, n)
         for conn in (None, ConnectivityTest(neigh)):
             parts, _ = partitionings(nd, mask, connected=conn)
             want = {(p.moved, p.regions) for p in parts}
@@ -582,10 +588,7 @@ def test_connected_node_splits_with_base_and_limit_against_brute_force():
         n = rng.randint(3, 9)
         nd = random_ndbg(rng, n, rng.randint(1, 4), rng.choice([0.1, 0.25, 0.4]))
         mask = rng.randrange(1, 1 << n) | 0b11
-        neigh = [rng.randrange(1 << n) & ~(1 << i) for i in range(n)]
-        for i in range(n):
-            for j in bits(neigh[i]):
-                neigh[j] |= 1 << i
+        neigh = random_neighbours(rng, n)
         conn = ConnectivityTest(neigh)
         base = rng.choice([None] + list(bits(mask)))
         avoid = rng.choice([0, 1 << rng.randrange(n)])
