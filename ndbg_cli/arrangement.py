@@ -41,13 +41,15 @@ class Cell:
 def arrangement_cells(bs: BlockedSets) -> list[Cell]:
     """The regions of the arrangement of all ``B_ij`` boundaries, face by face.
 
-    The boundaries of every ``U_ij`` on a face, with the chart square, are noded and
-    polygonized; each polygon is a region. A region thinner than ``eta`` (width ``2 area /
-    perimeter``) is 1-dimensional, one smaller than ``eta`` across (bounding box) is
-    0-dimensional. The noded boundaries give the 1-dimensional cells (segments) and the
-    0-dimensional ones (their end points). Cells on the contact circles but off every
-    boundary are *seam candidates* (``seam=True``): :func:`build_infinite` keeps those whose
-    exact DBG differs from the one around them (a slot's or a bore's free directions).
+    The boundaries of every ``U_ij`` on a face, with the chart square, are noded (collinear
+    pieces merged first, :func:`merged_segments`) and polygonized; each polygon is a region.
+    A region thinner than ``eta`` (width ``2 area / perimeter``) is 1-dimensional, one smaller
+    than ``eta`` across (bounding box) is 0-dimensional. The noded boundaries give the
+    1-dimensional cells (the chains between nodes where other than two pieces meet: a polygon's
+    corner is not a node) and the 0-dimensional ones (their end points). Cells on the contact
+    circles but off every boundary are *seam candidates* (``seam=True``):
+    :func:`build_infinite` keeps those whose exact DBG differs from the one around them (a
+    slot's or a bore's free directions).
     """
     r = 1.0 + SQUARE_MARGIN
     square = shapely.box(-r, -r, r, r)
@@ -61,7 +63,8 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
         lines.append(square.boundary)
         if dom is not None:
             lines.append(shapely.boundary(dom))
-        noded = shapely.union_all(lines, grid_size=GRID)
+        # chains between the nodes of degree other than 2: one 1-dimensional cell each
+        noded = shapely.line_merge(shapely.union_all(merged_segments(lines), grid_size=GRID))
         cells.extend(seam_cells(noded, bs.circles, face, dom, crossings[face]))
         faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
         faces = faces[shapely.area(faces) > 0]
@@ -86,6 +89,62 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
             cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
         cells.extend(_edge_cells(noded, face, dom))
     return cells
+
+
+#: Segments whose supporting lines agree this closely (direction and offset, chart units)
+#: are merged as collinear before noding; far below the snapping :data:`GRID`.
+COLLINEAR_TOL = 1e-12
+
+
+def merged_segments(lines: list) -> np.ndarray:
+    """The segments of the linework ``lines`` (shapely geometries, chart units) with collinear
+    overlapping or touching segments merged: the same point set, as 2-point line strings.
+
+    The boundaries of many ``B_ij`` lie on the same great circles (boxes, faces of one plane,
+    the contact circles), whose collinear, overlapping pieces make snap-rounding slow
+    (a 64-box grid: 9,036 segments on 175 lines, 1.9 s per face to node, 0.02 s merged)."""
+    parts = shapely.get_parts(shapely.get_parts(np.asarray(lines, dtype=object)))
+    xy, idx = shapely.get_coordinates(parts, return_index=True)
+    same = idx[1:] == idx[:-1]
+    p, q = xy[:-1][same], xy[1:][same]
+    d = q - p
+    ln = np.hypot(d[:, 0], d[:, 1])
+    keep = ln > 0
+    p, q, d, ln = p[keep], q[keep], d[keep], ln[keep]
+    if not len(p):
+        return np.zeros(0, dtype=object)
+    u = d / ln[:, None]
+    flip = (u[:, 0] < 0) | ((u[:, 0] == 0) & (u[:, 1] < 0))  # one direction per line
+    u[flip] *= -1.0
+    p, q = np.where(flip[:, None], q, p), np.where(flip[:, None], p, q)
+    off = u[:, 0] * p[:, 1] - u[:, 1] * p[:, 0]  # signed distance of the line to the origin
+    key = np.round(np.column_stack([u, off]) / COLLINEAR_TOL).astype(np.int64)
+    _, line = np.unique(key, axis=0, return_inverse=True)
+    line = line.ravel()
+    a = (p * u).sum(axis=1)  # positions along the line
+    b = (q * u).sum(axis=1)
+    order = np.lexsort((a, line))
+    line, a, b, p, u = line[order], a[order], b[order], p[order], u[order]
+    # the running end per line, exactly: on the ranks of the ends, offset per line in
+    # integers so that one accumulate serves all lines
+    qs = q[order]
+    vals, rank = np.unique(b, return_inverse=True)
+    big = len(vals) + 1
+    reach = np.maximum.accumulate(rank.ravel() + line * big) - line * big
+    start = np.r_[True, (line[1:] != line[:-1]) | (a[1:] > vals[reach[:-1]])]
+    first = np.flatnonzero(start)
+    # each run ends at the end point of the segment reaching farthest (exact coordinates)
+    best = _run_argmax(b, first)
+    ends = np.stack([p[first], qs[best]], axis=1)
+    return shapely.linestrings(ends)
+
+
+def _run_argmax(x: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """Index of the largest ``x`` in each run ``first[k]:first[k + 1]`` (the last largest)."""
+    run = np.repeat(np.arange(len(first)), np.diff(np.r_[first, len(x)]))
+    order = np.lexsort((x, run))  # within a run, by value; the run's last is its maximum
+    last = np.r_[np.flatnonzero(run[order][1:] != run[order][:-1]), len(x) - 1]
+    return order[last]
 
 
 #: Most circles through one face (inside the domain) whose pieces are seam candidates; with

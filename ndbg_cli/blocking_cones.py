@@ -183,6 +183,113 @@ def unique_circles(normals: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
+# Convex parts far apart: one cone
+# --------------------------------------------------------------------------------------------
+
+#: Most facets of a convex pair's cone (:func:`convex_pair_cone`); the chart clipping keeps 48
+#: vertices, and a cone with more facets goes through the terms instead.
+CONVEX_FACETS = 40
+#: Most triangles of a part tested for convexity (:func:`is_convex`; the test is
+#: ``O(triangles x vertices)``).
+CONVEX_TRIANGLES = 4096
+
+
+def is_convex(tri: np.ndarray, nrm: np.ndarray, rel_tol: float = 1e-9) -> bool:
+    """Whether the closed triangle mesh ``tri`` ``(t, 3, 3)`` (unit outward normals ``nrm``
+    ``(t, 3)``) bounds a convex solid: every vertex lies behind every triangle's plane, within
+    ``rel_tol`` times the mesh's bounding-box diagonal (float rounding only: a dent of any
+    depth above that makes the part non-convex). Parts of more than
+    :data:`CONVEX_TRIANGLES` triangles are not tested (``False``)."""
+    if not len(tri) or len(tri) > CONVEX_TRIANGLES:
+        return False
+    v = np.unique(tri.reshape(-1, 3), axis=0)
+    tol = rel_tol * float(np.linalg.norm(v.max(axis=0) - v.min(axis=0)))
+    off = np.einsum("tk,tk->t", nrm, tri[:, 0])
+    for s in range(0, len(tri), 256):
+        if np.any(v @ nrm[s:s + 256].T - off[s:s + 256] > tol):
+            return False
+    return True
+
+
+def convex_pair_cone(vi: np.ndarray, vj: np.ndarray, eps: float) -> np.ndarray | None:
+    """``B_ij`` of two convex parts (vertices ``vi`` ``(a, 3)`` moving, ``vj`` ``(b, 3)``
+    blocking) whose bounding boxes are more than ``4 eps`` apart: the one open cone
+    ``(1, k, 3)`` spanned by the Minkowski difference ``P_j - P_i = conv(vj - vi)``, or
+    ``None`` when the boxes are closer or the cone has more than :data:`CONVEX_FACETS`
+    facets (use the terms).
+
+    Exact, and the same set as the union of the terms: every triangle pair is far (no
+    erosion), the closure of the union of the terms is the radial projection of the
+    Minkowski difference, and its interior is the open cone. No contact circles."""
+    lo_i, hi_i = vi.min(axis=0), vi.max(axis=0)
+    lo_j, hi_j = vj.min(axis=0), vj.max(axis=0)
+    ahead, behind = lo_j - hi_i, lo_i - hi_j
+    gap = np.maximum(ahead, behind)
+    k = int(np.argmax(gap))
+    if gap[k] <= 4 * eps:
+        return None
+    c = np.zeros(3)
+    c[k] = 1.0 if ahead[k] >= behind[k] else -1.0
+    d = (vj[:, None, :] - vi[None, :, :]).reshape(-1, 3)
+    u = np.roll(c, 1)
+    w = np.cross(c, u)  # (u, w, c) right-handed
+    h = d / (d @ c)[:, None]  # on the plane c . x = 1 (every d . c >= gap > 0)
+    st = np.stack([h @ u, h @ w], axis=1)
+    from scipy.spatial import ConvexHull
+
+    try:
+        hull = ConvexHull(st)
+    except Exception:  # degenerate (flat) difference: let the terms decide
+        return None
+    ring = st[hull.vertices]  # counter-clockwise in (u, w)
+    if len(ring) > CONVEX_FACETS:
+        return None
+    p = c + ring[:, :1] * u + ring[:, 1:] * w
+    m = np.cross(p, np.roll(p, -1, axis=0))  # (u, w, c) right-handed, ring ccw: inward
+    m /= np.linalg.norm(m, axis=1, keepdims=True)
+    return m[None]
+
+
+def convex_pairs(tris: list[tuple[np.ndarray, np.ndarray]], sizes: list[int], eps: float
+                 ) -> dict[tuple[int, int], np.ndarray]:
+    """The cones of :func:`convex_pair_cone` for every unordered pair of parts (triangles and
+    normals ``tris``, as :func:`part_triangles`) that has one, keyed by the ordered pair
+    ``(a, b)`` computed (the part with fewer triangles, ``sizes``, moving: the orientation
+    :func:`ndbg_cli.infinite.blocked_sets` computes)."""
+    convex = [is_convex(t, nrm) for t, nrm in tris]
+    verts = [np.unique(t.reshape(-1, 3), axis=0) if ok else None
+             for (t, _), ok in zip(tris, convex)]
+    out: dict[tuple[int, int], np.ndarray] = {}
+    n = len(tris)
+    for i in range(n):
+        if not convex[i]:
+            continue
+        for j in range(i + 1, n):
+            if not convex[j]:
+                continue
+            a, b = (i, j) if sizes[i] <= sizes[j] else (j, i)
+            cone = convex_pair_cone(verts[a], verts[b], eps)
+            if cone is not None:
+                out[(a, b)] = cone
+    return out
+
+
+def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
+    """:func:`cones_to_face_geoms` of many one-cone sets (``(1, k, 3)`` each), clipped all at
+    once. The union of one convex piece is the piece and needs no search tree: the entries
+    are ``(polygon, None, [0])``."""
+    out: list[list[tuple | None]] = [[None] * 6 for _ in cones]
+    if not cones:
+        return out
+    stacked = _stack(cones)
+    for face in range(6):
+        polys, index = face_polygons(stacked, face)
+        for g, k in zip(polys, index):
+            out[k][face] = (g, None, np.zeros(1, dtype=np.int64))
+    return out
+
+
+# --------------------------------------------------------------------------------------------
 # Chart polygons and their unions
 # --------------------------------------------------------------------------------------------
 

@@ -20,7 +20,9 @@ pruned exactly, vectorised; every pair of parts is processed, since distant part
 (each unordered pair once: ``B_ji = -B_ij``),
 but the triangle pairs whose terms lie strictly inside the terms already kept are skipped
 wholesale by a walk over bounding-box trees (:func:`ndbg_cli.blocking_cones.
-pruned_pair_cones`; same union, same open cones, same contact circles).
+pruned_pair_cones`; same union, same open cones, same contact circles). Two convex parts
+more than ``4 eps`` apart need no terms: ``B_ij`` is the one open cone spanned by their
+Minkowski difference (:func:`ndbg_cli.blocking_cones.convex_pair_cone`, the same set).
 
 Tolerance (``eps = asm.length_tolerance``)
 ------------------------------------------
@@ -36,11 +38,12 @@ representative direction inside them. *Far* pairs use the exact triangles, with 
 polygons: a direction grazing a distant part with exactly zero clearance counts as blocked.
 
 The arrangement is computed per cube face with shapely: the union ``U_ij`` of each pair's
-polygons, all their boundaries noded and polygonized; each face of the overlay is a region, and
-its DBG is read at a point inside it. Regions cut by the cube edges are counted once per cube
-face (the DBG is constant on each piece, so the NDBG stays exact; region counts are those of
-the arrangement refined by the 12 cube-edge arcs). 2D assemblies are extruded to prisms and the
-arrangement is read on the equator (S^1).
+polygons, all their boundaries noded (collinear pieces merged first) and polygonized; each face
+of the overlay is a region, and its DBG is read at a point inside it; each chain of boundary
+between two nodes is a 1-dimensional cell, each node a 0-dimensional one. Regions cut by the
+cube edges are counted once per cube face (the DBG is constant on each piece, so the NDBG stays
+exact; region counts are those of the arrangement refined by the 12 cube-edge arcs). 2D
+assemblies are extruded to prisms and the arrangement is read on the equator (S^1).
 """
 
 from __future__ import annotations
@@ -57,6 +60,8 @@ from .assembly import Assembly, content_hash
 from .blocking_cones import (
     GRID,
     cones_to_face_geoms,
+    convex_entries,
+    convex_pairs,
     pair_cones,
     part_triangles,
     pruned_pair_cones,
@@ -95,6 +100,7 @@ class BlockedSets:
     #: Per face, the chart geometry of the directions where the sets are right (``None``
     #: entries: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.domain`).
     domain: list | None = None
+    _trees_by_face: list = field(default_factory=list, repr=False, compare=False)
 
     def blocked_pairs(self, d: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
         """For directions ``d`` ``(m, 3)``: list of ``(mask (m,), i, j)`` with ``mask[k]``
@@ -104,15 +110,35 @@ class BlockedSets:
         out: dict[tuple[int, int], np.ndarray] = {}
         for face in range(6):
             sel = np.nonzero(f == face)[0]
-            if not len(sel):
+            if not len(sel) or not self.geoms[face]:
                 continue
+            keys, tree = self._face_tree(face)
             x, y = st[sel, 0], st[sel, 1]
-            for key, g in self.geoms[face].items():
-                hit = shapely.contains_xy(g, x, y)
+            # each pair's exact test only on the directions inside its bounding box
+            pt, item = tree.query(shapely.points(x, y))
+            order = np.argsort(item, kind="stable")
+            pt, item = pt[order], item[order]
+            starts = np.flatnonzero(np.r_[True, item[1:] != item[:-1]]) if len(item) else []
+            ends = np.r_[starts[1:], len(item)] if len(item) else []
+            for a, b in zip(starts, ends):
+                key = keys[item[a]]
+                k = pt[a:b]
+                hit = shapely.contains_xy(self.geoms[face][key], x[k], y[k])
                 if hit.any():
                     m = out.setdefault(key, np.zeros(len(d), dtype=bool))
-                    m[sel[hit]] = True
-        return [(m, i, j) for (i, j), m in out.items()]
+                    m[sel[k[hit]]] = True
+        return [(m, i, j) for (i, j), m in sorted(out.items())]
+
+    def _face_tree(self, face: int) -> tuple[list[tuple[int, int]], shapely.STRtree]:
+        """The pairs with a set on ``face`` and an STR-tree over their geometries (built on
+        first use)."""
+        if not self._trees_by_face:
+            self._trees_by_face.extend([None] * 6)
+        if self._trees_by_face[face] is None:
+            keys = list(self.geoms[face])
+            self._trees_by_face[face] = (keys, shapely.STRtree([self.geoms[face][k]
+                                                                for k in keys]))
+        return self._trees_by_face[face]
 
     def dbgs(self, d: np.ndarray, exact: bool = False) -> list[DBG]:
         """The DBG at each direction of ``d`` ``(m, 3)`` (region lookup, vectorised).
@@ -151,7 +177,10 @@ class BlockedSets:
                 continue
             tree, index = entry
             rows = sel[np.nonzero(f == face)[0]]
-            pt, item = tree.query(shapely.points(st[f == face]))
+            if tree is None:  # one piece (convex parts): every direction is a candidate
+                pt, item = np.arange(len(rows)), np.zeros(len(rows), dtype=np.int64)
+            else:
+                pt, item = tree.query(shapely.points(st[f == face]))
             if not len(pt):
                 continue
             if np.any(pt[1:] < pt[:-1]):  # shapely lists them by point already
@@ -189,9 +218,19 @@ def succ_from_matrix(mat: np.ndarray) -> list[tuple[int, ...]]:
         w = (1 << np.arange(n, dtype=np.int64))
         s = (mat.astype(np.int64) * w).sum(axis=2)
         return [tuple(int(x) for x in row) for row in s]
-    packed = np.packbits(mat, axis=2, bitorder="little")
-    return [tuple(int.from_bytes(packed[k, i].tobytes(), "little") for i in range(n))
-            for k in range(m)]
+    packed = np.packbits(mat, axis=2, bitorder="little").reshape(m, -1)
+    # regions share DBGs (a 100-box grid: 9,100 among 26,694): convert each distinct one once
+    width = packed.shape[1] // n
+    seen: dict[bytes, tuple[int, ...]] = {}
+    out = []
+    for row in packed:
+        key = row.tobytes()
+        got = seen.get(key)
+        if got is None:
+            got = seen[key] = tuple(int.from_bytes(key[i * width:(i + 1) * width], "little")
+                                    for i in range(n))
+        out.append(got)
+    return out
 
 
 def triangle_pairs(asm: Assembly) -> int:
@@ -227,6 +266,19 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
     trees_of: list = [None] * n  # pruning trees, built on first use
     sizes = [len(t) for t, _ in tris]
+    # convex parts far apart: one cone per pair, made and clipped all at once
+    tc = time.perf_counter()
+    fast = convex_pairs(tris, sizes, eps)
+    fast_entries = convex_entries(list(fast.values()))
+    for (a, b), cone, entries in zip(fast, fast.values(), fast_entries):
+        for pair, c, ent in (((a, b), cone, entries), ((b, a), -cone, reverse_entries(entries))):
+            all_cones[pair] = c
+            npieces += 1
+            for face, entry in enumerate(ent):
+                if entry is not None:
+                    geoms[face][pair] = entry[0]
+                    trees[face][pair] = entry[1:]
+    t_cones += time.perf_counter() - tc
     for i in range(n):
         for j in range(i + 1, n):
             # B_ji = -B_ij: one orientation is computed, the smaller part moving (its walk
@@ -234,6 +286,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
             a, b = (i, j) if sizes[i] <= sizes[j] else (j, i)
             ta = time.perf_counter()
             key = got = None
+            if (a, b) in fast:
+                continue
             if cache is not None:
                 # 2D parts are extruded to the assembly's diagonal: that enters the result.
                 extra = () if domain is None else (
@@ -283,7 +337,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
         for g in fd.values():
             shapely.prepare(g)
     eta = ANGULAR_FACTOR * eps / max(asm.diagonal, 1e-300)
-    stats = {"pieces": npieces, "time_cones_s": t_cones, "time_union_s": t_union,
+    stats = {"pieces": npieces, "convex_pairs": len(fast),
+             "time_cones_s": t_cones, "time_union_s": t_union,
              "time_blocked_sets_s": time.perf_counter() - t0}
     circ = unique_circles(np.concatenate(circles)) if circles else np.zeros((0, 3))
     stats["contact_circles"] = len(circ)
@@ -311,7 +366,8 @@ def reverse_entries(entries: list) -> list:
         if e is None:
             continue
         union, tree, index = e
-        out[face ^ 1] = (flip(union), shapely.STRtree(flip(tree.geometries)), index)
+        out[face ^ 1] = (flip(union),
+                         None if tree is None else shapely.STRtree(flip(tree.geometries)), index)
     return out
 
 

@@ -1,0 +1,202 @@
+"""Fast paths of the infinite-translation NDBG, each against the general route and against
+answers worked out by hand: one cone for convex parts far apart
+(:func:`ndbg_cli.blocking_cones.convex_pair_cone`) and the merging of collinear boundary
+segments before the arrangement is noded (:func:`ndbg_cli.arrangement.merged_segments`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+
+from ndbg_cli import arrangement, infinite
+from ndbg_cli import blocking_cones as bc
+from ndbg_cli.assembly import Assembly
+from ndbg_cli.cubemap import random_directions
+from ndbg_cli.sweep import SweepChecker
+from ndbg_cli.validate import make_part
+
+
+def _tris(m: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
+    return np.asarray(m.triangles, dtype=float), np.asarray(m.face_normals, dtype=float)
+
+
+def _inside(cones: np.ndarray, d: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """``(m,)`` whether each direction of ``d`` lies in some open cone (zero rows ignored)."""
+    zero = ~np.any(cones != 0.0, axis=2)
+    v = np.einsum("pkx,mx->mpk", cones, d)
+    return np.all((v > tol) | zero[None], axis=2).any(axis=1)
+
+
+def test_two_cubes_block_exactly_the_directions_of_one_cube_face():
+    # P_i = [0,1]^3, P_j = [2,3]x[0,1]x[0,1]: P_j - P_i = [1,3]x[-1,1]x[-1,1], whose cone is
+    # {d_x > 0, |d_y| < d_x, |d_z| < d_x}: the +x face of the cube map, nothing else.
+    a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    b = trimesh.creation.box(bounds=[[2, 0, 0], [3, 1, 1]])
+    cone = bc.convex_pair_cone(a.vertices, b.vertices, 1e-6)
+    assert cone is not None and cone.shape == (1, 4, 3)
+    d = np.array([[1, 0, 0], [1, 0.9, 0.9], [1, -0.9, 0.5], [1, 1.1, 0], [1, 0, -1.1],
+                  [-1, 0, 0], [0, 1, 0]], dtype=float)
+    assert _inside(cone, d).tolist() == [True, True, True, False, False, False, False]
+    entries = bc.convex_entries([cone])[0]
+    # face 0 is +x: its whole chart square; the others only reach past their border by
+    # the chart margin (SQUARE_MARGIN), on the cube edges
+    assert entries[0][0].area == pytest.approx(4.0, rel=1e-9)
+    others = [e[0].area for e in entries[1:] if e is not None]
+    assert max(others, default=0.0) < 1e-6
+    assert entries[1] is None  # -x
+
+
+def test_touching_or_overlapping_boxes_take_the_terms():
+    a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    b = trimesh.creation.box(bounds=[[1, 0, 0], [2, 1, 1]])  # face contact: erosion applies
+    assert bc.convex_pair_cone(a.vertices, b.vertices, 1e-3) is None
+    c = trimesh.creation.box(bounds=[[1.003, 0, 0], [2, 1, 1]])  # gap 3 eps < 4 eps: near
+    assert bc.convex_pair_cone(a.vertices, c.vertices, 1e-3) is None
+
+
+def test_convexity_test():
+    box = trimesh.creation.box(extents=[1, 2, 3])
+    assert bc.is_convex(*_tris(box))
+    assert bc.is_convex(*_tris(trimesh.creation.cylinder(radius=1, height=2, sections=16)))
+    ell = trimesh.boolean.union([trimesh.creation.box(bounds=[[0, 0, 0], [2, 1, 1]]),
+                                 trimesh.creation.box(bounds=[[0, 0, 0], [1, 2, 1]])],
+                                engine="manifold")
+    assert not bc.is_convex(*_tris(ell))
+    # a dent of 1e-6 of the size is a dent: push the middle vertex of a face inward
+    fine = box.subdivide().subdivide()
+    v = fine.vertices.copy()
+    mid = np.flatnonzero(np.all(np.isclose(v, [0, 0, 1.5]), axis=1))
+    assert len(mid) == 1
+    v[mid[0], 2] -= 1e-6
+    dented = trimesh.Trimesh(v, fine.faces, process=False)
+    assert not bc.is_convex(*_tris(dented))
+    assert bc.is_convex(*_tris(fine))  # subdivided but flat: convex
+
+
+def _random_convex(rng: np.random.Generator) -> trimesh.Trimesh:
+    kind = rng.integers(3)
+    if kind == 0:
+        m = trimesh.creation.box(extents=rng.uniform(0.3, 2.0, 3))
+    elif kind == 1:
+        m = trimesh.creation.cylinder(radius=rng.uniform(0.2, 1.0), height=rng.uniform(0.3, 2),
+                                      sections=int(rng.integers(5, 12)))
+    else:
+        m = trimesh.convex.convex_hull(rng.normal(size=(12, 3)))
+    m.apply_transform(trimesh.transformations.random_rotation_matrix(rng.random(3)))
+    return m
+
+
+def test_convex_cone_is_the_union_of_the_terms_on_random_pairs():
+    rng = np.random.default_rng(7)
+    d = random_directions(3000, seed=3)
+    checked = 0
+    while checked < 40:
+        a, b = _random_convex(rng), _random_convex(rng)
+        b.apply_translation(rng.normal(size=3) * 2 + np.sign(rng.normal(size=3)) * 2.5)
+        cone = bc.convex_pair_cone(a.vertices, b.vertices, 1e-3)
+        if cone is None:
+            continue
+        ta, na = _tris(a)
+        tb, nb = _tris(b)
+        terms, circles = bc.pair_cones(ta, na, tb, nb, 1e-3)
+        assert not len(circles)
+        np.testing.assert_array_equal(_inside(cone, d, 1e-6), _inside(terms, d, 1e-6))
+        fast, slow = bc.convex_entries([cone])[0], bc.cones_to_face_geoms(terms)
+        for f in range(6):
+            assert (fast[f] is None) == (slow[f] is None)
+            if fast[f] is not None:
+                diff = shapely.symmetric_difference(fast[f][0], slow[f][0]).area
+                assert diff <= 1e-9 * fast[f][0].area
+        checked += 1
+
+
+def grid(k: int, pitch: float = 1.5) -> Assembly:
+    parts = []
+    for n in range(k ** 3):
+        x, y, z = n % k, (n // k) % k, n // (k * k)
+        m = trimesh.creation.box(extents=[1, 1, 1])
+        m.apply_translation([pitch * x, pitch * y, pitch * z])
+        parts.append(make_part(f"b{n}", m.vertices, m.faces)[0])
+    return Assembly("grid", tuple(parts))
+
+
+def test_grid_of_boxes_fast_paths_agree_with_the_general_route(monkeypatch):
+    asm = grid(2)
+    fast = infinite.build_infinite(asm)
+    assert fast.stats["regions"] > 0
+    bs = fast._blocked_sets
+    assert bs.stats["convex_pairs"] == 28  # every pair of the 8 boxes
+    d = random_directions(2000, seed=5)
+    got = bs.dbgs(d, exact=True)
+    # the direct per-direction test, independent of both routes
+    sweep = SweepChecker(asm)
+    for k in range(0, len(d), 50):
+        assert got[k].succ == sweep.dbg(d[k]).succ
+    # the general route: every pair through its terms, the linework noded unmerged
+    monkeypatch.setattr(infinite, "convex_pairs", lambda *a, **k: {})
+    monkeypatch.setattr(arrangement, "merged_segments", lambda lines: lines)
+    slow = infinite.build_infinite(asm)
+    assert slow._blocked_sets.stats["convex_pairs"] == 0
+    assert [g.succ for g in slow._blocked_sets.dbgs(d, exact=True)] == [g.succ for g in got]
+
+    def two_d(nd):
+        return sorted((r.direction, r.dbg.succ) for r in nd.regions if r.dimension == 2)
+
+    assert {s for _, s in two_d(fast)} == {s for _, s in two_d(slow)}
+    assert fast.region_counts()["2"] == slow.region_counts()["2"]
+
+
+def test_merged_segments_by_hand():
+    lines = [shapely.LineString([(0, 0), (1, 0)]), shapely.LineString([(2, 0), (0.5, 0)]),
+             shapely.LineString([(3, 0), (4, 0)]), shapely.LineString([(4, 0), (5, 0)]),
+             shapely.LineString([(1, 1), (0, 1)]), shapely.LineString([(0, -1), (0, 2)]),
+             shapely.box(10, 10, 11, 11).boundary]
+    got = arrangement.merged_segments(lines)
+    segs = sorted(tuple(sorted(map(tuple, shapely.get_coordinates(g).tolist()))) for g in got)
+    assert segs == sorted([((0.0, 0.0), (2.0, 0.0)),   # overlapping, one reversed
+                           ((3.0, 0.0), (5.0, 0.0)),   # touching end to end
+                           ((0.0, 1.0), (1.0, 1.0)),
+                           ((0.0, -1.0), (0.0, 2.0)),
+                           ((10.0, 10.0), (11.0, 10.0)), ((11.0, 10.0), (11.0, 11.0)),
+                           ((10.0, 11.0), (11.0, 11.0)), ((10.0, 10.0), (10.0, 11.0))])
+    # the same point set: merging changes no coordinate
+    assert shapely.equals(shapely.union_all(got), shapely.union_all(lines))
+
+
+def test_arrangement_cells_are_chains_between_true_nodes():
+    # two squares crossing: 8 crossing-free chains... each square's boundary is cut by the
+    # other at 2 points, so 4 chains (1-dimensional cells) and 2 nodes (0-dimensional)
+    a, b = shapely.box(0, 0, 2, 2), shapely.box(1, 1, 3, 3)
+    noded = shapely.line_merge(shapely.union_all(
+        arrangement.merged_segments([a.boundary, b.boundary]), grid_size=bc.GRID))
+    parts = shapely.get_parts(noded)
+    assert len(parts) == 4
+    ends = {tuple(p) for g in parts for p in shapely.get_coordinates(g)[[0, -1]].tolist()}
+    assert ends == {(1.0, 2.0), (2.0, 1.0)}
+
+
+def test_merged_segments_keep_exact_input_coordinates():
+    # many lines, random float end points: every output end point is an input vertex, bit for
+    # bit (noding snaps to GRID; a rounded end would move a node), and the length is that of
+    # the union of the intervals, line by line
+    rng = np.random.default_rng(11)
+    lines, pts, expected = [], set(), 0.0
+    for _ in range(200):
+        o, u = rng.uniform(-1, 1, 2), rng.normal(size=2)
+        u /= np.linalg.norm(u)
+        spans = np.sort(rng.uniform(-0.7, 0.7, (4, 2)), axis=1)
+        for a, b in spans:
+            p, q = o + a * u, o + b * u
+            lines.append(shapely.LineString([p, q]))
+            pts |= {tuple(p), tuple(q)}
+        hi = -np.inf
+        for a, b in spans[np.argsort(spans[:, 0])]:
+            expected += max(b, hi) - max(a, hi) if b > hi else 0.0
+            hi = max(hi, b)
+    got = arrangement.merged_segments(lines)
+    ends = shapely.get_coordinates(got)
+    assert all(tuple(e) in pts for e in ends.tolist())
+    assert len(got) < len(lines)  # overlapping pieces on one line were merged
+    assert shapely.length(got).sum() == pytest.approx(expected, rel=1e-9)
