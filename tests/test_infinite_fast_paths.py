@@ -200,3 +200,10 @@ def test_merged_segments_keep_exact_input_coordinates():
     assert all(tuple(e) in pts for e in ends.tolist())
     assert len(got) < len(lines)  # overlapping pieces on one line were merged
     assert shapely.length(got).sum() == pytest.approx(expected, rel=1e-9)
+
+
+def test_budget_counts_a_far_convex_pair_as_one_cone():
+    # 8 boxes of 12 triangles: 96^2 - 8 * 12^2 = 8,064 ordered triangle pairs; apart, each of
+    # the 56 ordered pairs of parts is one cone, counted as CONVEX_PAIR_COST
+    assert infinite.triangle_pairs(grid(2)) == 56 * infinite.CONVEX_PAIR_COST
+    assert infinite.triangle_pairs(grid(2, pitch=1.0)) == 8064  # touching: the terms
