@@ -101,45 +101,43 @@ class BlockedSets:
     #: Per face, the chart geometry of the directions where the sets are right (``None``
     #: entries: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.domain`).
     domain: list | None = None
-    _trees_by_face: list = field(default_factory=list, repr=False, compare=False)
+    _by_face: list = field(default_factory=list, repr=False, compare=False)
 
     def blocked_pairs(self, d: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
-        """For directions ``d`` ``(m, 3)``: list of ``(mask (m,), i, j)`` with ``mask[k]``
-        true iff ``P_j`` blocks ``P_i`` along ``d[k]``."""
+        """For directions ``d`` ``(m, 3)``: list of ``(index, i, j)``, ``index`` the sorted
+        indices ``k`` of the directions ``d[k]`` along which ``P_j`` blocks ``P_i``."""
         d = np.atleast_2d(np.asarray(d, dtype=float))
         f, st = face_of(d)
-        out: dict[tuple[int, int], np.ndarray] = {}
+        out: dict[tuple[int, int], list[np.ndarray]] = {}
         for face in range(6):
             sel = np.nonzero(f == face)[0]
             if not len(sel) or not self.geoms[face]:
                 continue
-            keys, tree = self._face_tree(face)
+            keys, geoms = self._face_pairs(face)
             x, y = st[sel, 0], st[sel, 1]
             # each pair's exact test only on the directions inside its bounding box
-            pt, item = tree.query(shapely.points(x, y))
-            order = np.argsort(item, kind="stable")
-            pt, item = pt[order], item[order]
-            starts = np.flatnonzero(np.r_[True, item[1:] != item[:-1]]) if len(item) else []
-            ends = np.r_[starts[1:], len(item)] if len(item) else []
+            gi, pt = shapely.STRtree(shapely.points(x, y)).query(geoms)
+            if np.any(gi[1:] < gi[:-1]):  # shapely lists them by pair already
+                order = np.argsort(gi, kind="stable")
+                gi, pt = gi[order], pt[order]
+            starts = np.flatnonzero(np.r_[True, gi[1:] != gi[:-1]]) if len(gi) else []
+            ends = np.r_[starts[1:], len(gi)] if len(gi) else []
             for a, b in zip(starts, ends):
-                key = keys[item[a]]
                 k = pt[a:b]
-                hit = shapely.contains_xy(self.geoms[face][key], x[k], y[k])
+                hit = shapely.contains_xy(geoms[gi[a]], x[k], y[k])
                 if hit.any():
-                    m = out.setdefault(key, np.zeros(len(d), dtype=bool))
-                    m[sel[k[hit]]] = True
-        return [(m, i, j) for (i, j), m in sorted(out.items())]
+                    out.setdefault(keys[gi[a]], []).append(sel[k[hit]])
+        return [(np.sort(np.concatenate(v)), i, j) for (i, j), v in sorted(out.items())]
 
-    def _face_tree(self, face: int) -> tuple[list[tuple[int, int]], shapely.STRtree]:
-        """The pairs with a set on ``face`` and an STR-tree over their geometries (built on
-        first use)."""
-        if not self._trees_by_face:
-            self._trees_by_face.extend([None] * 6)
-        if self._trees_by_face[face] is None:
+    def _face_pairs(self, face: int) -> tuple[list[tuple[int, int]], np.ndarray]:
+        """The pairs with a set on ``face`` and their geometries (an array, made once)."""
+        if not self._by_face:
+            self._by_face.extend([None] * 6)
+        if self._by_face[face] is None:
             keys = list(self.geoms[face])
-            self._trees_by_face[face] = (keys, shapely.STRtree([self.geoms[face][k]
-                                                                for k in keys]))
-        return self._trees_by_face[face]
+            self._by_face[face] = (keys, np.array([self.geoms[face][k] for k in keys],
+                                                  dtype=object))
+        return self._by_face[face]
 
     def dbgs(self, d: np.ndarray, exact: bool = False) -> list[DBG]:
         """The DBG at each direction of ``d`` ``(m, 3)`` (region lookup, vectorised).
@@ -152,12 +150,16 @@ class BlockedSets:
         """
         d = np.atleast_2d(np.asarray(d, dtype=float))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
-        mat = np.zeros((len(d), self.n, self.n), dtype=bool)
-        for m, i, j in self.blocked_pairs(d):
+        # successor bits, packed as they are set (a (m, n, n) bool matrix would take
+        # 270 MB for a 100-box grid's 26,694 regions)
+        bits = np.zeros((len(d), self.n, (self.n + 7) // 8), dtype=np.uint8)
+        for k, i, j in self.blocked_pairs(d):
             if exact:
-                m = self._exact(m, i, j, d)
-            mat[m, i, j] = True
-        return [DBG(row) for row in succ_from_matrix(mat)]
+                mask = np.zeros(len(d), dtype=bool)
+                mask[k] = True
+                k = np.flatnonzero(self._exact(mask, i, j, d))
+            bits[k, i, j >> 3] |= np.uint8(1 << (j & 7))
+        return [DBG(row) for row in succ_from_bits(bits)]
 
     def _exact(self, mask: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
         """Re-test the directions ``d[mask]`` against the open cones of pair ``(i, j)``
@@ -212,19 +214,15 @@ class BlockedSets:
 OPEN_TOL = 1e-6
 
 
-def succ_from_matrix(mat: np.ndarray) -> list[tuple[int, ...]]:
-    """Successor bitmasks from boolean adjacency matrices ``(m, n, n)``."""
-    m, n, _ = mat.shape
-    if n <= 62:
-        w = (1 << np.arange(n, dtype=np.int64))
-        s = (mat.astype(np.int64) * w).sum(axis=2)
-        return [tuple(int(x) for x in row) for row in s]
-    packed = np.packbits(mat, axis=2, bitorder="little").reshape(m, -1)
-    # regions share DBGs (a 100-box grid: 9,100 among 26,694): convert each distinct one once
-    width = packed.shape[1] // n
+def succ_from_bits(bits: np.ndarray) -> list[tuple[int, ...]]:
+    """Successor bitmasks from packed adjacency rows ``(m, n, ceil(n / 8))`` (bit ``j`` of row
+    ``i``, little-endian: ``j`` succeeds ``i``). Regions share DBGs (a 100-box grid: 9,100
+    among 26,694): each distinct one is converted once."""
+    m, n, width = bits.shape
+    flat = bits.reshape(m, n * width)
     seen: dict[bytes, tuple[int, ...]] = {}
     out = []
-    for row in packed:
+    for row in flat:
         key = row.tobytes()
         got = seen.get(key)
         if got is None:
