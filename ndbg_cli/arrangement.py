@@ -46,7 +46,8 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
     A region thinner than ``eta`` (width ``2 area / perimeter``) is 1-dimensional, one smaller
     than ``eta`` across (bounding box) is 0-dimensional. The noded boundaries give the
     1-dimensional cells (the chains between nodes where other than two pieces meet: a polygon's
-    corner is not a node) and the 0-dimensional ones (their end points). Cells on the contact
+    corner is not a node; a closed boundary meeting nothing else is one chain, with one node at
+    its first point) and the 0-dimensional ones (their end points). Cells on the contact
     circles but off every boundary are *seam candidates* (``seam=True``):
     :func:`build_infinite` keeps those whose exact DBG differs from the one around them (a
     slot's or a bore's free directions).

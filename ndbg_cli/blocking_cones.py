@@ -186,9 +186,12 @@ def unique_circles(normals: np.ndarray) -> np.ndarray:
 # Convex parts far apart: one cone
 # --------------------------------------------------------------------------------------------
 
-#: Most facets of a convex pair's cone (:func:`convex_pair_cone`); the chart clipping keeps 48
-#: vertices, and a cone with more facets goes through the terms instead.
-CONVEX_FACETS = 40
+#: Most difference vectors (``|V_i| |V_j|``, about 0.2 microseconds each) of a convex pair's
+#: cone (:func:`convex_pair_cone`); pairs of larger parts go through the terms.
+CONVEX_DIFFERENCES = 1_000_000
+#: A convex pair's cone is accepted when every difference vector is inside it within this
+#: (radians, about); else (qhull rounding with a gap tiny against the parts) the terms decide.
+CONVEX_CHECK = 1e-9
 #: Most triangles of a part tested for convexity (:func:`is_convex`; the test is
 #: ``O(triangles x vertices)``).
 CONVEX_TRIANGLES = 4096
@@ -215,8 +218,9 @@ def convex_pair_cone(vi: np.ndarray, vj: np.ndarray, eps: float) -> np.ndarray |
     """``B_ij`` of two convex parts (vertices ``vi`` ``(a, 3)`` moving, ``vj`` ``(b, 3)``
     blocking) whose bounding boxes are more than ``4 eps`` apart: the one open cone
     ``(1, k, 3)`` spanned by the Minkowski difference ``P_j - P_i = conv(vj - vi)``, or
-    ``None`` when the boxes are closer or the cone has more than :data:`CONVEX_FACETS`
-    facets (use the terms).
+    ``None`` when the boxes are closer, there are more than :data:`CONVEX_DIFFERENCES`
+    difference vectors, or the hull fails its check (:data:`CONVEX_CHECK`): use the terms.
+    Both parts must be closed and consistently wound (:func:`is_convex` assumes it).
 
     Exact, and the same set as the union of the terms: every triangle pair is far (no
     erosion), the closure of the union of the terms is the radial projection of the
@@ -227,6 +231,8 @@ def convex_pair_cone(vi: np.ndarray, vj: np.ndarray, eps: float) -> np.ndarray |
     gap = np.maximum(ahead, behind)
     k = int(np.argmax(gap))
     if gap[k] <= 4 * eps:
+        return None
+    if len(vi) * len(vj) > CONVEX_DIFFERENCES:
         return None
     c = np.zeros(3)
     c[k] = 1.0 if ahead[k] >= behind[k] else -1.0
@@ -242,21 +248,23 @@ def convex_pair_cone(vi: np.ndarray, vj: np.ndarray, eps: float) -> np.ndarray |
     except Exception:  # degenerate (flat) difference: let the terms decide
         return None
     ring = st[hull.vertices]  # counter-clockwise in (u, w)
-    if len(ring) > CONVEX_FACETS:
-        return None
     p = c + ring[:, :1] * u + ring[:, 1:] * w
     m = np.cross(p, np.roll(p, -1, axis=0))  # (u, w, c) right-handed, ring ccw: inward
     m /= np.linalg.norm(m, axis=1, keepdims=True)
+    # qhull works at the projected scale (up to size / gap): every generator must be inside
+    if (d @ m.T).min() < -CONVEX_CHECK * np.linalg.norm(d, axis=1).max():
+        return None
     return m[None]
 
 
-def convex_pairs(tris: list[tuple[np.ndarray, np.ndarray]], sizes: list[int], eps: float
-                 ) -> dict[tuple[int, int], np.ndarray]:
+def convex_pairs(tris: list[tuple[np.ndarray, np.ndarray]], sizes: list[int], eps: float,
+                 closed: list[bool]) -> dict[tuple[int, int], np.ndarray]:
     """The cones of :func:`convex_pair_cone` for every unordered pair of parts (triangles and
-    normals ``tris``, as :func:`part_triangles`) that has one, keyed by the ordered pair
-    ``(a, b)`` computed (the part with fewer triangles, ``sizes``, moving: the orientation
+    normals ``tris``, as :func:`part_triangles`; ``closed``: whether each mesh is watertight
+    and consistently wound) that has one, keyed by the ordered pair ``(a, b)`` computed (the
+    part with fewer triangles, ``sizes``, moving: the orientation
     :func:`ndbg_cli.infinite.blocked_sets` computes)."""
-    convex = [is_convex(t, nrm) for t, nrm in tris]
+    convex = [ok and is_convex(t, nrm) for (t, nrm), ok in zip(tris, closed)]
     verts = [np.unique(t.reshape(-1, 3), axis=0) if ok else None
              for (t, _), ok in zip(tris, convex)]
     out: dict[tuple[int, int], np.ndarray] = {}
@@ -283,7 +291,8 @@ def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
         return out
     stacked = _stack(cones)
     for face in range(6):
-        polys, index = face_polygons(stacked, face)
+        # a cone of k facets clips the chart square to at most k + 4 vertices
+        polys, index = face_polygons(stacked, face, max_vertices=stacked.shape[1] + 4)
         for g, k in zip(polys, index):
             out[k][face] = (g, None, np.zeros(1, dtype=np.int64))
     return out
@@ -293,13 +302,14 @@ def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
 # Chart polygons and their unions
 # --------------------------------------------------------------------------------------------
 
-def face_polygons(cones: np.ndarray, face: int) -> tuple[np.ndarray, np.ndarray]:
+def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48
+                  ) -> tuple[np.ndarray, np.ndarray]:
     """Chart polygons of ``cones`` ``(p, k, 3)`` on ``face`` (convex) and the index of the
     cone of each; cones missing the face and pieces of area below ``GRID**2`` are left
-    out."""
+    out. ``max_vertices``: see :func:`~ndbg_cli.cubemap.clip_halfplanes`."""
     if not len(cones):
         return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
-    poly, cnt = clip_halfplanes(cones, face)
+    poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices)
     keep = cnt >= 3
     if not keep.any():
         return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)

@@ -58,6 +58,7 @@ import shapely
 from .arrangement import Cell, arrangement_cells, equator_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
+    CONVEX_DIFFERENCES,
     GRID,
     cones_to_face_geoms,
     convex_entries,
@@ -233,8 +234,17 @@ def succ_from_bits(bits: np.ndarray) -> list[tuple[int, ...]]:
 
 
 #: Against the budget, a pair of convex parts far apart (one cone, about 0.3 ms) counts as
-#: this many triangle pairs (each 20-70 microseconds through the terms).
+#: this many triangle pairs (each 20-70 microseconds through the terms), plus one per
+#: :data:`CONVEX_DIFFERENCES_PER_PAIR` difference vectors (``|V_i| |V_j|``).
 CONVEX_PAIR_COST = 16
+CONVEX_DIFFERENCES_PER_PAIR = 128
+
+
+def closed_parts(asm: Assembly) -> list[bool]:
+    """Whether each part's mesh is watertight and consistently wound (2D parts: extruded
+    polygons, always): the convex route needs a closed surface."""
+    return [asm.dimension == 2 or (p.check.watertight and p.check.winding_consistent)
+            for p in asm.parts]
 
 
 def triangle_pairs(asm: Assembly) -> int:
@@ -251,17 +261,25 @@ def triangle_pairs(asm: Assembly) -> int:
     total = t.sum() ** 2 - (t ** 2).sum()
     if asm.dimension == 3 and len(t) > 1:
         tris = part_triangles(asm)
+        closed = closed_parts(asm)
         idx = np.array([k for k, (tri, nrm) in enumerate(tris)
-                        if len(tri) == t[k] and is_convex(tri, nrm)], dtype=np.int64)
+                        if closed[k] and len(tri) == t[k] and is_convex(tri, nrm)],
+                       dtype=np.int64)
         if len(idx) > 1:
-            v = [tris[k][0].reshape(-1, 3) for k in idx]
+            v = [np.unique(tris[k][0].reshape(-1, 3), axis=0) for k in idx]
+            nv = np.array([len(x) for x in v], dtype=float)
             lo = np.array([x.min(axis=0) for x in v])
             hi = np.array([x.max(axis=0) for x in v])
             gap = np.maximum(lo[None] - hi[:, None], lo[:, None] - hi[None]).max(axis=2)
-            far = gap > 4 * asm.length_tolerance
-            np.fill_diagonal(far, False)
-            a, b = np.nonzero(far)  # ordered pairs
-            total -= float((t[idx[a]] * t[idx[b]]).sum()) - CONVEX_PAIR_COST * len(a)
+            diffs = nv[:, None] * nv[None, :]
+            # as convex_pair_cone decides (its hull check aside, which never fails at the
+            # default tolerance)
+            fast = (gap > 4 * asm.length_tolerance) & (diffs <= CONVEX_DIFFERENCES)
+            np.fill_diagonal(fast, False)
+            a, b = np.nonzero(fast)  # ordered pairs
+            total -= float((t[idx[a]] * t[idx[b]]).sum())
+            total += CONVEX_PAIR_COST * len(a) + float(diffs[a, b].sum()) / \
+                CONVEX_DIFFERENCES_PER_PAIR
     return int(total)
 
 
@@ -290,7 +308,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     sizes = [len(t) for t, _ in tris]
     # convex parts far apart: one cone per pair, made and clipped all at once
     tc = time.perf_counter()
-    fast = convex_pairs(tris, sizes, eps)
+    fast = convex_pairs(tris, sizes, eps, closed_parts(asm))
     fast_entries = convex_entries(list(fast.values()))
     for (a, b), cone, entries in zip(fast, fast.values(), fast_entries):
         for pair, c, ent in (((a, b), cone, entries), ((b, a), -cone, reverse_entries(entries))):

@@ -166,8 +166,8 @@ def test_merged_segments_by_hand():
 
 
 def test_arrangement_cells_are_chains_between_true_nodes():
-    # two squares crossing: 8 crossing-free chains... each square's boundary is cut by the
-    # other at 2 points, so 4 chains (1-dimensional cells) and 2 nodes (0-dimensional)
+    # two squares crossing: each square's boundary is cut by the other at 2 points, so 4
+    # chains (1-dimensional cells, through the squares' corners) and 2 nodes
     a, b = shapely.box(0, 0, 2, 2), shapely.box(1, 1, 3, 3)
     noded = shapely.line_merge(shapely.union_all(
         arrangement.merged_segments([a.boundary, b.boundary]), grid_size=bc.GRID))
@@ -205,5 +205,65 @@ def test_merged_segments_keep_exact_input_coordinates():
 def test_budget_counts_a_far_convex_pair_as_one_cone():
     # 8 boxes of 12 triangles: 96^2 - 8 * 12^2 = 8,064 ordered triangle pairs; apart, each of
     # the 56 ordered pairs of parts is one cone, counted as CONVEX_PAIR_COST
-    assert infinite.triangle_pairs(grid(2)) == 56 * infinite.CONVEX_PAIR_COST
+    # plus 8 x 8 difference vectors per pair, one triangle pair per 128 of them
+    assert infinite.triangle_pairs(grid(2)) == 56 * (infinite.CONVEX_PAIR_COST + 64 / 128)
     assert infinite.triangle_pairs(grid(2, pitch=1.0)) == 8064  # touching: the terms
+
+
+def test_open_mesh_is_not_taken_for_convex():
+    # a box without its top face: closed-surface reasoning does not apply, the terms decide
+    box = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    top = box.triangles_center[:, 2] > 1 - 1e-9
+    cup = trimesh.Trimesh(box.vertices, box.faces[~top], process=False)
+    peg = trimesh.creation.box(bounds=[[0.3, 0.3, 2], [0.7, 0.7, 3]])
+    tris = [_tris(cup), _tris(peg)]
+    assert bc.is_convex(*tris[0])  # the test itself cannot tell: the mesh must be closed
+    assert bc.convex_pairs(tris, [10, 12], 1e-4, [False, True]) == {}
+    assert list(bc.convex_pairs(tris, [10, 12], 1e-4, [True, True])) == [(0, 1)]
+
+
+def test_many_facet_cone_is_clipped_whole():
+    # two 64-sided cylinders: a cone of more facets than the clipper's default 48 vertices
+    a = trimesh.creation.cylinder(radius=1.0, height=2.0, sections=64)
+    b = a.copy()
+    b.apply_transform(trimesh.transformations.rotation_matrix(0.7, [1, 1, 0]))
+    b.apply_translation([4.0, 1.0, 0.5])
+    cone = bc.convex_pair_cone(a.vertices, b.vertices, 1e-4)
+    assert cone is not None and cone.shape[1] > 44
+    terms, _ = bc.pair_cones(*_tris(a), *_tris(b), 1e-4)
+    d = random_directions(4000, seed=9)
+    np.testing.assert_array_equal(_inside(cone, d, 1e-6), _inside(terms, d, 1e-6))
+    fast, slow = bc.convex_entries([cone])[0], bc.cones_to_face_geoms(terms)
+    for f in range(6):
+        assert (fast[f] is None) == (slow[f] is None)
+        if fast[f] is not None:
+            assert shapely.symmetric_difference(fast[f][0], slow[f][0]).area \
+                <= 1e-9 * fast[f][0].area
+
+
+def test_hull_rounding_falls_back_to_the_terms():
+    # a gap of 4.1e-9 against parts of size 5 (eps 1e-9): the projected coordinates reach
+    # 4e8 and qhull drops an extreme point by 1e-6 rad; the cone must not be used then
+    va = np.array([[-1.2533289028463013, -0.7109335598437617, 0.47375283050154054],
+                   [-1.2533176046954821, -0.7109040329234958, 0.4738270226187472],
+                   [-0.5416118636266756, 1.3427892701893194, -0.4519681124521201],
+                   [-0.5416005654758563, 1.3428187971095853, -0.45189392033491343],
+                   [0.5416005654758563, -1.3428187971095853, 0.45189392033491343],
+                   [0.5416118636266756, -1.3427892701893194, 0.4519681124521201],
+                   [1.2533176046954821, 0.7109040329234958, -0.4738270226187472],
+                   [1.2533289028463013, 0.7109335598437617, -0.47375283050154054]])
+    vb = np.array([[-3.6005989986737577, -1.3266078710927647, -1.6178215707847876],
+                   [-3.329354670998983, 1.0369505996508321, -0.8642522715247065],
+                   [-2.142750756705746, 1.8478441838621131, -2.438545925361339],
+                   [-1.7856534119013436, -0.48893399877227783, -4.09389215121083],
+                   [-1.4311771478047428, 0.25187860032758314, -1.1113484829013403],
+                   [-1.4299155878739271, -0.029303005565346374, -3.208231269595987],
+                   [-1.3288767713206862, 2.7073806143623673, -1.491951846140464],
+                   [-0.8816138092549795, 0.8750972933859902, -1.032859185623773],
+                   [-0.2457680652709897, 2.1051599226652824, -0.4738270267187472],
+                   [0.08632293737661545, 1.5408701709090404, -3.375527671415915]])
+    cone = bc.convex_pair_cone(va, vb, 1e-9)
+    if cone is not None:  # then it must hold every generator
+        diff = (vb[:, None] - va[None]).reshape(-1, 3)
+        diff /= np.linalg.norm(diff, axis=1, keepdims=True)
+        assert (diff @ cone[0].T).min() >= -1e-9
