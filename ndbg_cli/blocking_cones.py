@@ -357,11 +357,17 @@ def union(polys: np.ndarray, seed: int = 64) -> object:
 
 def robust_union(polys: np.ndarray) -> object:
     """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
-    overlay fails (GEOS topology exceptions on nearly coincident edges)."""
+    overlay fails: GEOS topology exceptions on nearly coincident edges, or a union smaller
+    than one of its pieces (GEOS 3.14 returns the smaller of two polygons one ulp apart at a
+    vertex, one inside the other, instead of the larger)."""
     try:
-        return shapely.union_all(polys)
+        out = shapely.union_all(polys)
     except shapely.errors.GEOSException:
         return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
+    biggest = float(shapely.area(polys).max()) if len(polys) else 0.0
+    if out.area < biggest * (1.0 - 1e-9) - GRID * GRID:
+        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
+    return out
 
 
 # --------------------------------------------------------------------------------------------

@@ -267,3 +267,19 @@ def test_hull_rounding_falls_back_to_the_terms():
         diff = (vb[:, None] - va[None]).reshape(-1, 3)
         diff /= np.linalg.norm(diff, axis=1, keepdims=True)
         assert (diff @ cone[0].T).min() >= -1e-9
+
+
+def test_union_is_never_smaller_than_a_piece():
+    # two chart polygons one ulp apart at a vertex, the first covering the second: GEOS 3.14's
+    # plain union returns the smaller one; the union must be the larger
+    a = shapely.Polygon([[1.000000001, 0.7016129004864957],
+                         [0.2366823741967847, 0.7265055648644683],
+                         [0.23668237419678473, 1.000000001], [1.000000001, 1.000000001]])
+    b = shapely.Polygon([[1.000000001, 0.7016129004864957],
+                         [0.23668237419678473, 0.7265055648644683],
+                         [0.32604473088553954, 1.000000001], [1.000000001, 1.000000001]])
+    assert a.covers(b)
+    for pieces in ([b, a], [a, b]):
+        got = bc.union(np.array(pieces, dtype=object))
+        assert got.area == pytest.approx(a.area, rel=1e-9)
+        assert got.buffer(1e-9).covers(a)  # snapped to GRID: within 1e-10
