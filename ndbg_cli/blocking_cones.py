@@ -257,28 +257,41 @@ def convex_pair_cone(vi: np.ndarray, vj: np.ndarray, eps: float) -> np.ndarray |
     return m[None]
 
 
+def far_convex(tris: list[tuple[np.ndarray, np.ndarray]], closed: list[bool], eps: float
+               ) -> tuple[list[np.ndarray | None], np.ndarray]:
+    """Which pairs of parts take the convex route: the vertices of each closed
+    (``closed``: watertight, consistently wound) convex part (``None`` for the others), and
+    the unordered pairs ``(i, j)``, ``i < j`` (``(k, 2)``) of such parts whose bounding boxes
+    are more than ``4 eps`` apart with at most :data:`CONVEX_DIFFERENCES` difference vectors:
+    those :func:`convex_pair_cone` takes, unless its hull check fails. ``tris``: triangles
+    and normals per part, as :func:`part_triangles`."""
+    verts = [np.unique(t.reshape(-1, 3), axis=0) if ok and is_convex(t, nrm) else None
+             for (t, nrm), ok in zip(tris, closed)]
+    idx = np.array([k for k, v in enumerate(verts) if v is not None], dtype=np.int64)
+    if len(idx) < 2:
+        return verts, np.zeros((0, 2), dtype=np.int64)
+    lo = np.array([verts[k].min(axis=0) for k in idx])
+    hi = np.array([verts[k].max(axis=0) for k in idx])
+    nv = np.array([len(verts[k]) for k in idx], dtype=float)
+    gap = np.maximum(lo[None] - hi[:, None], lo[:, None] - hi[None]).max(axis=2)
+    ok = np.triu((gap > 4 * eps) & (nv[:, None] * nv[None, :] <= CONVEX_DIFFERENCES), k=1)
+    a, b = np.nonzero(ok)
+    return verts, np.stack([idx[a], idx[b]], axis=1)
+
+
 def convex_pairs(tris: list[tuple[np.ndarray, np.ndarray]], sizes: list[int], eps: float,
                  closed: list[bool]) -> dict[tuple[int, int], np.ndarray]:
-    """The cones of :func:`convex_pair_cone` for every unordered pair of parts (triangles and
-    normals ``tris``, as :func:`part_triangles`; ``closed``: whether each mesh is watertight
-    and consistently wound) that has one, keyed by the ordered pair ``(a, b)`` computed (the
-    part with fewer triangles, ``sizes``, moving: the orientation
-    :func:`ndbg_cli.infinite.blocked_sets` computes)."""
-    convex = [ok and is_convex(t, nrm) for (t, nrm), ok in zip(tris, closed)]
-    verts = [np.unique(t.reshape(-1, 3), axis=0) if ok else None
-             for (t, _), ok in zip(tris, convex)]
+    """The cones of :func:`convex_pair_cone` for every unordered pair of parts that has one
+    (:func:`far_convex`), keyed by the ordered pair ``(a, b)`` computed (the part with fewer
+    triangles, ``sizes``, moving: the orientation :func:`ndbg_cli.infinite.blocked_sets`
+    computes)."""
+    verts, pairs = far_convex(tris, closed, eps)
     out: dict[tuple[int, int], np.ndarray] = {}
-    n = len(tris)
-    for i in range(n):
-        if not convex[i]:
-            continue
-        for j in range(i + 1, n):
-            if not convex[j]:
-                continue
-            a, b = (i, j) if sizes[i] <= sizes[j] else (j, i)
-            cone = convex_pair_cone(verts[a], verts[b], eps)
-            if cone is not None:
-                out[(a, b)] = cone
+    for i, j in pairs.tolist():
+        a, b = (i, j) if sizes[i] <= sizes[j] else (j, i)
+        cone = convex_pair_cone(verts[a], verts[b], eps)
+        if cone is not None:
+            out[(a, b)] = cone
     return out
 
 

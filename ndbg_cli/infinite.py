@@ -58,12 +58,11 @@ import shapely
 from .arrangement import Cell, arrangement_cells, equator_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
-    CONVEX_DIFFERENCES,
     GRID,
     cones_to_face_geoms,
     convex_entries,
     convex_pairs,
-    is_convex,
+    far_convex,
     pair_cones,
     part_triangles,
     pruned_pair_cones,
@@ -102,7 +101,8 @@ class BlockedSets:
     #: Per face, the chart geometry of the directions where the sets are right (``None``
     #: entries: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.domain`).
     domain: list | None = None
-    _by_face: list = field(default_factory=list, repr=False, compare=False)
+    _by_face: list = field(default_factory=lambda: [None] * 6, repr=False,
+                           compare=False)
 
     def blocked_pairs(self, d: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
         """For directions ``d`` ``(m, 3)``: list of ``(index, i, j)``, ``index`` the sorted
@@ -132,8 +132,6 @@ class BlockedSets:
 
     def _face_pairs(self, face: int) -> tuple[list[tuple[int, int]], np.ndarray]:
         """The pairs with a set on ``face`` and their geometries (an array, made once)."""
-        if not self._by_face:
-            self._by_face.extend([None] * 6)
         if self._by_face[face] is None:
             keys = list(self.geoms[face])
             self._by_face[face] = (keys, np.array([self.geoms[face][k] for k in keys],
@@ -156,22 +154,20 @@ class BlockedSets:
         bits = np.zeros((len(d), self.n, (self.n + 7) // 8), dtype=np.uint8)
         for k, i, j in self.blocked_pairs(d):
             if exact:
-                mask = np.zeros(len(d), dtype=bool)
-                mask[k] = True
-                k = np.flatnonzero(self._exact(mask, i, j, d))
+                k = self._exact(k, i, j, d)
             bits[k, i, j >> 3] |= np.uint8(1 << (j & 7))
         return [DBG(row) for row in succ_from_bits(bits)]
 
-    def _exact(self, mask: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
-        """Re-test the directions ``d[mask]`` against the open cones of pair ``(i, j)``
-        whose chart polygons may contain them (STR-tree, by bounding box: a superset).
+    def _exact(self, sel: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
+        """Re-test the directions ``d[sel]`` (indices) against the open cones of pair
+        ``(i, j)`` whose chart polygons may contain them (STR-tree, by bounding box: a
+        superset); returns the sorted indices of those inside one.
 
         A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices:
         each direction's candidates are tested in batches growing 4x, and it drops out at its
         first hit. Only the directions in no open cone (seams, boundaries) test all their
         candidates."""
-        out = np.zeros_like(mask)
-        sel = np.nonzero(mask)[0]
+        out = np.zeros(len(d), dtype=bool)
         f, st = face_of(d[sel])
         cones = self.cones[(i, j)]
         zero = ~np.any(cones != 0.0, axis=2)
@@ -208,7 +204,7 @@ class BlockedSets:
                 pos[k] += take
                 live &= pos < end
                 width *= 4
-        return out
+        return np.flatnonzero(out)
 
 
 #: Directions within this (radians, about) of a cone's facet count as outside the open cone.
@@ -252,34 +248,25 @@ def triangle_pairs(asm: Assembly) -> int:
     driver, twice what the builder examines (it computes each unordered pair once) and an
     upper bound of even that, since the pruning walk skips most of them. An ordered pair of
     convex parts more than ``4 eps`` apart, whose set is one cone
-    (:func:`~ndbg_cli.blocking_cones.convex_pair_cone`), counts as
-    :data:`CONVEX_PAIR_COST`. The CLI skips the NDBG with a warning above
+    (:func:`~ndbg_cli.blocking_cones.far_convex` decides), counts as
+    :data:`CONVEX_PAIR_COST` plus one per :data:`CONVEX_DIFFERENCES_PER_PAIR` difference
+    vectors. The CLI skips the NDBG with a warning above
     ``--infinite-budget`` (AS1: 1.1e8 pairs; a grid of 100 separate boxes: 1.4e6 triangle
     pairs, 1.6e5 counted)."""
     t = np.array([p.check.triangles if asm.dimension == 3 else 4 * p.check.vertices
                   for p in asm.parts], dtype=float)
     total = t.sum() ** 2 - (t ** 2).sum()
     if asm.dimension == 3 and len(t) > 1:
-        tris = part_triangles(asm)
-        closed = closed_parts(asm)
-        idx = np.array([k for k, (tri, nrm) in enumerate(tris)
-                        if closed[k] and len(tri) == t[k] and is_convex(tri, nrm)],
-                       dtype=np.int64)
-        if len(idx) > 1:
-            v = [np.unique(tris[k][0].reshape(-1, 3), axis=0) for k in idx]
-            nv = np.array([len(x) for x in v], dtype=float)
-            lo = np.array([x.min(axis=0) for x in v])
-            hi = np.array([x.max(axis=0) for x in v])
-            gap = np.maximum(lo[None] - hi[:, None], lo[:, None] - hi[None]).max(axis=2)
-            diffs = nv[:, None] * nv[None, :]
-            # as convex_pair_cone decides (its hull check aside, which never fails at the
-            # default tolerance)
-            fast = (gap > 4 * asm.length_tolerance) & (diffs <= CONVEX_DIFFERENCES)
-            np.fill_diagonal(fast, False)
-            a, b = np.nonzero(fast)  # ordered pairs
-            total -= float((t[idx[a]] * t[idx[b]]).sum())
-            total += CONVEX_PAIR_COST * len(a) + float(diffs[a, b].sum()) / \
-                CONVEX_DIFFERENCES_PER_PAIR
+        verts, pairs = far_convex(part_triangles(asm), closed_parts(asm),
+                                  asm.length_tolerance)
+        if len(pairs):
+            i, j = pairs[:, 0], pairs[:, 1]
+            diffs = np.array([len(verts[a]) * len(verts[b]) for a, b in pairs.tolist()],
+                             dtype=float)
+            # each unordered pair stands for both ordered ones
+            total -= 2.0 * float((t[i] * t[j]).sum())
+            total += 2.0 * (CONVEX_PAIR_COST * len(pairs)
+                            + float(diffs.sum()) / CONVEX_DIFFERENCES_PER_PAIR)
     return int(total)
 
 
@@ -306,18 +293,24 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
     trees_of: list = [None] * n  # pruning trees, built on first use
     sizes = [len(t) for t, _ in tris]
-    # convex parts far apart: one cone per pair, made and clipped all at once
-    tc = time.perf_counter()
-    fast = convex_pairs(tris, sizes, eps, closed_parts(asm))
-    fast_entries = convex_entries(list(fast.values()))
-    for (a, b), cone, entries in zip(fast, fast.values(), fast_entries):
-        for pair, c, ent in (((a, b), cone, entries), ((b, a), -cone, reverse_entries(entries))):
+
+    def store(a: int, b: int, cones: np.ndarray, entries: list) -> None:
+        # B_ab and its antipodal image B_ba
+        nonlocal npieces
+        for pair, c, ent in (((a, b), cones, entries), ((b, a), -cones,
+                                                        reverse_entries(entries))):
             all_cones[pair] = c
-            npieces += 1
+            npieces += len(c)
             for face, entry in enumerate(ent):
                 if entry is not None:
                     geoms[face][pair] = entry[0]
                     trees[face][pair] = entry[1:]
+
+    # convex parts far apart: one cone per pair, made and clipped all at once
+    tc = time.perf_counter()
+    fast = convex_pairs(tris, sizes, eps, closed_parts(asm))
+    for (a, b), cone, entries in zip(fast, fast.values(), convex_entries(list(fast.values()))):
+        store(a, b, cone, entries)
     t_cones += time.perf_counter() - tc
     for i in range(n):
         for j in range(i + 1, n):
@@ -350,14 +343,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
                 if key is not None:
                     cache.put("infinite", key, _freeze(cones, circ, entries))
             circles.append(circ)
-            for pair, c, ent in (((a, b), cones, entries),
-                                 ((b, a), -cones, reverse_entries(entries))):
-                all_cones[pair] = c
-                npieces += len(c)
-                for face, entry in enumerate(ent):
-                    if entry is not None:
-                        geoms[face][pair] = entry[0]
-                        trees[face][pair] = entry[1:]
+            store(a, b, cones, entries)
             t_cones += tb - ta
             t_union += time.perf_counter() - tb
     dom = None if domain is None else domain_polygons(domain)
