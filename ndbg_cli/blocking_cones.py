@@ -33,7 +33,14 @@ coplanar triangles, an empty open cone) are dropped as they are made.
 
 With a *domain* (cube-map cells, :mod:`ndbg_cli.domain`), the cells outside it count as
 covered from the start: what lies only there is pruned, near node pairs included, and the
-union is right inside the domain only.
+union is right inside the domain only. The near leaf pairs are then emitted before the walk:
+inside the domain's small caps a contact's terms often block the whole cap, and the far
+pairs behind them are pruned (the order changes which terms are kept, not their union).
+
+The facets of a term's cone are sought among the planes through two of its 9 generators
+``t_j[v] - t_i[w]`` that share ``v`` or ``w`` (:data:`~ndbg_cli.cubemap.DIFFERENCE_PAIRS`,
+18 of 36), those of a node pair's box cone among its 12 edges
+(:data:`~ndbg_cli.cubemap.BOX_EDGE_PAIRS`, of 28 corner pairs).
 
 Tolerance (``eps``, the assembly's length tolerance)
 ---------------------------------------------------
@@ -52,7 +59,7 @@ import trimesh
 
 from .assembly import Assembly
 from .cover import Cover, run_offsets
-from .cubemap import clip_halfplanes, compact, cone_normals
+from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, clip_halfplanes, compact, cone_normals
 
 #: Snapping grid of the arrangement linework, chart units.
 GRID = 1e-10
@@ -134,7 +141,7 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
             if is_near:
                 # Both triangles moved inward by 1.5 eps along their normals (erosion).
                 gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
-            m = compact(cone_normals(gens))
+            m = compact(cone_normals(gens, pairs=DIFFERENCE_PAIRS))
             facing = np.stack([ni[a], -nj[b]], axis=1)
             cone = np.concatenate([m, facing], axis=1)
             parts.append(cone[~flat(cone)])
@@ -447,6 +454,18 @@ def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.nd
     if not len(ti) or not len(tj):
         return _EMPTY
     walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps, domain)
+    # With a domain (small caps around the directions where contacts leave something free),
+    # the near leaf pairs go first: they are never pruned, and their terms (a contact's lunes
+    # and half-spaces) block whole caps, so most far pairs are then pruned (AS1: 694k terms
+    # computed and 80k kept instead of 936k and 192k). On the whole sphere their terms are
+    # mostly slivers along the contact circles that cover no cell, and the breadth-first
+    # order prunes as well (the 15 small examples: the same total time).
+    near_first = domain is not None
+    if near_first:
+        a, b = _near_leaves(tree_i, tree_j, eps)
+        for s in range(0, len(a), LEAF_CHUNK):
+            walk.emit(*_leaf_pairs(tree_i, tree_j, *walk.prune(a[s:s + LEAF_CHUNK],
+                                                               b[s:s + LEAF_CHUNK])))
     a = np.zeros(1, dtype=np.int64)
     b = np.zeros(1, dtype=np.int64)
     while len(a):
@@ -456,24 +475,56 @@ def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.nd
                   np.tile(tree_j.big[b], (1, 2)).ravel())
         a, b = walk.prune(a, b)
         leaf = (tree_i.left[a] < 0) & (tree_j.left[b] < 0)
-        la, lb = a[leaf], b[leaf]
+        if near_first:  # those are done
+            leaf_todo = leaf & (_gap(tree_i, tree_j, a, b) > 4 * eps)
+        else:
+            leaf_todo = leaf
+        la, lb = a[leaf_todo], b[leaf_todo]
         for s in range(0, len(la), LEAF_CHUNK):
             ca, cb = walk.prune(la[s:s + LEAF_CHUNK], lb[s:s + LEAF_CHUNK])
             walk.emit(*_leaf_pairs(tree_i, tree_j, ca, cb))
-        # split the inner node pairs: the node with the larger box (a leaf is never split)
-        a, b = a[~leaf], b[~leaf]
-        size_i = np.linalg.norm(tree_i.hi[a] - tree_i.lo[a], axis=1)
-        size_j = np.linalg.norm(tree_j.hi[b] - tree_j.lo[b], axis=1)
-        split_i = (tree_i.left[a] >= 0) & ((size_i >= size_j) | (tree_j.left[b] < 0))
-        a = np.concatenate([tree_i.left[a[split_i]], tree_i.right[a[split_i]],
-                            a[~split_i], a[~split_i]])
-        b = np.concatenate([b[split_i], b[split_i],
-                            tree_j.left[b[~split_i]], tree_j.right[b[~split_i]]])
+        a, b = _split(tree_i, tree_j, a[~leaf], b[~leaf])
     if stats is not None:
         stats.update(walk.stats)
     cones = _stack(walk.kept)
     circ = unique_circles(np.concatenate(walk.circles)) if walk.circles else np.zeros((0, 3))
     return cones, circ
+
+
+def _gap(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(p,)`` the gap between the boxes of the node pairs ``(a[k], b[k])`` (the largest
+    separation along an axis; ``<= 0`` when they overlap), model units."""
+    return np.maximum(tree_j.lo[b] - tree_i.hi[a], tree_i.lo[a] - tree_j.hi[b]).max(axis=1)
+
+
+def _split(tree_i: TriTree, tree_j: TriTree, a: np.ndarray, b: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """The children of the inner node pairs ``(a[k], b[k])``: the node with the larger box is
+    split (a leaf never is)."""
+    size_i = np.linalg.norm(tree_i.hi[a] - tree_i.lo[a], axis=1)
+    size_j = np.linalg.norm(tree_j.hi[b] - tree_j.lo[b], axis=1)
+    split_i = (tree_i.left[a] >= 0) & ((size_i >= size_j) | (tree_j.left[b] < 0))
+    return (np.concatenate([tree_i.left[a[split_i]], tree_i.right[a[split_i]],
+                            a[~split_i], a[~split_i]]),
+            np.concatenate([b[split_i], b[split_i],
+                            tree_j.left[b[~split_i]], tree_j.right[b[~split_i]]]))
+
+
+def _near_leaves(tree_i: TriTree, tree_j: TriTree, eps: float
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The leaf pairs whose boxes are within ``4 eps`` of each other (every ancestor pair of
+    such a pair is as near)."""
+    a = np.zeros(1, dtype=np.int64)
+    b = np.zeros(1, dtype=np.int64)
+    out_a, out_b = [], []
+    while len(a):
+        near = _gap(tree_i, tree_j, a, b) <= 4 * eps
+        a, b = a[near], b[near]
+        leaf = (tree_i.left[a] < 0) & (tree_j.left[b] < 0)
+        out_a.append(a[leaf])
+        out_b.append(b[leaf])
+        a, b = _split(tree_i, tree_j, a[~leaf], b[~leaf])
+    return np.concatenate(out_a), np.concatenate(out_b)
 
 
 #: Leaf pairs whose terms are computed between two updates of the cover.
@@ -520,7 +571,7 @@ class _Walk:
                 continue
             sel = np.nonzero(sel)[0]
             gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
-            drop[sel] = cover.covers_spanned(gens)
+            drop[sel] = cover.covers_spanned(gens, pairs=BOX_EDGE_PAIRS)
         return a[~drop], b[~drop]
 
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:

@@ -155,13 +155,16 @@ class Cover:
             self.sat[face] = sat
         return self.sat[face]
 
-    def covers_spanned(self, gens: np.ndarray) -> np.ndarray:
+    def covers_spanned(self, gens: np.ndarray,
+                       pairs: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """``(p,)`` whether each closed cone spanned by generators ``gens`` ``(p, g, 3)``
         lies in covered cells on every face it meets. On a face whose axis ``e`` has
         ``g . e > 0`` for every generator, the cone's chart image is the convex hull of the
         generators' charts, so their bounding box is used (no clipping); a face with no
         generator in front of it is missed. A cone with generators on both sides of some
-        face's plane is clipped (:meth:`covers` of its H-representation)."""
+        face's plane is clipped (:meth:`covers` of its H-representation; ``pairs``: the
+        generator pairs that can span its facets, as :func:`~ndbg_cli.cubemap.cone_normals`
+        takes them)."""
         if self.empty:
             return np.zeros(len(gens), dtype=bool)
         se = gens @ FACES[:, 0].T  # (p, g, 6)
@@ -169,7 +172,7 @@ class Cover:
         mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
         ok = np.ones(len(gens), dtype=bool)
         if mixed.any():
-            ok[mixed] = self.covers(compact(cone_normals(gens[mixed])))
+            ok[mixed] = self.covers(compact(cone_normals(gens[mixed], pairs=pairs)))
         for face in range(6):
             e, u, v = FACES[face]
             sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]

@@ -53,7 +53,8 @@ def direction_of(face: int, st: np.ndarray) -> np.ndarray:
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9) -> np.ndarray:
+def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
+                 pairs: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """H-representation of the conic hulls of generator sets.
 
     ``gens`` is ``(p, g, 3)``: ``p`` sets of ``g`` vectors. Returns ``(p, g(g-1)/2, 3)`` unit
@@ -62,11 +63,12 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9) -> np.ndarray:
     through the origin spanned by two generators, kept (with its sign) when every generator
     lies on one side within ``rel_tol`` (relative to the generator's length). If the generators
     all lie in one plane through the origin, both orientations survive and the open cone is
-    empty, as it should be.
+    empty, as it should be. ``pairs`` (two index arrays) restricts the candidates to those
+    generator pairs (:data:`DIFFERENCE_PAIRS` for the 9 vertex differences of two triangles).
     """
     gens = np.asarray(gens, dtype=float)
     p, g, _ = gens.shape
-    a, b = np.triu_indices(g, k=1)
+    a, b = np.triu_indices(g, k=1) if pairs is None else pairs
     n = np.cross(gens[:, a], gens[:, b])  # (p, q, 3)
     norm = np.linalg.norm(n, axis=2, keepdims=True)
     scale = np.linalg.norm(gens, axis=2)  # (p, g)
@@ -85,6 +87,31 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9) -> np.ndarray:
         extra = np.where(both[:, :, None], -n, 0.0)
         out = np.concatenate([out, extra], axis=1)
     return out
+
+
+def _difference_pairs() -> tuple[np.ndarray, np.ndarray]:
+    # generator 3 v + w is vertex v of one triangle minus vertex w of the other
+    a, b = np.triu_indices(9, k=1)
+    keep = (a // 3 == b // 3) | (a % 3 == b % 3)
+    return a[keep], b[keep]
+
+
+#: The generator pairs of the 9 differences ``t_j[v] - t_i[w]`` (index ``3 v + w``) that can
+#: span a facet of their conic hull: those sharing ``v`` or ``w`` (18 of 36). A facet of the
+#: cone over the Minkowski difference touches it along an edge, and every edge of a Minkowski
+#: sum is an edge of one summand plus a vertex of the other (parallel edges: a union of such).
+DIFFERENCE_PAIRS = _difference_pairs()
+
+
+def _box_edge_pairs() -> tuple[np.ndarray, np.ndarray]:
+    a, b = np.triu_indices(8, k=1)
+    keep = np.isin(a ^ b, (1, 2, 4))
+    return a[keep], b[keep]
+
+
+#: The corner pairs of a box (corner ``4 x + 2 y + z`` takes the high end along the axes
+#: flagged) that are its 12 edges: the only pairs that can span a facet of the cone over it.
+BOX_EDGE_PAIRS = _box_edge_pairs()
 
 
 def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
@@ -134,6 +161,16 @@ def _clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
         if not active.any():
             continue
         idx = np.nonzero(active)[0]
+        # only polygons with vertices on both sides are cut; wholly outside ones vanish
+        pi, ci = poly[idx], c[idx]
+        f = pi[:, :, 0] * ci[:, :1] + pi[:, :, 1] * ci[:, 1:2] + ci[:, 2:3]
+        valid = np.arange(pi.shape[1])[None, :] < count[idx][:, None]
+        out = ~np.any(valid & (f >= 0), axis=1)
+        count[idx[out]] = 0
+        cut = ~out & np.any(valid & (f < 0), axis=1)
+        if not cut.any():
+            continue
+        idx = idx[cut]
         sub, cnt = _clip_one(poly[idx], count[idx], c[idx])
         m = sub.shape[1]
         if m > poly.shape[1]:
@@ -181,6 +218,12 @@ def compact(normals: np.ndarray) -> np.ndarray:
     """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
     if not len(normals):
         return normals
+    # zero rows out first (stably): the sort below then runs on the few facets only
+    nonzero = np.any(normals != 0.0, axis=2)
+    width = max(int(nonzero.sum(axis=1).max()), 1)
+    if width < normals.shape[1]:
+        first = np.argsort(~nonzero, axis=1, kind="stable")[:, :width]
+        normals = np.take_along_axis(normals, first[:, :, None].repeat(3, axis=2), axis=1)
     key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
     order = np.argsort(key, axis=1, kind="stable")
     key = np.take_along_axis(key, order, axis=1)

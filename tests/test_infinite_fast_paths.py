@@ -1,7 +1,8 @@
 """Fast paths of the infinite-translation NDBG, each against the general route and against
 answers worked out by hand: one cone for convex parts far apart
-(:func:`ndbg_cli.blocking_cones.convex_pair_cone`) and the merging of collinear boundary
-segments before the arrangement is noded (:func:`ndbg_cli.arrangement.merged_segments`)."""
+(:func:`ndbg_cli.blocking_cones.convex_pair_cone`), the merging of collinear boundary
+segments before the arrangement is noded (:func:`ndbg_cli.arrangement.merged_segments`), the
+candidate facets of difference and box cones, and the near-first walk inside a domain."""
 
 from __future__ import annotations
 
@@ -10,10 +11,23 @@ import pytest
 import shapely
 import trimesh
 
+import ndbg_cli
 from ndbg_cli import arrangement, infinite
 from ndbg_cli import blocking_cones as bc
 from ndbg_cli.assembly import Assembly
-from ndbg_cli.cubemap import random_directions
+from ndbg_cli.contacts import analyze_contacts
+from ndbg_cli.cover import RASTER
+from ndbg_cli.cubemap import (
+    BOX_EDGE_PAIRS,
+    DIFFERENCE_PAIRS,
+    FACES,
+    compact,
+    cone_normals,
+    face_of,
+    random_directions,
+)
+from ndbg_cli.domain import free_domain
+from ndbg_cli.infinitesimal import contact_pairs
 from ndbg_cli.sweep import SweepChecker
 from ndbg_cli.validate import make_part
 
@@ -283,3 +297,89 @@ def test_union_is_never_smaller_than_a_piece():
         got = bc.union(np.array(pieces, dtype=object))
         assert got.area == pytest.approx(a.area, rel=1e-9)
         assert got.buffer(1e-9).covers(a)  # snapped to GRID: within 1e-10
+
+
+# --------------------------------------------------------------------------------------------
+# Candidate facets: the generator pairs that can span a facet
+# --------------------------------------------------------------------------------------------
+
+def _same_open_set(m_all: np.ndarray, m_few: np.ndarray, d: np.ndarray) -> bool:
+    """Whether two H-representations give the same open cone on ``d``, up to 1e-9 (each
+    strict membership implies the other's lenient one)."""
+    a, b = _inside(m_all, d, 1e-9), _inside(m_few, d, 1e-9)
+    a2, b2 = _inside(m_all, d, -1e-9), _inside(m_few, d, -1e-9)
+    return not (np.any(a & ~b2) or np.any(b & ~a2))
+
+
+def test_triangle_difference_facets_come_from_edge_vertex_pairs():
+    # cone(t_j - t_i) over the 18 generator pairs sharing a vertex of one triangle equals the
+    # cone over all 36 pairs: generic, coplanar, parallel-edged, touching and integer pairs
+    rng = np.random.default_rng(7)
+    d = random_directions(3000, seed=11)
+    only_v = (DIFFERENCE_PAIRS[0][DIFFERENCE_PAIRS[0] // 3 == DIFFERENCE_PAIRS[1] // 3],
+              DIFFERENCE_PAIRS[1][DIFFERENCE_PAIRS[0] // 3 == DIFFERENCE_PAIRS[1] // 3])
+    missed = 0
+    for trial in range(600):
+        ti = rng.normal(size=(3, 3))
+        tj = rng.normal(size=(3, 3)) + rng.normal(size=3) * rng.uniform(0, 3)
+        kind = trial % 5
+        if kind == 1:
+            ti[:, 2] = tj[:, 2] = 0.0
+        elif kind == 2:
+            tj = -ti + rng.normal(size=3)  # every edge of t_j parallel to one of t_i
+        elif kind == 3:
+            tj[0] = ti[1]  # a shared vertex: the origin is on the difference's boundary
+        elif kind == 4:
+            ti, tj = np.round(ti), np.round(tj)
+        gens = (tj[None, :, None, :] - ti[None, None, :, :]).reshape(1, 9, 3)
+        full = compact(cone_normals(gens))
+        assert _same_open_set(full, compact(cone_normals(gens, pairs=DIFFERENCE_PAIRS)), d)
+        missed += not _same_open_set(full, compact(cone_normals(gens, pairs=only_v)), d)
+    assert missed > 100  # the edges of t_i are needed too: the check has teeth
+
+
+def test_box_cone_facets_come_from_box_edges():
+    rng = np.random.default_rng(8)
+    d = random_directions(3000, seed=12)
+    corners = bc._CORNERS
+    for trial in range(300):
+        lo = rng.normal(size=3) * 2
+        hi = lo + rng.uniform(0, 2, size=3)
+        if trial % 3 == 1:
+            hi[trial % 2] = lo[trial % 2]  # a flat box
+        elif trial % 3 == 2:
+            lo[0] = 0.0  # the origin on the plane of a face
+        gens = np.where(corners, hi, lo)[None]
+        full = compact(cone_normals(gens))
+        assert _same_open_set(full, compact(cone_normals(gens, pairs=BOX_EDGE_PAIRS)), d)
+
+
+def test_walk_with_a_domain_gives_the_dense_set_inside_it():
+    # near leaf pairs first (domain given): the pruned union equals the dense terms on every
+    # sampled direction of the domain cells, for the blind peg and the bolt (bore contacts)
+    for name in ("peg-blind", "bolt-plain"):
+        asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+        ca = analyze_contacts(asm)
+        dom = free_domain(len(asm.parts), contact_pairs(asm, ca), ca.angle_tolerance)
+        assert dom is not None and dom.mean() < 0.05
+        tris = bc.part_triangles(asm)
+        eps = asm.length_tolerance
+        # directions inside the domain: random cell centres and points near the cap centres
+        f, row, col = np.nonzero(dom)
+        rng = np.random.default_rng(3)
+        k = rng.integers(0, len(f), 4000)
+        s = -1.0 + (col[k] + rng.uniform(0, 1, len(k))) * 2.0 / RASTER
+        t = -1.0 + (row[k] + rng.uniform(0, 1, len(k))) * 2.0 / RASTER
+        d = FACES[f[k], 0] + s[:, None] * FACES[f[k], 1] + t[:, None] * FACES[f[k], 2]
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        assert (face_of(d)[0] == f[k]).all()
+        stats: dict = {}
+        a, b = 0, 1
+        walked, circ = bc.pruned_pair_cones(tris[a][0], tris[a][1], bc.tri_tree(tris[a][0]),
+                                            tris[b][0], tris[b][1], bc.tri_tree(tris[b][0]),
+                                            eps, stats=stats, domain=dom)
+        dense, circ_dense = bc.pair_cones(tris[a][0], tris[a][1], tris[b][0], tris[b][1], eps)
+        assert stats["kept"] < len(dense) / 3
+        assert _same_open_set(dense, walked, d)
+        assert _inside(dense, d).any() and not _inside(dense, d).all()
+        assert len(circ) == len(circ_dense)
