@@ -23,7 +23,9 @@ import trimesh
 
 import ndbg_cli
 from ndbg_cli.assembly import Assembly
-from ndbg_cli.infinite import build_infinite, cones_to_face_geoms, pair_cones, part_triangles
+from ndbg_cli.batch import default_jobs
+from ndbg_cli.blocking_cones import cones_to_face_geoms, pair_cones, part_triangles
+from ndbg_cli.infinite import build_infinite
 from ndbg_cli.validate import make_part
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -83,10 +85,11 @@ def _time(asm: Assembly) -> tuple[float, str]:
     return dt, note
 
 
-def _restricted(name: str, path: Path) -> tuple[str, float, str]:
+def _restricted(name: str, path: Path, workers: int = 1) -> tuple[str, float, str]:
     """What ``ndbg analyze --motion infinite`` does above the budget: the NDBG only where the
     infinitesimal NDBG frees a subassembly (:mod:`ndbg_cli.domain`); timed from the contacts
-    on (the contact analysis itself is in ``bench_contacts``)."""
+    on (the contact analysis itself is in ``bench_contacts``), with ``workers`` processes for
+    the part pairs (``--jobs``)."""
     if not path.exists():
         return name, float("nan"), f"skipped: {path} not found"
     from ndbg_cli.contacts import analyze_contacts
@@ -99,7 +102,7 @@ def _restricted(name: str, path: Path) -> tuple[str, float, str]:
     t0 = time.perf_counter()
     dom = free_domain(len(asm.parts), contact_pairs(asm, ca), ca.angle_tolerance)
     t1 = time.perf_counter()
-    nd = build_infinite(asm, domain=dom)
+    nd = build_infinite(asm, domain=dom, workers=workers)
     parts, _ = partitionings(nd)
     dt = time.perf_counter() - t0
     s = nd.stats
@@ -130,6 +133,10 @@ def run() -> list[tuple[str, float, str]]:
         dt, note = _time(asm)
         out.append((name, dt, note + f" (estimated {est:.1f} s)"))
     out.append(_restricted("as1 (free domain)", SHARED / "as1" / "as1-oc-214.stp"))
+    cores = default_jobs()
+    if cores > 1:
+        out.append(_restricted(f"as1 (free domain, {cores} processes)",
+                               SHARED / "as1" / "as1-oc-214.stp", workers=cores))
     sizes, times = [], []
     for n in (10, 100, 1000):
         if len(times) >= 2:

@@ -40,6 +40,7 @@ class Options:
     time_limit: float = 2.0  # AND/OR graph budget: seconds per search
     infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)
+    workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
 
 
 def read_config(path: str | Path) -> dict:

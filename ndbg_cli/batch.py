@@ -18,6 +18,7 @@ local run. ``distributed`` is imported only there (``pip install 'ndbg-cli[dask]
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import os
 import signal
 import traceback
@@ -70,8 +71,12 @@ def _worker_init() -> None:
 
 def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
               debug: bool = False) -> Iterator[dict]:
-    """Yield one report or error record per target, in the order of ``targets``."""
+    """Yield one report or error record per target, in the order of ``targets``. A single
+    target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
+    (``Options.workers``; same report)."""
     if jobs <= 1 or len(targets) <= 1:
+        if len(targets) == 1 and jobs > 1:
+            options = dataclasses.replace(options, workers=jobs)
         for t in targets:
             yield analyze_one(t, options, debug)
         return

@@ -125,7 +125,9 @@ def _common_load_options(f):
 @click.option("--out-dir", type=click.Path(file_okay=False), help="Write one NAME.json per "
               "assembly (atomically, as each completes) plus index.json into this folder.")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
-              help="Worker processes for a batch (default: the number of cores).")
+              help="Worker processes: one assembly each in a batch; for a single assembly, "
+              "its infinite-translation NDBG's part pairs (default: the number of cores). "
+              "Same reports.")
 @click.option("--scheduler", metavar="ADDRESS", help="Run the batch on a dask.distributed "
               "cluster: tcp://HOST:PORT of a running scheduler (its workers must see the input "
               "files at the same paths), or 'local' to start one on this machine with --jobs "

@@ -59,14 +59,11 @@ from .arrangement import Cell, arrangement_cells, equator_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
     GRID,
-    cones_to_face_geoms,
     convex_entries,
     convex_pairs,
     far_convex,
     pair_cones,
     part_triangles,
-    pruned_pair_cones,
-    tri_tree,
     unique_circles,
 )
 from .cache import PairCache
@@ -75,6 +72,7 @@ from .dbg import DBG
 from .domain import domain_polygons
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
+from .pair_workers import entries_of, pair_sets
 
 #: Regions thinner than ``ANGULAR_FACTOR * length_tolerance / diagonal`` (chart units, about
 #: radians) are reported as lower-dimensional.
@@ -271,14 +269,15 @@ def triangle_pairs(asm: Assembly) -> int:
 
 
 def blocked_sets(asm: Assembly, cache: PairCache | None = None,
-                 domain: np.ndarray | None = None) -> BlockedSets:
+                 domain: np.ndarray | None = None, workers: int = 1) -> BlockedSets:
     """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is
     computed once, the part with fewer triangles moving, and the other order is its antipodal
     image (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed
     pair's cones and chart polygons are looked up by the two parts' content hashes and the
     tolerance (:mod:`ndbg_cli.cache`). With ``domain`` (``(6, r, r)`` bool cube-map cells,
     symmetric under ``d -> -d``, :func:`ndbg_cli.domain.free_domain`) the sets are right only
-    inside those cells, and computed only there."""
+    inside those cells, and computed only there. ``workers``: processes computing the pairs
+    (:func:`ndbg_cli.pair_workers.pair_sets`; the result does not depend on it)."""
     t0 = time.perf_counter()
     tris = part_triangles(asm)
     eps = asm.length_tolerance
@@ -291,7 +290,6 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     circles: list[np.ndarray] = []
     # content hashes of the triangles actually used (validated, placed, 2D extruded)
     gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
-    trees_of: list = [None] * n  # pruning trees, built on first use
     sizes = [len(t) for t, _ in tris]
 
     def store(a: int, b: int, cones: np.ndarray, entries: list) -> None:
@@ -312,40 +310,38 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for (a, b), cone, entries in zip(fast, fast.values(), convex_entries(list(fast.values()))):
         store(a, b, cone, entries)
     t_cones += time.perf_counter() - tc
-    for i in range(n):
-        for j in range(i + 1, n):
-            # B_ji = -B_ij: one orientation is computed, the smaller part moving (its walk
-            # prunes better), and the other is its antipodal image
-            a, b = (i, j) if sizes[i] <= sizes[j] else (j, i)
-            ta = time.perf_counter()
-            key = got = None
-            if (a, b) in fast:
-                continue
-            if cache is not None:
-                # 2D parts are extruded to the assembly's diagonal: that enters the result.
-                extra = () if domain is None else (
-                    hashlib.sha256(np.packbits(domain).tobytes()).hexdigest(),)
-                key = cache.key("infinite", "pruned-1", gkeys[a], gkeys[b], eps, asm.dimension,
-                                asm.diagonal if asm.dimension == 2 else None, *extra)
-                got = cache.get("infinite", key, _thaw)
-            if got is not None:
-                cones, circ, entries = got
-                tb = time.perf_counter()
-            else:
-                for k in (a, b):
-                    if trees_of[k] is None:
-                        trees_of[k] = tri_tree(tris[k][0])
-                cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees_of[a],
-                                                tris[b][0], tris[b][1], trees_of[b], eps,
-                                                domain=domain)
-                tb = time.perf_counter()
-                entries = cones_to_face_geoms(cones)
-                if key is not None:
-                    cache.put("infinite", key, _freeze(cones, circ, entries))
+    # B_ji = -B_ij: one orientation is computed, the smaller part moving (its walk prunes
+    # better), and the other is its antipodal image
+    order = [(i, j) if sizes[i] <= sizes[j] else (j, i)
+             for i in range(n) for j in range(i + 1, n)]
+    found: dict[tuple[int, int], tuple] = {}
+    keys: dict[tuple[int, int], str] = {}
+    for a, b in order:
+        if (a, b) in fast or cache is None:
+            continue
+        # 2D parts are extruded to the assembly's diagonal: that enters the result.
+        extra = () if domain is None else (
+            hashlib.sha256(np.packbits(domain).tobytes()).hexdigest(),)
+        keys[(a, b)] = cache.key("infinite", "pruned-2", gkeys[a], gkeys[b], eps,
+                                 asm.dimension, asm.diagonal if asm.dimension == 2 else None,
+                                 *extra)
+        got = cache.get("infinite", keys[(a, b)], _thaw)
+        if got is not None:
+            found[(a, b)] = got
+    todo = [p for p in order if p not in fast and p not in found]
+    for (a, b), (cones, circ, faces, dt_cones, dt_union) in zip(
+            todo, pair_sets(tris, todo, eps, domain, workers)):
+        entries = entries_of(faces)
+        found[(a, b)] = (cones, circ, entries)
+        t_cones += dt_cones
+        t_union += dt_union
+        if cache is not None:
+            cache.put("infinite", keys[(a, b)], _freeze(cones, circ, entries))
+    for a, b in order:
+        if (a, b) in found:
+            cones, circ, entries = found[(a, b)]
             circles.append(circ)
             store(a, b, cones, entries)
-            t_cones += tb - ta
-            t_union += time.perf_counter() - tb
     dom = None if domain is None else domain_polygons(domain)
     if dom is not None:
         # only the domain's part is right (and needed): the arrangement is built there
@@ -438,7 +434,7 @@ EXACT_CELLS = 2000
 
 
 def build_infinite(asm: Assembly, cache: PairCache | None = None,
-                   domain: np.ndarray | None = None) -> NDBG:
+                   domain: np.ndarray | None = None, workers: int = 1) -> NDBG:
     """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
     (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
     reuses per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map
@@ -446,7 +442,7 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
     outside), not for its subassemblies'; the stats say ``restricted``."""
     t0 = time.perf_counter()
-    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None)
+    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers)
     t1 = time.perf_counter()
     cells = equator_cells(bs) if asm.dimension == 2 else arrangement_cells(bs)
     t2 = time.perf_counter()

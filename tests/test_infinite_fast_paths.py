@@ -383,3 +383,21 @@ def test_walk_with_a_domain_gives_the_dense_set_inside_it():
         assert _same_open_set(dense, walked, d)
         assert _inside(dense, d).any() and not _inside(dense, d).all()
         assert len(circ) == len(circ_dense)
+
+
+def test_worker_processes_give_the_same_ndbg(monkeypatch):
+    # the pairs computed by two worker processes (in an order of their own) give the same
+    # NDBG as one process: same regions, directions, DBGs, pieces; with a domain too
+    from ndbg_cli import pair_workers
+
+    monkeypatch.setattr(pair_workers, "MIN_PARALLEL_PAIRS", 0)
+    for name, restricted in (("fig2-sandwich-5", False), ("fig11-nonlinear", True)):
+        asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+        dom = None
+        if restricted:
+            ca = analyze_contacts(asm)
+            dom = free_domain(len(asm.parts), contact_pairs(asm, ca), ca.angle_tolerance)
+        one = infinite.build_infinite(asm, domain=dom, workers=1)
+        two = infinite.build_infinite(asm, domain=dom, workers=2)
+        assert one.regions == two.regions and len(one.regions) > 5
+        assert one.stats["pieces"] == two.stats["pieces"]
