@@ -224,13 +224,35 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
         new = np.r_[True, np.any(qs[1:] != qs[:-1], axis=1)] if len(qs) else np.zeros(0, bool)
         return pts[np.sort(order[new])]
 
-    for s0 in range(0, len(a), CROSS_CHUNK):
-        d = np.cross(n[a[s0:s0 + CROSS_CHUNK]], n[b[s0:s0 + CROSS_CHUNK]])
+    # With a domain, each antipodal pair of faces takes only the circles that meet its domain
+    # box (a crossing lies on both circles), chunk by chunk of the same pairs, so that the
+    # crossings come in the same order and the same ones are kept first.
+    groups: list[tuple[np.ndarray | None, tuple[int, ...]]] = [(None, tuple(range(6)))]
+    if domain is not None and len(n):
+        groups = []
+        for f in range(0, 6, 2):
+            faces = tuple(g for g in (f, f + 1) if domain[g] is not None)
+            if faces:
+                meets = np.zeros(len(n), dtype=bool)
+                for g in faces:
+                    e, u, v = FACES[g]
+                    x0, y0, x1, y1 = domain[g].bounds
+                    at = np.stack([n @ u * x + n @ v * y + n @ e
+                                   for x in (x0, x1) for y in (y0, y1)])
+                    meets |= (at.min(axis=0) <= 0.0) & (at.max(axis=0) >= 0.0)
+                groups.append((meets, faces))
+    for s0, meets, faces in ((s0, m, fs) for s0 in range(0, len(a), CROSS_CHUNK)
+                             for m, fs in groups):
+        ca, cb = a[s0:s0 + CROSS_CHUNK], b[s0:s0 + CROSS_CHUNK]
+        if meets is not None:
+            both = meets[ca] & meets[cb]
+            ca, cb = ca[both], cb[both]
+        d = np.cross(n[ca], n[cb])
         ln = np.linalg.norm(d, axis=1)
         d = d[ln > 1e-12] / ln[ln > 1e-12, None]
         d = np.concatenate([d, -d])
         owner = np.argmax(d @ FACES[:, 0].T, axis=1)  # the one face a direction can be on
-        for face in range(6):
+        for face in faces:
             if domain is not None and domain[face] is None:
                 continue
             e, u, v = FACES[face]
