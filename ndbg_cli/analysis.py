@@ -58,7 +58,8 @@ def read_config(path: str | Path) -> dict:
         raise InputError(f"cannot read config: {exc}".splitlines()[0], file=str(path)) from None
     if not isinstance(data, dict):
         raise InputError("a config must be a YAML mapping", file=str(path))
-    fields = {f.name for f in dataclasses.fields(Options)}
+    # ``workers`` comes from --jobs only (one assembly; a batch spreads its assemblies)
+    fields = {f.name for f in dataclasses.fields(Options)} - {"workers"}
     unknown = sorted(set(data) - fields)
     if unknown:
         raise InputError(f"unknown setting '{unknown[0]}' (known: {', '.join(sorted(fields))})",

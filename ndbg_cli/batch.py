@@ -74,9 +74,9 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
     """Yield one report or error record per target, in the order of ``targets``. A single
     target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
     (``Options.workers``; same report)."""
+    # one target: its pairs in ``jobs`` processes; several: one process each (never nested)
+    options = dataclasses.replace(options, workers=jobs if len(targets) == 1 else 1)
     if jobs <= 1 or len(targets) <= 1:
-        if len(targets) == 1 and jobs > 1:
-            options = dataclasses.replace(options, workers=jobs)
         for t in targets:
             yield analyze_one(t, options, debug)
         return
@@ -124,6 +124,7 @@ def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: in
     cluster (a worker died, a result could not be sent) becomes the error record
     :func:`analyze_one` would make (exit code 3); the other targets go on.
     """
+    options = dataclasses.replace(options, workers=1)  # dask workers are daemons: no pools
     try:
         import distributed
     except ImportError:

@@ -455,11 +455,11 @@ def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.nd
         return _EMPTY
     walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps, domain)
     # With a domain (small caps around the directions where contacts leave something free),
-    # the near leaf pairs go first: they are never pruned, and their terms (a contact's lunes
-    # and half-spaces) block whole caps, so most far pairs are then pruned (AS1: 694k terms
-    # computed and 80k kept instead of 936k and 192k). On the whole sphere their terms are
-    # mostly slivers along the contact circles that cover no cell, and the breadth-first
-    # order prunes as well (the 15 small examples: the same total time).
+    # the near leaf pairs go first: they are pruned only when wholly outside it, and their
+    # terms (a contact's lunes and half-spaces) block whole caps, so most far pairs are then
+    # pruned (AS1: 694k terms computed and 80k kept instead of 936k and 192k). On the whole
+    # sphere their terms are mostly slivers along the contact circles that cover no cell,
+    # and the breadth-first order prunes as well (the 15 small examples: the same time).
     near_first = domain is not None
     if near_first:
         a, b = _near_leaves(tree_i, tree_j, eps)

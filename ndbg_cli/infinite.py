@@ -329,14 +329,16 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
         if got is not None:
             found[(a, b)] = got
     todo = [p for p in order if p not in fast and p not in found]
-    for (a, b), (cones, circ, faces, dt_cones, dt_union) in zip(
-            todo, pair_sets(tris, todo, eps, domain, workers)):
+    # each pair cached as soon as it is done (an interrupted run keeps them); the times are
+    # summed over the workers (CPU seconds, not wall time, with several)
+    for k, (cones, circ, faces, dt_cones, dt_union) in pair_sets(tris, todo, eps, domain,
+                                                                 workers):
         entries = entries_of(faces)
-        found[(a, b)] = (cones, circ, entries)
+        found[todo[k]] = (cones, circ, entries)
         t_cones += dt_cones
         t_union += dt_union
         if cache is not None:
-            cache.put("infinite", keys[(a, b)], _freeze(cones, circ, entries))
+            cache.put("infinite", keys[todo[k]], _freeze(cones, circ, entries))
     for a, b in order:
         if (a, b) in found:
             cones, circ, entries = found[(a, b)]

@@ -2,17 +2,23 @@
 
 Each pair's set (:func:`one_pair`: the pruned terms, their chart polygons and union) is a pure
 function of the two parts' triangles, the tolerance and the domain, so the results do not
-depend on how many workers compute them, nor on which: :func:`pair_sets` returns them in the
-order asked, and the NDBG built from them is byte-identical for any ``workers``. A pool is
-started only when the work is worth it (:data:`MIN_PARALLEL_PAIRS` triangle pairs); workers
-leave Ctrl-C to the parent, which waits for the pairs under way before it stops.
+depend on how many workers compute them, nor on which, and the NDBG built from them is
+byte-identical for any ``workers``. A pool is started only when the work is worth it
+(:data:`MIN_PARALLEL_PAIRS` triangle pairs). Workers leave Ctrl-C to the parent, which then
+ends them at once; a worker whose parent has died (SIGTERM, SIGKILL) exits by itself within
+:data:`ORPHAN_POLL` seconds; if a worker dies (out of memory, say), the pairs not yet done are
+computed in this process.
 """
 
 from __future__ import annotations
 
+import os
 import signal
+import threading
 import time
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 import shapely
@@ -22,6 +28,8 @@ from .blocking_cones import cones_to_face_geoms, pruned_pair_cones, tri_tree
 #: Fewest (moving x blocking) triangle pairs, summed over the pairs to compute, for which
 #: worker processes are started (below it their start-up costs more than they save).
 MIN_PARALLEL_PAIRS = 1_000_000
+#: Seconds between a worker's checks that its parent is alive.
+ORPHAN_POLL = 0.5
 
 _STATE: dict = {}
 
@@ -50,9 +58,17 @@ def entries_of(faces: list) -> list:
     return [None if f is None else (f[0], shapely.STRtree(f[1]), f[2]) for f in faces]
 
 
-def _init(tris: list, eps: float, domain: np.ndarray | None) -> None:
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(ORPHAN_POLL)
+        if os.getppid() != parent:
+            os._exit(1)
+
+
+def _init(tris: list, eps: float, domain: np.ndarray | None, parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
     _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris))
 
 
@@ -62,20 +78,38 @@ def _work(pair: tuple[int, int]) -> tuple:
 
 
 def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, int]],
-              eps: float, domain: np.ndarray | None = None, workers: int = 1) -> list[tuple]:
-    """:func:`one_pair` for each ordered pair ``(a, b)`` of ``pairs``, in that order, with
-    up to ``workers`` processes (one: in this process)."""
+              eps: float, domain: np.ndarray | None = None, workers: int = 1
+              ) -> Iterator[tuple[int, tuple]]:
+    """:func:`one_pair` for each ordered pair ``(a, b)`` of ``pairs``, as ``(k, result)`` for
+    ``pairs[k]``, each as soon as it is done (so that a caller can cache it), with up to
+    ``workers`` processes (one: in this process, in order)."""
     cost = sum(len(tris[a][0]) * len(tris[b][0]) for a, b in pairs)
+    trees: list = [None] * len(tris)
     if workers <= 1 or len(pairs) < 2 or cost < MIN_PARALLEL_PAIRS:
-        trees: list = [None] * len(tris)
-        return [one_pair(tris, trees, a, b, eps, domain) for a, b in pairs]
+        for k, (a, b) in enumerate(pairs):
+            yield k, one_pair(tris, trees, a, b, eps, domain)
+        return
     # the costliest pairs first, so that no worker is left with a long one at the end
     order = sorted(range(len(pairs)), key=lambda k: -len(tris[pairs[k][0]][0])
                    * len(tris[pairs[k][1]][0]))
-    with ProcessPoolExecutor(max_workers=min(workers, len(pairs)), initializer=_init,
-                             initargs=(tris, eps, domain)) as pool:
-        done = list(pool.map(_work, [pairs[k] for k in order]))
-    out: list = [None] * len(pairs)
-    for k, r in zip(order, done):
-        out[k] = r
-    return out
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(pairs)), initializer=_init,
+                               initargs=(tris, eps, domain, os.getpid()))
+    done: set[int] = set()
+    try:
+        for k, r in zip(order, pool.map(_work, [pairs[k] for k in order])):
+            done.add(k)
+            yield k, r
+    except BrokenProcessPool:  # a worker died: the rest here
+        for k in order:
+            if k not in done:
+                yield k, one_pair(tris, trees, *pairs[k], eps, domain)
+    finally:
+        # normal end: the workers are idle; else (Ctrl-C, an error, the caller stopping)
+        # they are ended now rather than after the pairs under way
+        if len(done) < len(pairs):
+            # the workers first: the pool then fails its pending calls itself (cancelling
+            # them first races with that and prints a traceback from its thread)
+            for proc in list((getattr(pool, "_processes", None) or {}).values()):
+                if proc.is_alive():
+                    proc.terminate()
+        pool.shutdown(wait=True)

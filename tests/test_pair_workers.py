@@ -1,0 +1,95 @@
+"""Worker processes for one assembly's infinite-translation pairs
+(:mod:`ndbg_cli.pair_workers`): same results as one process, a dead worker's pairs done here,
+no worker outliving its parent, and no way to ask for nested pools from a config file."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+from ndbg_cli import pair_workers as pw
+from ndbg_cli.analysis import read_config
+from ndbg_cli.errors import InputError
+
+from helpers import ROOT
+
+
+def _spheres(n: int, subdivisions: int = 2) -> list[tuple[np.ndarray, np.ndarray]]:
+    out = []
+    for k in range(n):
+        m = trimesh.creation.icosphere(subdivisions=subdivisions)
+        m.apply_translation([2.5 * k, 0.3 * k, 0.0])
+        out.append((np.asarray(m.triangles), np.asarray(m.face_normals)))
+    return out
+
+
+_WORK = pw._work
+
+
+def _dies_on_one(pair):  # the pool forks: its workers run this
+    if pair == (0, 3):
+        os._exit(3)
+    return _WORK(pair)
+
+
+def test_a_dead_worker_leaves_its_pairs_to_the_parent(monkeypatch):
+    monkeypatch.setattr(pw, "MIN_PARALLEL_PAIRS", 0)
+    monkeypatch.setattr(pw, "_work", _dies_on_one)
+    tris = _spheres(4)
+    pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
+    two = dict(pw.pair_sets(tris, pairs, 1e-4, None, 2))
+    one = dict(pw.pair_sets(tris, pairs, 1e-4, None, 1))
+    assert sorted(two) == list(range(len(pairs)))
+    assert all(np.array_equal(two[k][0], one[k][0]) for k in one)
+
+
+SCRIPT = """
+import os, sys
+sys.path.insert(0, {root!r})
+import numpy as np, trimesh
+from ndbg_cli import pair_workers as pw
+pw.MIN_PARALLEL_PAIRS = 0
+tris = []
+for k in range(6):
+    m = trimesh.creation.icosphere(subdivisions=3)
+    m.apply_translation([2.5 * k, 0, 0])
+    tris.append((np.asarray(m.triangles), np.asarray(m.face_normals)))
+print(os.getpid(), flush=True)
+for k, r in pw.pair_sets(tris, [(i, j) for i in range(6) for j in range(i + 1, 6)], 1e-4,
+                         None, 2):
+    print(k, flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="reads /proc for the workers")
+def test_workers_do_not_outlive_a_killed_parent():
+    proc = subprocess.Popen([sys.executable, "-c", SCRIPT.format(root=str(ROOT))],
+                            stdout=subprocess.PIPE, text=True)
+    parent = int(proc.stdout.readline())
+    kids: list[int] = []
+    deadline = time.time() + 60
+    while len(kids) < 2 and time.time() < deadline:
+        out = subprocess.run(["pgrep", "-P", str(parent)], capture_output=True, text=True)
+        kids = [int(x) for x in out.stdout.split()]
+        time.sleep(0.1)
+    assert len(kids) >= 2
+    os.kill(parent, signal.SIGTERM)
+    proc.wait(timeout=30)
+    time.sleep(3 * pw.ORPHAN_POLL + 1.0)
+    alive = [k for k in kids if os.path.exists(f"/proc/{k}")
+             and "zombie" not in open(f"/proc/{k}/status").read()]
+    assert alive == []
+
+
+def test_workers_cannot_come_from_a_config_file(tmp_path):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("workers: 4\n")
+    with pytest.raises(InputError, match="unknown setting 'workers'"):
+        read_config(cfg)
