@@ -8,6 +8,7 @@ linework is snapped to :data:`~ndbg_cli.blocking_cones.GRID`.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -242,8 +243,7 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
                     # rounding slack: a pair too many only adds crossings outside
                     meets |= (at.min(axis=0) <= 1e-12) & (at.max(axis=0) >= -1e-12)
                 groups.append((meets, faces))
-    for s0, meets, faces in ((s0, m, fs) for s0 in range(0, len(a), CROSS_CHUNK)
-                             for m, fs in groups):
+    for s0, (meets, faces) in itertools.product(range(0, len(a), CROSS_CHUNK), groups):
         ca, cb = a[s0:s0 + CROSS_CHUNK], b[s0:s0 + CROSS_CHUNK]
         if meets is not None:
             both = meets[ca] & meets[cb]
@@ -254,8 +254,6 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
         d = np.concatenate([d, -d])
         owner = np.argmax(d @ FACES[:, 0].T, axis=1)  # the one face a direction can be on
         for face in faces:
-            if domain is not None and domain[face] is None:
-                continue
             e, u, v = FACES[face]
             df = d[owner == face]
             st = np.stack([(df @ u) / (df @ e), (df @ v) / (df @ e)], axis=1)

@@ -347,6 +347,12 @@ def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
     """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
     empty, else ``(union, tree, index)``: the union (closed polygons in chart coordinates),
     an STR-tree over the pieces' polygons and the cone index of each tree item."""
+    return with_trees(face_unions(cones))
+
+
+def face_unions(cones: np.ndarray) -> list[tuple | None]:
+    """:func:`cones_to_face_geoms` with the pieces ``(union, pieces, index)`` instead of
+    their search tree (which does not pickle: what a worker process returns)."""
     out: list[tuple | None] = []
     for face in range(6):
         polys, index = face_polygons(cones, face)
@@ -354,8 +360,13 @@ def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
             out.append(None)
             continue
         g = union(polys)
-        out.append(None if g.is_empty else (g, shapely.STRtree(polys), index))
+        out.append(None if g.is_empty else (g, polys, index))
     return out
+
+
+def with_trees(faces: list[tuple | None]) -> list[tuple | None]:
+    """The entries of :func:`cones_to_face_geoms` from those of :func:`face_unions`."""
+    return [None if f is None else (f[0], shapely.STRtree(f[1]), f[2]) for f in faces]
 
 
 def union(polys: np.ndarray, seed: int = 64) -> object:
@@ -559,7 +570,7 @@ class _Walk:
         grow = 2.0 * eps  # the erosion moves near triangles by 1.5 eps
         dlo = tj.lo[b] - ti.hi[a] - grow
         dhi = tj.hi[b] - ti.lo[a] + grow
-        gap = np.maximum(tj.lo[b] - ti.hi[a], ti.lo[a] - tj.hi[b]).max(axis=1)
+        gap = _gap(ti, tj, a, b)
         around = np.all((dlo < 0) & (dhi > 0), axis=1)
         far = gap > 4 * eps
         self.stats["node_pairs"] += int((far & ~around).sum())

@@ -170,8 +170,8 @@ def _clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
         cut = ~out & np.any(valid & (f < 0), axis=1)
         if not cut.any():
             continue
+        sub, cnt = _clip_one(pi[cut], count[idx[cut]], ci[cut], f[cut])
         idx = idx[cut]
-        sub, cnt = _clip_one(poly[idx], count[idx], c[idx])
         m = sub.shape[1]
         if m > poly.shape[1]:
             poly = np.concatenate([poly, np.zeros((p, m - poly.shape[1], 2))], axis=1)
@@ -183,15 +183,15 @@ def _clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
     return poly, count
 
 
-def _clip_one(poly: np.ndarray, count: np.ndarray, coef: np.ndarray
+def _clip_one(poly: np.ndarray, count: np.ndarray, coef: np.ndarray, fa: np.ndarray
               ) -> tuple[np.ndarray, np.ndarray]:
-    """Clip padded convex polygons ``(p, m, 2)`` by ``a s + b t + c >= 0`` (``coef`` (p, 3))."""
+    """Clip padded convex polygons ``(p, m, 2)`` by ``a s + b t + c >= 0`` (``coef`` (p, 3);
+    ``fa`` ``(p, m)``: its value at each vertex)."""
     p, m, _ = poly.shape
     k = np.arange(m)[None, :]
     valid = k < count[:, None]
     nxt = np.where(k + 1 < count[:, None], k + 1, 0)
     q = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
-    fa = poly[:, :, 0] * coef[:, :1] + poly[:, :, 1] * coef[:, 1:2] + coef[:, 2:3]
     fb = np.take_along_axis(fa, nxt, axis=1)
     keep_a = valid & (fa >= 0)
     cross = valid & (((fa >= 0) & (fb < 0)) | ((fa < 0) & (fb >= 0)))

@@ -65,6 +65,7 @@ from .blocking_cones import (
     pair_cones,
     part_triangles,
     unique_circles,
+    with_trees,
 )
 from .cache import PairCache
 from .cubemap import face_of
@@ -72,7 +73,7 @@ from .dbg import DBG
 from .domain import domain_polygons
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
-from .pair_workers import entries_of, pair_sets
+from .pair_workers import pair_sets
 
 #: Regions thinner than ``ANGULAR_FACTOR * length_tolerance / diagonal`` (chart units, about
 #: radians) are reported as lower-dimensional.
@@ -316,12 +317,12 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
              for i in range(n) for j in range(i + 1, n)]
     found: dict[tuple[int, int], tuple] = {}
     keys: dict[tuple[int, int], str] = {}
+    extra = () if domain is None or cache is None else (
+        hashlib.sha256(np.packbits(domain).tobytes()).hexdigest(),)
     for a, b in order:
         if (a, b) in fast or cache is None:
             continue
         # 2D parts are extruded to the assembly's diagonal: that enters the result.
-        extra = () if domain is None else (
-            hashlib.sha256(np.packbits(domain).tobytes()).hexdigest(),)
         keys[(a, b)] = cache.key("infinite", "pruned-2", gkeys[a], gkeys[b], eps,
                                  asm.dimension, asm.diagonal if asm.dimension == 2 else None,
                                  *extra)
@@ -333,7 +334,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     # summed over the workers (CPU seconds, not wall time, with several)
     for k, (cones, circ, faces, dt_cones, dt_union) in pair_sets(tris, todo, eps, domain,
                                                                  workers):
-        entries = entries_of(faces)
+        entries = with_trees(faces)
         found[todo[k]] = (cones, circ, entries)
         t_cones += dt_cones
         t_union += dt_union

@@ -21,9 +21,8 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
-import shapely
 
-from .blocking_cones import cones_to_face_geoms, pruned_pair_cones, tri_tree
+from .blocking_cones import face_unions, pruned_pair_cones, tri_tree
 
 #: Fewest (moving x blocking) triangle pairs, summed over the pairs to compute, for which
 #: worker processes are started (below it their start-up costs more than they save).
@@ -36,10 +35,9 @@ _STATE: dict = {}
 
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
              eps: float, domain: np.ndarray | None) -> tuple:
-    """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union)``, ``faces`` per cube
-    face ``None`` or ``(union, pieces, index)`` (:func:`~ndbg_cli.blocking_cones.
-    cones_to_face_geoms` without its search tree, which does not pickle). ``trees`` caches
-    each part's pruning tree (``None`` until built)."""
+    """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union)``, ``faces`` as
+    :func:`~ndbg_cli.blocking_cones.face_unions` gives them. ``trees`` caches each part's
+    pruning tree (``None`` until built)."""
     t0 = time.perf_counter()
     for k in (a, b):
         if trees[k] is None:
@@ -47,15 +45,8 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees[a], tris[b][0], tris[b][1],
                                     trees[b], eps, domain=domain)
     t1 = time.perf_counter()
-    faces = [None if e is None else (e[0], np.asarray(e[1].geometries), e[2])
-             for e in cones_to_face_geoms(cones)]
+    faces = face_unions(cones)
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1
-
-
-def entries_of(faces: list) -> list:
-    """The entries of :func:`~ndbg_cli.blocking_cones.cones_to_face_geoms` from
-    :func:`one_pair`'s ``faces`` (the search trees built again, over the same pieces)."""
-    return [None if f is None else (f[0], shapely.STRtree(f[1]), f[2]) for f in faces]
 
 
 def _watch_parent(parent: int) -> None:

@@ -250,8 +250,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
                              float(getattr(ca, "angle_tolerance", DEFAULT_ANGLE_TOL)))
         if domain is None:
             return None
-    nd = block_threads(build_infinite(asm, cache, domain,
-                                      workers=getattr(options, "workers", 1)), threaded)
+    nd = block_threads(build_infinite(asm, cache, domain, workers=options.workers), threaded)
     parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
     sec = infinite_section(asm, nd, parts, trunc)
     if domain is not None:
