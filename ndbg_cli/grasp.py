@@ -20,6 +20,7 @@ lowest part, then face order). The count is not guaranteed minimal (neither is t
 
 from __future__ import annotations
 
+import heapq
 from collections.abc import Sequence
 
 import numpy as np
@@ -44,40 +45,80 @@ def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
     return out
 
 
+#: Largest number of (requirement, candidate face) tests :func:`grasp` makes: the first
+#: gains cost one test per requirement and face of a part in its sink component. Beyond it
+#: the grasp is not computed (``"skipped"``), as for a display model with 10^5 regions and
+#: 10^4 distinct face normals.
+GRASP_BUDGET = 2_000_000_000
+
+#: Tests per numpy block when computing gains (bounds memory to ~100 MB).
+_BLOCK = 4_000_000
+
+
 def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
-          tol: float = 1e-9) -> dict:
+          tol: float = 1e-9, budget: int = GRASP_BUDGET) -> dict:
     """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts).
 
     Returns ``{"value": number of fingers, "fingers": [{"part", "normal", "point",
-    "covers"}...], "uncovered": [{"region", "parts"}...], "complete": bool, "why"}``.
+    "covers"}...], "uncovered": [{"region", "parts"}...], "complete": bool, "why"}``; when
+    the first gains would take more than ``budget`` tests, ``{"value": None, "skipped":
+    True, "why"}`` instead.
+
+    The greedy choice is made lazily (a heap of gains, each re-counted only when it comes
+    to the top: gains only fall as requirements are covered), which picks exactly the
+    fingers of the plain greedy scan without its requirements x faces matrix.
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
     reqs = requirements(ndbg, m)
-    # cover[q, f]: finger f holds requirement q (its part in the sink component, d . n > 0)
     part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
-    cover = np.zeros((len(reqs), len(faces)), dtype=bool)
-    if reqs and faces:
-        dirs = np.array([ndbg.regions[k].direction for k, _ in reqs], dtype=float)
-        normals = np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces])
-        inside = bit_rows([c for _, c in reqs], ndbg.n)
-        cover = inside[:, part_of] & (dirs @ normals.T > tol)
+    normals = np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]).reshape(
+        len(faces), -1)
+    dirs = np.array([ndbg.regions[k].direction for k, _ in reqs], dtype=float)
+    inside = bit_rows([c for _, c in reqs], ndbg.n) if reqs else np.zeros((0, ndbg.n), bool)
+    # per part: the requirements whose sink component holds it, and its faces
+    holds = {p: np.flatnonzero(inside[:, p]) for p in np.unique(part_of).tolist()}
+    by_part = {p: np.flatnonzero(part_of == p) for p in holds}
+    work = sum(len(holds[p]) * len(by_part[p]) for p in holds)
+    if work > budget:
+        return {"value": None, "skipped": True, "fingers": [], "uncovered": [],
+                "complete": False, "parts": [ndbg.ids[i] for i in bits(m)],
+                "why": (f"skipped: {len(reqs)} (region, sink component) requirements x "
+                        f"candidate faces need {work} tests, over the budget of {budget}")}
+
+    def hits(f: int, q: np.ndarray) -> np.ndarray:
+        """Requirements among ``q`` that finger ``f`` holds (its part is in each of them)."""
+        return q[dirs[q] @ normals[f] > tol]
+
+    gain = np.zeros(len(faces), dtype=np.int64)
+    for p, q in holds.items():
+        fs = by_part[p]
+        if len(q) == 0 or len(fs) == 0:
+            continue
+        step = max(1, _BLOCK // len(q))
+        for s in range(0, len(fs), step):
+            gain[fs[s:s + step]] = (dirs[q] @ normals[fs[s:s + step]].T > tol).sum(axis=0)
+    # most uncovered requirements first; ties: lowest part, then first face
+    rank = np.empty(len(faces), dtype=np.int64)
+    rank[np.lexsort((np.arange(len(faces)), part_of))] = np.arange(len(faces))
+    heap = [(-int(g), int(r), f) for f, (g, r) in enumerate(zip(gain, rank)) if g > 0]
+    heapq.heapify(heap)
     left = np.ones(len(reqs), dtype=bool)
     chosen: list[int] = []
-    # most uncovered requirements first; ties: lowest part, then first face
-    tie = np.lexsort((np.arange(len(faces)), part_of))
-    while left.any() and faces:
-        gain = cover[left].sum(axis=0)
-        best = int(tie[np.argmax(gain[tie])])
-        if gain[best] == 0:
-            break
-        chosen.append(best)
-        left &= ~cover[:, best]
+    while heap and left.any():
+        neg, r, f = heapq.heappop(heap)
+        q = holds[int(part_of[f])]
+        got = hits(f, q[left[q]])
+        if len(got) == -neg:
+            chosen.append(f)
+            left[got] = False
+        elif len(got):
+            heapq.heappush(heap, (-len(got), r, f))
     fingers = []
     for f in chosen:
         part, normal, point = faces[f]
         fingers.append({"part": ndbg.ids[part], "normal": [float(x) for x in normal],
                         "point": None if point is None else [float(x) for x in point],
-                        "covers": int(cover[:, f].sum())})
+                        "covers": len(hits(f, holds[part]))})
     uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1])}
                  for q in np.flatnonzero(left).tolist()]
     why = (f"{len(fingers)} finger(s) hold every sink component of all "

@@ -489,6 +489,54 @@ def test_grasp_two_stacked_boxes_needs_ten_fingers():
     assert not r2["complete"] and r2["uncovered"] == [{"region": 0, "parts": ["T"]}]
 
 
+def _greedy_grasp_reference(nd, faces, tol=1e-9):
+    """The plain greedy scan over the dense requirements x faces matrix (the definition)."""
+    from ndbg_cli.dbg import bit_rows
+    from ndbg_cli.grasp import requirements
+
+    reqs = requirements(nd)
+    part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
+    dirs = np.array([nd.regions[k].direction for k, _ in reqs], dtype=float)
+    normals = np.array([nv for _, nv, _ in faces], dtype=float)
+    cover = bit_rows([c for _, c in reqs], nd.n)[:, part_of] & (dirs @ normals.T > tol)
+    left = np.ones(len(reqs), dtype=bool)
+    chosen = []
+    tie = np.lexsort((np.arange(len(faces)), part_of))
+    while left.any():
+        gain = cover[left].sum(axis=0)
+        best = int(tie[np.argmax(gain[tie])])
+        if gain[best] == 0:
+            break
+        chosen.append(best)
+        left &= ~cover[:, best]
+    return chosen, [int(cover[:, f].sum()) for f in chosen], int(left.sum())
+
+
+def test_grasp_lazy_greedy_equals_the_plain_scan():
+    rng = random.Random(7)
+    axes = [UP, DOWN, PX, NX, PY, NY, (1, 1, 0), (0, -1, 1), (1, 0, -1)]
+    for _ in range(40):
+        n = rng.randint(2, 6)
+        regions = []
+        for _ in range(rng.randint(1, 12)):
+            d = np.array([rng.gauss(0, 1) for _ in range(3)])
+            arcs = [(i, j) for i in range(n) for j in range(n)
+                    if i != j and rng.random() < 0.3]
+            regions.append((tuple(d / np.linalg.norm(d)), arcs))
+        nd = mk([f"P{i}" for i in range(n)], regions)
+        # few distinct normals, so that gains tie often
+        faces = [(rng.randrange(n), rng.choice(axes), None) for _ in range(rng.randint(1, 25))]
+        chosen, covers, uncovered = _greedy_grasp_reference(nd, faces)
+        r = grasp(nd, faces)
+        assert [(f["part"], tuple(f["normal"])) for f in r["fingers"]] == [
+            (nd.ids[faces[f][0]], tuple(float(x) for x in faces[f][1])) for f in chosen]
+        assert [f["covers"] for f in r["fingers"]] == covers
+        assert len(r["uncovered"]) == uncovered and r["complete"] == (uncovered == 0)
+    # over the budget: skipped with the reason, not computed
+    r = grasp(nd, faces, budget=0)
+    assert r["value"] is None and r["skipped"] and "budget" in r["why"]
+
+
 # ------------------------------------------------------------------------------- sections
 def test_sections_json_and_schema():
     import jsonschema
