@@ -32,8 +32,14 @@ classified, all at once with numpy:
   ``cone(n_A) & cone(-n_B)`` over the faces of A and of B meeting there; for such convex
   contacts A is blocked along ``d`` only when ``d . n > 0`` for *all* generators
   (``Contact.blocking == "all"``). Where more than :data:`MAX_CONE_FACES` distinct normals
-  meet on a side, or the cones do not intersect, every face normal of both sides is kept
-  with ``blocking == "any"`` (conservative).
+  meet on a side (a ring round a tessellated peg), or the cones do not intersect (two
+  fillets diverging from a face contact's rim within the tolerance), the component is taken
+  pair by pair: its touching pairs give one contact with both face normals of each,
+  blocking on any (conservative); its near misses give the cones of directions that close
+  their gaps within the allowance (:mod:`ndbg_cli.gap_cones`), each a point contact
+  blocking on all its facet normals, unless the pair's face contacts block it already
+  (beyond :data:`MAX_GAP_CONES` of them: one contact blocking on any of their gap
+  directions, a superset).
 
 Known simplification: an edge of B lying on a face of A that is already in a planar or curved
 contact with B is taken as that contact's rim and produces no contact of its own (it adds no
@@ -54,13 +60,19 @@ from .facets import (
     min3,
     point_triangle_distance,
     segment_distance,
+    triangle_gap,
 )
+from .gap_cones import maximal, meets_free, near_miss_cones, touching
 from .normals import _one_cluster, _unique_rows, cluster_normals
 
 #: Edge/point contacts where more distinct face normals than this meet on one side (messy or
 #: overlapping display meshes) skip the exact normal-cone intersection (see
 #: :func:`edge_point_contacts`).
 MAX_CONE_FACES = 4
+
+#: A component of near misses keeping more sweep cones than this becomes one contact
+#: blocking on any of their gap directions (see :func:`_pair_by_pair`).
+MAX_GAP_CONES = 8
 
 #: Largest number of point x triangle box tests :func:`_near_triangles` does with
 #: :func:`box_pairs` (beyond, the part's R-tree answers faster).
@@ -330,7 +342,8 @@ def fit_surface(normals: np.ndarray, weights: np.ndarray, centroids: np.ndarray,
 
 
 def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
-                        gap: np.ndarray, ang: float, patches: list[dict]) -> list[dict]:
+                        gap: np.ndarray, ang: float, patches: list[dict], tol: float
+                        ) -> list[dict]:
     """Edge and point contacts from the touching pairs ``(i, j)`` not used by a planar or
     curved contact, with gap allowances ``gap`` ``(p,)`` (see module doc). Touch points within
     the allowance of one of the ``patches`` (the planar and curved contacts found: their rims)
@@ -385,18 +398,67 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
         near_a, near_b = near[:len(ta)], near[len(ta):]
         na = cluster_normals(ga.normals[ta[near_a]] if near_a.any() else ga.normals[ta], ang)
         nb = cluster_normals(-(gb.normals[tb[near_b]] if near_b.any() else gb.normals[tb]), ang)
-        blocking = "all"
         normals = (cone_intersection(na, nb, ang) if max(len(na), len(nb)) <= MAX_CONE_FACES
                    else np.zeros((0, 3)))
         if len(normals) == 0:
             # no proper cone (many faces meet there, or they disagree within the tolerance):
-            # keep every face normal of both sides and block on any of them (conservative)
-            normals, blocking = cluster_normals(np.concatenate([na, nb]), ang), "any"
-        pn = np.repeat(normals.mean(axis=0, keepdims=True), len(points), axis=0)
-        pn /= np.maximum(np.linalg.norm(pn, axis=1), 1e-300)[:, None]
-        out.append(dict(kind=kind, normals=normals, points=points, point_normals=pn, area=0.0,
-                        blocking=blocking))
+            # each triangle pair on its own (near misses: their sweep cones)
+            out += _pair_by_pair(ga, gb, i[sel], j[sel], gap[sel], tol, ang, patches,
+                                 kind, points)
+            continue
+        out.append(dict(kind=kind, normals=normals, points=points,
+                        point_normals=_mean_normal(normals, len(points)), area=0.0,
+                        blocking="all"))
     return out
+
+
+def _mean_normal(normals: np.ndarray, count: int) -> np.ndarray:
+    """The unit mean of ``normals`` repeated ``count`` times (a contact's point normals)."""
+    pn = np.repeat(normals.mean(axis=0, keepdims=True), count, axis=0)
+    return pn / np.maximum(np.linalg.norm(pn, axis=1), 1e-300)[:, None]
+
+
+def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
+                  gap: np.ndarray, tol: float, ang: float, patches: list[dict], kind: str,
+                  points: np.ndarray) -> list[dict]:
+    """Contacts of a component whose faces admit no common separating cone, pair by pair.
+
+    Touching pairs (:data:`ndbg_cli.gap_cones.GAP_FRACTION`) give one contact over the
+    component's points with both face normals of each pair, blocking on any (conservative).
+    Near misses give their sweep cones (:mod:`ndbg_cli.gap_cones`), each a point contact
+    blocking on all its facet normals, less those inside another or inside what the pair's
+    face contacts (``patches``) and the touching pairs block already, both within the
+    angular tolerance ``ang`` of the DBGs' sign tests (:func:`ndbg_cli.gap_cones.meets_free`).
+    More than :data:`MAX_GAP_CONES` cones left (a ring of near misses round a part with no
+    face contact, as on overlapping display meshes) make one contact blocking on any of
+    their gap directions instead: a superset of their union, with a bounded number of
+    normals for the NDBG's arrangement."""
+    out = []
+    face = [np.asarray(f["normals"], float).reshape(-1, 3) for f in patches
+            if f.get("blocking", "any") == "any"]
+    ta, tb = ga.triangles[i], gb.triangles[j]
+    gaps = triangle_gap(ta, tb)
+    close = touching(gaps, tol)
+    if close.any():
+        normals = cluster_normals(np.concatenate([ga.normals[i[close]], -gb.normals[j[close]]]),
+                                  ang)
+        out.append(dict(kind=kind, normals=normals, points=points,
+                        point_normals=_mean_normal(normals, len(points)), area=0.0,
+                        blocking="any"))
+        face.append(normals)
+    blocked = np.concatenate(face) if face else np.zeros((0, 3))
+    cones = near_miss_cones(ta, tb, gap, gaps, tol, blocked)
+    kept = [cones[k] for k in maximal(cones) if meets_free(cones[k].facets, blocked, ang)]
+    if len(kept) > MAX_GAP_CONES:
+        # a ring of near misses with no face contact to absorb it: one contact blocking on
+        # any gap direction (each cone lies in its direction's open half-space: conservative)
+        normals = cluster_normals(np.array([c.normal for c in kept]), ang)
+        return out + [dict(kind=kind, normals=normals, points=points,
+                           point_normals=_mean_normal(normals, len(points)), area=0.0,
+                           blocking="any")]
+    return out + [dict(kind="point", normals=c.facets, points=c.point[None, :],
+                       point_normals=c.normal[None, :], area=0.0, blocking="all")
+                  for c in kept]
 
 
 def _groups(label: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:

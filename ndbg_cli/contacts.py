@@ -451,7 +451,7 @@ def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.nda
     patch_b[j[in_patch]] = True
     rest = ~in_patch & ~patch_a[i] & ~patch_b[j]
     ri, rj, gap = _touching(ga, gb, i[rest], j[rest], tol)
-    feats += edge_point_contacts(ga, gb, ri, rj, gap, ang, list(feats))
+    feats += edge_point_contacts(ga, gb, ri, rj, gap, ang, list(feats), tol)
     return [Contact(a=a, b=b, **{k: v for k, v in f.items() if not k.startswith("_")})
             for f in feats]
 

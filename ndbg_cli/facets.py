@@ -250,6 +250,12 @@ def sat_gap(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
 def point_triangle_distance(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Euclidean distance ``(n,)`` from points ``p`` ``(n, 3)`` to triangles ``t`` ``(n, 3, 3)``
     (closest-point regions of Ericson, *Real-Time Collision Detection* 5.1.5, vectorised)."""
+    return np.linalg.norm(p - closest_on_triangle(p, t), axis=1)
+
+
+def closest_on_triangle(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The point ``(n, 3)`` of each triangle ``t`` ``(n, 3, 3)`` closest to ``p`` ``(n, 3)``
+    (:func:`point_triangle_distance`)."""
     a, b, c = t[:, 0], t[:, 1], t[:, 2]
     ab, ac, ap = b - a, c - a, p - a
 
@@ -277,14 +283,21 @@ def point_triangle_distance(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     q = np.where(((vc <= 0) & (d1 >= 0) & (d3 <= 0))[:, None], a + ab * e_ab[:, None], q)
     q = np.where(((d6 >= 0) & (d5 <= d6))[:, None], c, q)
     q = np.where(((d3 >= 0) & (d4 <= d3))[:, None], b, q)
-    q = np.where(((d1 <= 0) & (d2 <= 0))[:, None], a, q)
-    return np.linalg.norm(p - q, axis=1)
+    return np.where(((d1 <= 0) & (d2 <= 0))[:, None], a, q)
 
 
 def segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Closest approach of segments ``p1q1`` and ``p2q2`` (each ``(n, 3)``): the distance
     ``(n,)`` and the midpoint ``(n, 3)`` of the two closest points (Ericson 5.1.9)."""
+    c1, c2 = segment_closest(p1, q1, p2, q2)
+    return np.linalg.norm(c1 - c2, axis=1), (c1 + c2) / 2.0
+
+
+def segment_closest(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The closest points ``(n, 3)`` of segments ``p1q1`` and ``p2q2``, on each
+    (:func:`segment_distance`)."""
     d1, d2, r = q1 - p1, q2 - p2, p1 - p2
     a = np.einsum("ij,ij->i", d1, d1)
     e = np.einsum("ij,ij->i", d2, d2)
@@ -301,7 +314,38 @@ def segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndar
     t = np.clip(t, 0, 1)
     c1 = p1 + d1 * s[:, None]
     c2 = p2 + d2 * t[:, None]
-    return np.linalg.norm(c1 - c2, axis=1), (c1 + c2) / 2.0
+    return c1, c2
+
+
+def triangle_gap(ta: np.ndarray, tb: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance ``(p,)`` between triangles ``ta`` and ``tb`` ``(p, 3, 3)``, the unit
+    direction ``(p, 3)`` from A's closest point to B's (the normal of the plane that
+    separates them best) and the midpoint ``(p, 3)`` of the two closest points. The closest
+    pair of points of two disjoint triangles is a vertex and a point of the other triangle
+    or two edges' closest points, so the 6 + 9 candidates are exact; triangles that meet
+    (:func:`sat_gap` ``<= 0``: no axis separates them) get distance 0 and direction 0.
+    Unit: the assembly unit."""
+    best = np.full(len(ta), np.inf)
+    pa, pb = np.zeros((len(ta), 3)), np.zeros((len(ta), 3))
+
+    def take(x: np.ndarray, y: np.ndarray) -> None:
+        d = np.linalg.norm(y - x, axis=1)
+        better = d < best
+        best[better] = d[better]
+        pa[better], pb[better] = x[better], y[better]
+
+    for k in range(3):
+        take(ta[:, k], closest_on_triangle(ta[:, k], tb))
+        take(closest_on_triangle(tb[:, k], ta), tb[:, k])
+    for k in range(3):
+        for m in range(3):
+            take(*segment_closest(ta[:, k], ta[:, (k + 1) % 3], tb[:, m], tb[:, (m + 1) % 3]))
+    meet = (sat_gap(ta, tb) <= 0) | (best <= 0)
+    best[meet] = 0.0
+    direction = (pb - pa) / np.where(meet, 1.0, best)[:, None]
+    direction[meet] = 0.0
+    return best, direction, (pa + pb) / 2.0
 
 
 #: Box tests per numpy block of :func:`box_pairs` (bounds memory to a few MB).

@@ -1,0 +1,274 @@
+"""Near misses (edge and point contacts whose faces admit no common separating cone): the
+triangle gap, the sweep cones of :mod:`ndbg_cli.gap_cones`, checked against independent
+computations (python-fcl's distance, an LP on the Minkowski difference, dense direction
+samples), and the beam, whose bars the old every-normal rule locked onto their pegs."""
+
+from __future__ import annotations
+
+import fcl
+import numpy as np
+import pytest
+import trimesh
+from scipy.optimize import linprog
+
+import ndbg_cli
+from ndbg_cli.contacts import analyze_contacts
+from ndbg_cli.facets import triangle_gap
+from ndbg_cli.gap_cones import maximal, meets_free, near_miss_cones, sweep_cone, touching
+from ndbg_cli.infinitesimal import contact_pairs, dbg_at
+from ndbg_cli.sweep import SweepChecker
+
+from conftest import shared
+
+
+def _triangle_pairs(rng: np.random.Generator, count: int, apart: bool = True):
+    """Random triangle pairs of size ~1, B shifted from A by 0.05..2 along a random axis
+    (some pairs meet when ``apart`` is False)."""
+    ta = rng.normal(size=(count, 3, 3))
+    tb = rng.normal(size=(count, 3, 3)) * rng.uniform(0.2, 1.0, size=(count, 1, 1))
+    shift = rng.normal(size=(count, 3))
+    shift /= np.linalg.norm(shift, axis=1)[:, None]
+    lo = 3.5 if apart else 0.0
+    tb += ta.mean(axis=1, keepdims=True) + shift[:, None, :] * rng.uniform(lo, lo + 2,
+                                                                           size=(count, 1, 1))
+    return ta, tb
+
+
+def _fcl_distance(a: np.ndarray, b: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    objs = []
+    for t in (a, b):
+        m = fcl.BVHModel()
+        m.beginModel(3, 1)
+        m.addSubModel(t, np.array([[0, 1, 2]]))
+        m.endModel()
+        objs.append(fcl.CollisionObject(m, fcl.Transform()))
+    req = fcl.DistanceRequest(enable_nearest_points=True)
+    res = fcl.DistanceResult()
+    d = fcl.distance(objs[0], objs[1], req, res)
+    return d, np.asarray(res.nearest_points[0]), np.asarray(res.nearest_points[1])
+
+
+def test_triangle_gap_equals_fcl_distance():
+    rng = np.random.default_rng(1)
+    ta, tb = _triangle_pairs(rng, 300, apart=False)
+    dist, direction, mid = triangle_gap(ta, tb)
+    checked = 0
+    for k in range(len(ta)):
+        d, pa, pb = _fcl_distance(ta[k], tb[k])
+        if d <= 1e-9:
+            assert dist[k] == 0.0 and not direction[k].any()
+            continue
+        checked += 1
+        assert dist[k] == pytest.approx(d, rel=1e-7, abs=1e-9)
+        # the closest points are unique for non-parallel features: check the direction
+        # through the separation it achieves, which is the distance for the best plane
+        sep = (tb[k] @ direction[k]).min() - (ta[k] @ direction[k]).max()
+        assert sep == pytest.approx(d, rel=1e-6, abs=1e-9)
+        # the midpoint of two closest points is half the distance from each triangle
+        for t in (ta[k], tb[k]):
+            q = trimesh.triangles.closest_point(t[None], mid[k][None])[0]
+            assert np.linalg.norm(q - mid[k]) == pytest.approx(d / 2, rel=1e-6, abs=1e-9)
+        assert np.linalg.norm(pb - pa) == pytest.approx(d, rel=1e-6, abs=1e-9)
+    assert checked > 100
+
+
+def _hits_slab(ta, tb, n, reach, d) -> bool:
+    """Whether the ray ``s d`` (s > 0) meets ``(T_b - T_a) & {n . x <= reach}``: an LP over
+    the 9 vertex differences' weights and ``s`` (independent of the cone's facets)."""
+    v = (tb[:, None, :] - ta[None, :, :]).reshape(9, 3)
+    # variables: lambda (9), s; v.T lambda - s d = 0, sum lambda = 1, s (n . d) <= reach
+    a_eq = np.zeros((4, 10))
+    a_eq[:3, :9] = v.T
+    a_eq[:3, 9] = -d
+    a_eq[3, :9] = 1.0
+    res = linprog(np.zeros(10), A_eq=a_eq, b_eq=[0, 0, 0, 1],
+                  A_ub=np.r_[np.zeros(9), n @ d][None, :], b_ub=[reach],
+                  bounds=[(0, None)] * 10, method="highs")
+    return res.status == 0
+
+
+def test_sweep_cone_is_the_cone_over_the_cut_minkowski_difference():
+    rng = np.random.default_rng(2)
+    ta, tb = _triangle_pairs(rng, 12)
+    dist, direction, _ = triangle_gap(ta, tb)
+    compared = inside = 0
+    for k in range(len(ta)):
+        reach = dist[k] * rng.uniform(1.05, 2.5)
+        got = sweep_cone(ta[k], tb[k], direction[k], reach)
+        assert got is not None
+        rays, facets = got
+        assert np.all(rays @ direction[k] > 0)  # pointed, around the gap direction
+        dirs = rng.normal(size=(150, 3))
+        # half the samples near the cone, where the answer is in doubt
+        dirs[:75] = rays.mean(axis=0) + 0.3 * rng.normal(size=(75, 3))
+        dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+        margin = (dirs @ facets.T).min(axis=1)
+        for d, m in zip(dirs, margin):
+            if abs(m) < 1e-6:
+                continue  # on the boundary: open against closed
+            compared += 1
+            inside += m > 0
+            assert (m > 0) == _hits_slab(ta[k], tb[k], direction[k], reach, d)
+    assert compared > 1500 and inside > 100
+
+
+def test_sweep_cone_contains_the_ball_cut_and_is_none_out_of_reach():
+    rng = np.random.default_rng(3)
+    ta, tb = _triangle_pairs(rng, 10)
+    dist, direction, _ = triangle_gap(ta, tb)
+    for k in range(len(ta)):
+        assert sweep_cone(ta[k], tb[k], direction[k], dist[k] * 0.999) is None
+        reach = dist[k] * 1.5
+        rays, facets = sweep_cone(ta[k], tb[k], direction[k], reach)
+        # points of the difference within reach of the origin: their directions are inside
+        v = (tb[k][:, None, :] - ta[k][None, :, :]).reshape(9, 3)
+        w = rng.dirichlet(np.ones(9), size=4000) @ v
+        near = w[np.linalg.norm(w, axis=1) <= reach]
+        assert len(near) > 0
+        u = near / np.linalg.norm(near, axis=1)[:, None]
+        assert (u @ facets.T).min() >= -1e-9
+
+
+def test_maximal_cones_keep_the_union():
+    rng = np.random.default_rng(4)
+    ta, tb = _triangle_pairs(rng, 40)
+    # copies, and B moved further away: equal and nested cones
+    away = 0.3 * (tb - ta).mean(axis=1, keepdims=True)
+    ta = np.concatenate([ta, ta, ta])
+    tb = np.concatenate([tb, tb, tb + away])
+    gaps = triangle_gap(ta, tb)
+    assert not touching(gaps, 1e-3).any()
+    cones = near_miss_cones(ta, tb, gaps[0] * 2.0, gaps, 1e-3)
+    assert len(cones) == len(ta)
+    keep = maximal(cones)
+    assert 0 < len(keep) < len(cones) * 2 // 3  # equal copies and nested cones dropped
+    dirs = rng.normal(size=(20000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+
+    def union(ids):
+        return np.any([(dirs @ cones[k].facets.T).min(axis=1) > 1e-7 for k in ids], axis=0)
+
+    everything = union(range(len(cones)))
+    assert everything.sum() > 500
+    assert np.array_equal(union(keep), everything)
+
+
+def test_meets_free_by_hand_and_against_samples():
+    # a cone round +z (square, 30 degrees half-width)
+    s = np.sin(np.radians(30))
+    c = np.cos(np.radians(30))
+    facets = np.array([[c, 0, s], [-c, 0, s], [0, c, s], [0, -c, s]])
+    assert meets_free(facets, np.zeros((0, 3)))
+    assert not meets_free(facets, np.array([[0.0, 0, 1]]))  # everything upward blocked
+    assert meets_free(facets, np.array([[0.0, 0, -1]]))
+    assert meets_free(facets, np.array([[1.0, 0, 0]]))  # the -x half of the cone is free
+    assert not meets_free(facets, np.array([[1.0, 0, 0], [-1.0, 0, 0.01]]))
+    rng = np.random.default_rng(5)
+    dirs = rng.normal(size=(40000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    inside = (dirs @ facets.T).min(axis=1) > 1e-3
+    for _ in range(60):
+        normals = rng.normal(size=(rng.integers(1, 4), 3))
+        free = np.all(dirs @ normals.T <= 0, axis=1)
+        if np.any(inside & free):
+            assert meets_free(facets, normals)
+        elif not meets_free(facets, normals):
+            continue
+        else:  # the LP found a sliver the samples missed: it must be a thin one
+            assert np.any(((dirs @ facets.T).min(axis=1) > -1e-2) & free)
+
+
+@pytest.mark.external
+def test_beam_bars_lift_off_their_pegs():
+    """The beam's bars sit on tapered square pegs with rounded tips in rounded pockets; the
+    rounded surfaces diverge within the tolerance above the tapered faces' contact. Read as
+    contacts with every face normal, they locked the bars (and the assembly); as near misses
+    they block nothing the tapered faces do not. Checked against the sweep test (infinite
+    translations, independent of the contacts): a part free along ``d`` to infinity is free
+    locally, and along +z the bars, along -z the base, are both."""
+    asm = ndbg_cli.load(shared("beam", "assembled"))
+    res = analyze_contacts(asm)
+    pairs = contact_pairs(asm, res)
+    sweep = SweepChecker(asm)
+    for d, free in (((0, 0, 1.0), {"0", "1"}), ((0, 0, -1.0), {"6"})):
+        d = np.array(d)
+        far, near = sweep.dbg(d), dbg_at(len(asm), pairs, d)
+        assert {asm.ids[i] for i in range(len(asm)) if far.succ[i] == 0} == free
+        assert {asm.ids[i] for i in range(len(asm)) if near.succ[i] == 0} == free
+    # no contact kept the old rule's upward-tilted normals between a bar and its peg
+    for c in res.contacts:
+        if {asm.ids[c.a], asm.ids[c.b]} in ({"0", "2"}, {"1", "3"}) and c.blocking == "any":
+            assert np.asarray(c.normals)[:, 2].max() < 0
+
+
+def test_meets_free_with_a_margin_drops_only_cones_no_dbg_sees():
+    # a thin cone round +x (0.5 degrees wide): no direction clears all its facets by 1 degree
+    a = np.radians(0.25)
+    facets = np.array([[np.sin(a), np.cos(a), 0], [np.sin(a), -np.cos(a), 0],
+                       [np.sin(a), 0, np.cos(a)], [np.sin(a), 0, -np.cos(a)]])
+    assert meets_free(facets, np.zeros((0, 3)))
+    assert not meets_free(facets, np.zeros((0, 3)), margin=np.radians(1.0))
+    # a wide cone round +z, faces blocking everything with d . (0, 0, 1) > 1 degree: the band
+    # of directions within the tolerance of the horizon is free for them, and the cone
+    # blocks some of it by more than the tolerance
+    s, c = np.sin(np.radians(60)), np.cos(np.radians(60))
+    wide = np.array([[c, 0, s], [-c, 0, s], [0, c, s], [0, -c, s]])
+    assert not meets_free(wide, np.array([[0.0, 0, 1]]))
+    tol = np.radians(1.0)
+    band = np.array([np.cos(0.9 * tol), 0, np.sin(0.9 * tol)])  # free for the faces
+    assert (band @ wide.T).min() <= tol  # ... and this cone does not block it either
+    assert not meets_free(wide, np.array([[0.0, 0, 1]]), margin=tol)
+    d = np.array([0.3, 0, 0.95])  # well inside the cone, and free for faces blocking -x
+    d /= np.linalg.norm(d)
+    assert (wide @ d).min() > tol and meets_free(wide, np.array([[-1.0, 0, 0]]), margin=tol)
+
+
+def _ring_of_near_misses(count: int, gap: float):
+    """``count`` triangle pairs round the z axis: A's triangle on the unit circle, B's the
+    same turned 10 degrees about the radius and pushed out by ``gap``."""
+    from scipy.spatial.transform import Rotation
+
+    ta, tb = [], []
+    base = np.array([[0.0, -0.05, -0.05], [0.0, 0.05, -0.05], [0.0, 0.0, 0.05]])
+    for k in range(count):
+        th = 2 * np.pi * k / count
+        turn = Rotation.from_euler("z", th)
+        tilt = Rotation.from_rotvec([np.radians(10), 0, 0])
+        ta.append(turn.apply(base + [1.0, 0, 0]))
+        tb.append(turn.apply(tilt.apply(base) + [1.0 + gap, 0, 0]))
+    ta, tb = np.array(ta), np.array(tb)
+    na = np.cross(ta[:, 1] - ta[:, 0], ta[:, 2] - ta[:, 0])
+    nb = np.cross(tb[:, 1] - tb[:, 0], tb[:, 2] - tb[:, 0])
+    unit = np.linalg.norm
+    return ta, tb, na / unit(na, axis=1)[:, None], nb / unit(nb, axis=1)[:, None]
+
+
+def test_a_ring_of_near_misses_becomes_one_conservative_contact():
+    from types import SimpleNamespace
+
+    from ndbg_cli.contact_features import MAX_GAP_CONES, _pair_by_pair
+    from ndbg_cli.infinitesimal import blocking_sides
+
+    tol, ang = 1e-3, np.radians(1.0)
+    rng = np.random.default_rng(6)
+    dirs = rng.normal(size=(20000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    for count in (MAX_GAP_CONES - 2, 24):
+        ta, tb, na, nb = _ring_of_near_misses(count, 0.5 * tol)
+        ga, gb = SimpleNamespace(triangles=ta, normals=na), SimpleNamespace(triangles=tb,
+                                                                            normals=nb)
+        i = j = np.arange(count)
+        reach = np.full(count, 2 * tol)
+        out = _pair_by_pair(ga, gb, i, j, reach, tol, ang, [], "edge", ta.mean(axis=1))
+        cones = near_miss_cones(ta, tb, reach, triangle_gap(ta, tb), tol)
+        assert len(cones) == count
+        deep = np.any([(dirs @ c.facets.T).min(axis=1) > 3 * ang for c in cones], axis=0)
+        assert deep.sum() > 100
+        got = np.zeros(len(dirs), dtype=bool)
+        for f in out:
+            got |= blocking_sides(dirs @ np.asarray(f["normals"]).T, f["blocking"], ang)[0]
+        assert not np.any(deep & ~got)  # every direction a cone blocks is blocked
+        if count <= MAX_GAP_CONES:
+            assert [f["blocking"] for f in out] == ["all"] * count
+        else:
+            assert len(out) == 1 and out[0]["blocking"] == "any"
