@@ -41,6 +41,7 @@ class Options:
     infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)
     workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
+    progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
 
 
 def read_config(path: str | Path) -> dict:
@@ -58,8 +59,9 @@ def read_config(path: str | Path) -> dict:
         raise InputError(f"cannot read config: {exc}".splitlines()[0], file=str(path)) from None
     if not isinstance(data, dict):
         raise InputError("a config must be a YAML mapping", file=str(path))
-    # ``workers`` comes from --jobs only (one assembly; a batch spreads its assemblies)
-    fields = {f.name for f in dataclasses.fields(Options)} - {"workers"}
+    # ``workers`` comes from --jobs only (one assembly; a batch spreads its assemblies), and
+    # ``progress`` from --quiet (one assembly; a batch shows its own bar)
+    fields = {f.name for f in dataclasses.fields(Options)} - {"workers", "progress"}
     unknown = sorted(set(data) - fields)
     if unknown:
         raise InputError(f"unknown setting '{unknown[0]}' (known: {', '.join(sorted(fields))})",

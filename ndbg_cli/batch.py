@@ -74,8 +74,11 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
     """Yield one report or error record per target, in the order of ``targets``. A single
     target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
     (``Options.workers``; same report)."""
-    # one target: its pairs in ``jobs`` processes; several: one process each (never nested)
-    options = dataclasses.replace(options, workers=jobs if len(targets) == 1 else 1)
+    # one target: its pairs in ``jobs`` processes; several: one process each (never nested),
+    # and the batch's own progress bar only
+    one = len(targets) == 1
+    options = dataclasses.replace(options, workers=jobs if one else 1,
+                                  progress=options.progress and one)
     if jobs <= 1 or len(targets) <= 1:
         for t in targets:
             yield analyze_one(t, options, debug)
@@ -124,7 +127,8 @@ def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: in
     cluster (a worker died, a result could not be sent) becomes the error record
     :func:`analyze_one` would make (exit code 3); the other targets go on.
     """
-    options = dataclasses.replace(options, workers=1)  # dask workers are daemons: no pools
+    # dask workers are daemons (no pools) and their stderr is not ours
+    options = dataclasses.replace(options, workers=1, progress=False)
     try:
         import distributed
     except ImportError:

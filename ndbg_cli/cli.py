@@ -7,6 +7,7 @@ input error, 3 internal error. Errors print one line on stderr, never a tracebac
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import sys
@@ -179,6 +180,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                        threads_as_cylinders=threads_as_cylinders, connected=connected,
                        max_partitions=max_partitions, max_nodes=max_nodes,
                        time_limit=time_limit, infinite_budget=infinite_budget)
+    options = dataclasses.replace(options, progress=not STATE.quiet)
     targets: list[Path] = []
     for p in paths:
         if not Path(p).exists():

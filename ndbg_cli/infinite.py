@@ -74,6 +74,7 @@ from .domain import domain_polygons
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
 from .pair_workers import pair_sets
+from .progress import progress as bar
 
 #: Regions thinner than ``ANGULAR_FACTOR * length_tolerance / diagonal`` (chart units, about
 #: radians) are reported as lower-dimensional.
@@ -270,7 +271,8 @@ def triangle_pairs(asm: Assembly) -> int:
 
 
 def blocked_sets(asm: Assembly, cache: PairCache | None = None,
-                 domain: np.ndarray | None = None, workers: int = 1) -> BlockedSets:
+                 domain: np.ndarray | None = None, workers: int = 1,
+                 progress: bool = False) -> BlockedSets:
     """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is
     computed once, the part with fewer triangles moving, and the other order is its antipodal
     image (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed
@@ -278,7 +280,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     tolerance (:mod:`ndbg_cli.cache`). With ``domain`` (``(6, r, r)`` bool cube-map cells,
     symmetric under ``d -> -d``, :func:`ndbg_cli.domain.free_domain`) the sets are right only
     inside those cells, and computed only there. ``workers``: processes computing the pairs
-    (:func:`ndbg_cli.pair_workers.pair_sets`; the result does not depend on it)."""
+    (:func:`ndbg_cli.pair_workers.pair_sets`; the result does not depend on it); ``progress``:
+    a bar over the pairs on stderr (a terminal only)."""
     t0 = time.perf_counter()
     tris = part_triangles(asm)
     eps = asm.length_tolerance
@@ -332,8 +335,9 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     todo = [p for p in order if p not in fast and p not in found]
     # each pair cached as soon as it is done (an interrupted run keeps them); the times are
     # summed over the workers (CPU seconds, not wall time, with several)
-    for k, (cones, circ, faces, dt_cones, dt_union) in pair_sets(tris, todo, eps, domain,
-                                                                 workers):
+    done = pair_sets(tris, todo, eps, domain, workers)
+    for k, (cones, circ, faces, dt_cones, dt_union) in bar(done, len(todo), "part pairs",
+                                                           quiet=not progress):
         entries = with_trees(faces)
         found[todo[k]] = (cones, circ, entries)
         t_cones += dt_cones
@@ -437,15 +441,17 @@ EXACT_CELLS = 2000
 
 
 def build_infinite(asm: Assembly, cache: PairCache | None = None,
-                   domain: np.ndarray | None = None, workers: int = 1) -> NDBG:
+                   domain: np.ndarray | None = None, workers: int = 1,
+                   progress: bool = False) -> NDBG:
     """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
     (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
     reuses per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map
     cells, :func:`ndbg_cli.domain.free_domain`) only the cells of the arrangement inside it
     are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
-    outside), not for its subassemblies'; the stats say ``restricted``."""
+    outside), not for its subassemblies'; the stats say ``restricted``. ``progress``: a bar on
+    stderr over the part pairs (:mod:`ndbg_cli.progress`: on a terminal only)."""
     t0 = time.perf_counter()
-    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers)
+    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers, progress)
     t1 = time.perf_counter()
     cells = equator_cells(bs) if asm.dimension == 2 else arrangement_cells(bs)
     t2 = time.perf_counter()

@@ -250,7 +250,8 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
                              float(getattr(ca, "angle_tolerance", DEFAULT_ANGLE_TOL)))
         if domain is None:
             return None
-    nd = block_threads(build_infinite(asm, cache, domain, workers=options.workers), threaded)
+    nd = block_threads(build_infinite(asm, cache, domain, workers=options.workers,
+                                           progress=options.progress), threaded)
     parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
     sec = infinite_section(asm, nd, parts, trunc)
     if domain is not None:

@@ -93,3 +93,35 @@ def test_workers_cannot_come_from_a_config_file(tmp_path):
     cfg.write_text("workers: 4\n")
     with pytest.raises(InputError, match="unknown setting 'workers'"):
         read_config(cfg)
+
+
+def _cli_on_a_terminal(*args: str) -> tuple[int, str]:
+    """Run ``ndbg`` with its stderr on a pseudo-terminal; return its exit code and what it
+    drew there."""
+    import pty
+
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "ndbg_cli", *args], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=slave, stdin=subprocess.DEVNULL)
+    os.close(slave)
+    chunks = []
+    while True:
+        try:
+            data = os.read(master, 4096)
+        except OSError:  # the child closed the terminal
+            break
+        if not data:
+            break
+        chunks.append(data)
+    os.close(master)
+    return proc.wait(timeout=120), b"".join(chunks).decode(errors="replace")
+
+
+def test_one_assembly_shows_its_part_pairs_on_a_terminal():
+    # a single target has no batch bar: the infinite NDBG's pairs are the long step
+    args = ["analyze", "assemblies/fig2-sandwich-5.yaml", "--motion", "infinite",
+            "--no-cache", "--format", "json"]
+    code, drawn = _cli_on_a_terminal(*args)
+    assert code == 0 and "part pairs [" in drawn and "/10" in drawn
+    code, drawn = _cli_on_a_terminal(*args, "--quiet")
+    assert code == 0 and "part pairs" not in drawn
