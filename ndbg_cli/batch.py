@@ -99,13 +99,13 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
                 # under it once printed an OSError traceback from that thread at exit)
                 pool.shutdown(wait=True)
             else:  # interrupted, or the consumer stopped early: end the workers now
-                procs = list((getattr(pool, "_processes", None) or {}).values())
-                pool.shutdown(wait=False, cancel_futures=True)
-                for proc in procs:
+                # (the workers first: the pool then fails its pending calls itself, and its
+                # manager thread ends before the interpreter's exit; cancelling first raced
+                # with that thread and, under load, printed a traceback from it at exit)
+                for proc in list((getattr(pool, "_processes", None) or {}).values()):
                     if proc.is_alive():
                         proc.terminate()
-                for proc in procs:
-                    proc.join(timeout=5)
+                pool.shutdown(wait=True, cancel_futures=True)
         finally:  # a SIGTERM during the shutdown still leaves the caller's handler back
             signal.signal(signal.SIGTERM, previous)
 

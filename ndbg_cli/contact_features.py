@@ -62,7 +62,7 @@ from .facets import (
     segment_distance,
     triangle_gap,
 )
-from .gap_cones import maximal, meets_free, near_miss_cones, touching
+from .gap_cones import maximal, meets_free, near_miss_cones, touching, widen
 from .normals import _one_cluster, _unique_rows, cluster_normals
 
 #: Edge/point contacts where more distinct face normals than this meet on one side (messy or
@@ -425,14 +425,17 @@ def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
 
     Touching pairs (:data:`ndbg_cli.gap_cones.GAP_FRACTION`) give one contact over the
     component's points with both face normals of each pair, blocking on any (conservative).
-    Near misses give their sweep cones (:mod:`ndbg_cli.gap_cones`), each a point contact
-    blocking on all its facet normals, less those inside another or inside what the pair's
-    face contacts (``patches``) and the touching pairs block already, both within the
-    angular tolerance ``ang`` of the DBGs' sign tests (:func:`ndbg_cli.gap_cones.meets_free`).
+    Near misses give their sweep cones (:mod:`ndbg_cli.gap_cones`), less those inside
+    another or inside what the pair's face contacts (``patches``) and the touching pairs
+    block (their open half-spaces, :func:`ndbg_cli.gap_cones.meets_free`: such a cone is
+    their rim, sliding with them within ``ang``); each left is a point contact blocking on all
+    the facet normals of the cone widened by ``ang`` (:func:`ndbg_cli.gap_cones.widen`), so
+    that all of it is blocked under that tolerance and cones side by side leave no seam.
     More than :data:`MAX_GAP_CONES` cones left (a ring of near misses round a part with no
     face contact, as on overlapping display meshes) make one contact blocking on any of
-    their gap directions instead: a superset of their union, with a bounded number of
-    normals for the NDBG's arrangement."""
+    their gap directions instead (a superset of their union, with a bounded number of
+    normals for the NDBG's arrangement), and so do the cones too wide to widen (nearly
+    half-spaces)."""
     out = []
     face = [np.asarray(f["normals"], float).reshape(-1, 3) for f in patches
             if f.get("blocking", "any") == "any"]
@@ -448,17 +451,20 @@ def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
         face.append(normals)
     blocked = np.concatenate(face) if face else np.zeros((0, 3))
     cones = near_miss_cones(ta, tb, gap, gaps, tol, blocked)
-    kept = [cones[k] for k in maximal(cones) if meets_free(cones[k].facets, blocked, ang)]
-    if len(kept) > MAX_GAP_CONES:
-        # a ring of near misses with no face contact to absorb it: one contact blocking on
-        # any gap direction (each cone lies in its direction's open half-space: conservative)
-        normals = cluster_normals(np.array([c.normal for c in kept]), ang)
-        return out + [dict(kind=kind, normals=normals, points=points,
-                           point_normals=_mean_normal(normals, len(points)), area=0.0,
-                           blocking="any")]
-    return out + [dict(kind="point", normals=c.facets, points=c.point[None, :],
+    kept = [cones[k] for k in maximal(cones) if meets_free(cones[k].facets, blocked)]
+    # a ring of near misses with no face contact to absorb it, or a cone too wide to widen
+    # (nearly a half-space): blocking on any gap direction (a cone's directions are all
+    # within its widest ray's angle of its gap direction: a superset)
+    wide = [None if len(kept) > MAX_GAP_CONES else widen(c, ang) for c in kept]
+    rows = np.array([c.normal for c, w in zip(kept, wide) if w is None]).reshape(-1, 3)
+    if len(rows):
+        normals = rows[np.sort(_unique_rows(rows)[0])]
+        out.append(dict(kind=kind, normals=normals, points=points,
+                        point_normals=_mean_normal(normals, len(points)), area=0.0,
+                        blocking="any"))
+    return out + [dict(kind="point", normals=w, points=c.point[None, :],
                        point_normals=c.normal[None, :], area=0.0, blocking="all")
-                  for c in kept]
+                  for c, w in zip(kept, wide) if w is not None]
 
 
 def _groups(label: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:

@@ -323,9 +323,9 @@ def triangle_gap(ta: np.ndarray, tb: np.ndarray
     direction ``(p, 3)`` from A's closest point to B's (the normal of the plane that
     separates them best) and the midpoint ``(p, 3)`` of the two closest points. The closest
     pair of points of two disjoint triangles is a vertex and a point of the other triangle
-    or two edges' closest points, so the 6 + 9 candidates are exact; triangles that meet
-    (:func:`sat_gap` ``<= 0``: no axis separates them) get distance 0 and direction 0.
-    Unit: the assembly unit."""
+    or two edges' closest points, so the 6 + 9 candidates are exact, unless an edge of one
+    crosses the other's interior (:func:`_pierces`); triangles that meet get distance 0 and
+    direction 0. Unit: the assembly unit."""
     best = np.full(len(ta), np.inf)
     pa, pb = np.zeros((len(ta), 3)), np.zeros((len(ta), 3))
 
@@ -341,11 +341,34 @@ def triangle_gap(ta: np.ndarray, tb: np.ndarray
     for k in range(3):
         for m in range(3):
             take(*segment_closest(ta[:, k], ta[:, (k + 1) % 3], tb[:, m], tb[:, (m + 1) % 3]))
-    meet = (sat_gap(ta, tb) <= 0) | (best <= 0)
+    meet = (best <= 0) | _pierces(ta, tb) | _pierces(tb, ta)
     best[meet] = 0.0
     direction = (pb - pa) / np.where(meet, 1.0, best)[:, None]
     direction[meet] = 0.0
     return best, direction, (pa + pb) / 2.0
+
+
+def _pierces(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether an edge of ``ta`` crosses the plane of ``tb`` strictly (its ends on
+    either side) at a point of ``tb`` (edges included). A degenerate ``tb`` (no plane) is
+    never pierced; an edge touching the plane at an end meets ``tb`` only where the
+    closest-feature distance is 0 already."""
+    b0 = tb[:, 0]
+    nb = np.cross(tb[:, 1] - b0, tb[:, 2] - b0)
+    out = np.zeros(len(ta), dtype=bool)
+    for k in range(3):
+        p, q = ta[:, k], ta[:, (k + 1) % 3]
+        sp = np.einsum("ij,ij->i", p - b0, nb)
+        sq = np.einsum("ij,ij->i", q - b0, nb)
+        cross = sp * sq < 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = p + (q - p) * np.where(cross, sp / (sp - sq), 0.0)[:, None]
+        inside = cross.copy()
+        for m in range(3):
+            e0, e1 = tb[:, m], tb[:, (m + 1) % 3]
+            inside &= np.einsum("ij,ij->i", np.cross(e1 - e0, x - e0), nb) >= 0
+        out |= inside
+    return out
 
 
 #: Box tests per numpy block of :func:`box_pairs` (bounds memory to a few MB).

@@ -24,9 +24,11 @@ LP), add nothing and are dropped; most near misses along a face contact's rim ar
 
 Tolerances: a pair closer than :data:`GAP_FRACTION` ``* tol`` is touching (its direction is
 not defined by the gap) and is left to the caller; containment tests allow ``1e-9`` (unit
-vectors); a cone is kept only when it can block, beyond the DBGs' angular tolerance, some
-direction the face contacts leave free within that tolerance (:func:`meets_free`), so a
-cone narrower than the tolerance, which no DBG would see, is dropped.
+vectors). A cone the face contacts' open half-spaces cover is taken as their rim: the
+directions it holds within the DBGs' angular tolerance of a face's plane are the face's
+sliding band, as for the face itself. A cone kept is widened by that tolerance
+(:func:`widen`), so that the DBGs' sign test (``d . m > tol`` for every facet) blocks all of
+it and cones side by side leave no seam.
 """
 
 from __future__ import annotations
@@ -41,9 +43,17 @@ from scipy.spatial import ConvexHull, QhullError
 #: gap direction; closer ones are touching.
 GAP_FRACTION = 0.05
 
+#: Widest angle (radians) from its gap direction a cone may reach once widened by
+#: :func:`widen` (the chart's scale grows as ``sec^2``).
+WIDEN_LIMIT = np.radians(80.0)
+
 #: Slack of the containment tests (unit vectors): a cone counts as inside another when its
 #: rays are on the inner side of every facet within this.
 CONTAIN_SLACK = 1e-9
+
+
+#: Products per numpy block of :func:`maximal` (bounds its memory to ~100 MB).
+_BLOCK = 4_000_000
 
 
 @dataclass(frozen=True)
@@ -131,10 +141,10 @@ def near_miss_cones(ta: np.ndarray, tb: np.ndarray, reach: np.ndarray, gaps: Gap
     """The blocked cones of the triangle pairs ``ta``, ``tb`` ``(p, 3, 3)`` that are near
     misses (not :func:`touching`) within their allowances ``reach`` ``(p,)``; ``gaps``:
     :func:`ndbg_cli.facets.triangle_gap` of the pairs. Pairs farther apart than their reach,
-    or whose cone is flat, give none; nor do those whose cone lies in one half-space
-    ``{d . b >= 0}`` of the unit normals ``blocked`` ``(q, 3)`` (blocked already by a face
-    contact: the cone's points all on its side, ``CONTAIN_SLACK``), the usual case along a
-    face contact's rim."""
+    or whose cone is flat, give none; nor do those inside one closed half-space ``{d . b >=
+    0}`` of the unit normals ``blocked`` ``(q, 3)`` (the face contacts': all the cone's
+    points on its side, ``CONTAIN_SLACK``), the usual case along a face contact's rim.
+    ``tol``: the length tolerance."""
     dist, direction, mid = gaps
     todo = np.flatnonzero(~touching(gaps, tol) & (dist <= reach))
     if len(todo) == 0:
@@ -163,8 +173,13 @@ def maximal(cones: list[GapCone]) -> list[int]:
     for x, c in enumerate(cones):  # pad with repeats: they change no test
         rays[x] = c.rays[np.arange(k) % len(c.rays)]
         facets[x] = c.facets[np.arange(k) % len(c.facets)]
-    # inside[a, b]: every ray of a on the inner side of every facet of b
-    inside = np.einsum("aid,bjd->abij", rays, facets).min(axis=(2, 3)) >= -CONTAIN_SLACK
+    # inside[a, b]: every ray of a on the inner side of every facet of b (in blocks of rows:
+    # memory ~ block x cones x k^2)
+    inside = np.zeros((len(cones), len(cones)), dtype=bool)
+    step = max(1, _BLOCK // (len(cones) * k * k))
+    for s in range(0, len(cones), step):
+        inside[s:s + step] = np.einsum("aid,bjd->abij", rays[s:s + step],
+                                       facets).min(axis=(2, 3)) >= -CONTAIN_SLACK
     np.fill_diagonal(inside, False)
     equal = inside & inside.T
     later = np.triu(np.ones_like(inside), 1).T.astype(bool)  # b before a
@@ -172,21 +187,35 @@ def maximal(cones: list[GapCone]) -> list[int]:
     return np.flatnonzero(~drop).tolist()
 
 
-def meets_free(facets: np.ndarray, normals: np.ndarray, margin: float = 0.0) -> bool:
-    """Whether the open cone ``{d . m > 0 for m in facets}`` can block a direction that the
-    half-spaces ``{d . n > margin}`` of ``normals`` ``(q, 3)`` (face contacts, blocking when
-    any is pushed into by more than ``margin``) leave free, with the same ``margin``: the LP
-    ``max t`` over ``|d_i| <= 1`` with ``facets d >= t`` and ``normals d <= margin`` exceeds
-    ``max(margin, 1e-9)``.
-
-    With ``margin`` the angular tolerance of the DBGs' sign tests (a cone blocks ``d`` when
-    every ``d . m > margin``), ``False`` proves the cone adds nothing to any DBG: a unit
-    direction it blocks and the faces do not is a feasible point of the LP with ``t >
-    margin`` (the box only admits more)."""
+def meets_free(facets: np.ndarray, normals: np.ndarray) -> bool:
+    """Whether the open cone ``{d . m > 0 for m in facets}`` holds a direction outside the
+    open half-spaces ``{d . n > 0}`` of ``normals`` ``(q, 3)`` (the face contacts'): the LP
+    ``max t`` over ``|d_i| <= 1`` with ``facets d >= t`` and ``normals d <= 0`` exceeds
+    ``1e-9``. An LP that fails says ``True`` (the cone is kept)."""
     k = len(facets)
     a = np.vstack([np.hstack([-facets, np.ones((k, 1))]),
                    np.hstack([normals.reshape(-1, 3), np.zeros((len(normals), 1))])])
-    b = np.r_[np.zeros(k), np.full(len(normals), float(margin))]
-    res = linprog(np.array([0.0, 0.0, 0.0, -1.0]), A_ub=a, b_ub=b,
+    res = linprog(np.array([0.0, 0.0, 0.0, -1.0]), A_ub=a, b_ub=np.zeros(len(a)),
                   bounds=[(-1, 1)] * 3 + [(None, 1)], method="highs")
-    return bool(res.status == 0 and -res.fun > max(float(margin), 1e-9))
+    return bool(res.status != 0 or -res.fun > 1e-9)
+
+
+def widen(cone: GapCone, tol: float) -> np.ndarray | None:
+    """Facet normals ``(k, 3)`` of a cone holding every direction within the angle
+    ``theta = 1.01 asin(tol)`` of ``cone``, so that each direction of ``cone`` clears every
+    facet by more than ``tol`` (``d . m > tol``: an ``"all"`` contact blocks all of it under
+    the DBGs' tolerance, and cones side by side leave no unblocked seam between them).
+    Each facet's line on the chart ``n . x = 1`` (``n``: the gap direction) moves out by
+    ``theta sec^2(phi + theta)`` (``phi``: the widest ray's angle from ``n``), which bounds
+    the chart image of an arc of length ``theta`` that stays within ``phi + theta`` of
+    ``n``. ``None`` when ``phi + theta`` reaches :data:`WIDEN_LIMIT` (the chart blows up)."""
+    theta = 1.01 * float(np.arcsin(min(max(tol, 0.0), 1.0))) + 1e-12
+    n = cone.normal
+    phi = float(np.arccos(np.clip((cone.rays @ n).min(), -1.0, 1.0)))
+    if phi + theta >= WIDEN_LIMIT:
+        return None
+    delta = theta / np.cos(phi + theta) ** 2
+    m = cone.facets
+    mt = m - (m @ n)[:, None] * n  # the facet's in-chart normal, length |m_t|
+    out = m + (delta * np.linalg.norm(mt, axis=1))[:, None] * n
+    return out / np.linalg.norm(out, axis=1)[:, None]

@@ -71,8 +71,8 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
     m = (1 << ndbg.n) - 1 if mask is None else mask
     reqs = requirements(ndbg, m)
     part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
-    normals = np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]).reshape(
-        len(faces), -1)
+    normals = (np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]) if faces
+               else np.zeros((0, ndbg.space_dimension)))
     dirs = np.array([ndbg.regions[k].direction for k, _ in reqs], dtype=float)
     inside = bit_rows([c for _, c in reqs], ndbg.n) if reqs else np.zeros((0, ndbg.n), bool)
     # per part: the requirements whose sink component holds it, and its faces

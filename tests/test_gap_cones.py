@@ -14,7 +14,14 @@ from scipy.optimize import linprog
 import ndbg_cli
 from ndbg_cli.contacts import analyze_contacts
 from ndbg_cli.facets import triangle_gap
-from ndbg_cli.gap_cones import maximal, meets_free, near_miss_cones, sweep_cone, touching
+from ndbg_cli.gap_cones import (
+    maximal,
+    meets_free,
+    near_miss_cones,
+    sweep_cone,
+    touching,
+    widen,
+)
 from ndbg_cli.infinitesimal import contact_pairs, dbg_at
 from ndbg_cli.sweep import SweepChecker
 
@@ -192,7 +199,7 @@ def test_beam_bars_lift_off_their_pegs():
     sweep = SweepChecker(asm)
     for d, free in (((0, 0, 1.0), {"0", "1"}), ((0, 0, -1.0), {"6"})):
         d = np.array(d)
-        far, near = sweep.dbg(d), dbg_at(len(asm), pairs, d)
+        far, near = sweep.dbg(d), dbg_at(len(asm), pairs, d, res.angle_tolerance)
         assert {asm.ids[i] for i in range(len(asm)) if far.succ[i] == 0} == free
         assert {asm.ids[i] for i in range(len(asm)) if near.succ[i] == 0} == free
     # no contact kept the old rule's upward-tilted normals between a bar and its peg
@@ -201,35 +208,67 @@ def test_beam_bars_lift_off_their_pegs():
             assert np.asarray(c.normals)[:, 2].max() < 0
 
 
-def test_meets_free_with_a_margin_drops_only_cones_no_dbg_sees():
-    # a thin cone round +x (0.5 degrees wide): no direction clears all its facets by 1 degree
-    a = np.radians(0.25)
-    facets = np.array([[np.sin(a), np.cos(a), 0], [np.sin(a), -np.cos(a), 0],
-                       [np.sin(a), 0, np.cos(a)], [np.sin(a), 0, -np.cos(a)]])
-    assert meets_free(facets, np.zeros((0, 3)))
-    assert not meets_free(facets, np.zeros((0, 3)), margin=np.radians(1.0))
-    # a wide cone round +z, faces blocking everything with d . (0, 0, 1) > 1 degree: the band
-    # of directions within the tolerance of the horizon is free for them, and the cone
-    # blocks some of it by more than the tolerance
-    s, c = np.sin(np.radians(60)), np.cos(np.radians(60))
-    wide = np.array([[c, 0, s], [-c, 0, s], [0, c, s], [0, -c, s]])
-    assert not meets_free(wide, np.array([[0.0, 0, 1]]))
+def test_widened_cones_block_all_of_the_cone_under_the_tolerance():
+    rng = np.random.default_rng(8)
+    ta, tb = _triangle_pairs(rng, 30)
+    gaps = triangle_gap(ta, tb)
     tol = np.radians(1.0)
-    band = np.array([np.cos(0.9 * tol), 0, np.sin(0.9 * tol)])  # free for the faces
-    assert (band @ wide.T).min() <= tol  # ... and this cone does not block it either
-    assert not meets_free(wide, np.array([[0.0, 0, 1]]), margin=tol)
-    d = np.array([0.3, 0, 0.95])  # well inside the cone, and free for faces blocking -x
-    d /= np.linalg.norm(d)
-    assert (wide @ d).min() > tol and meets_free(wide, np.array([[-1.0, 0, 0]]), margin=tol)
+    widened = 0
+    for c in near_miss_cones(ta, tb, gaps[0] * 1.5, gaps, 1e-3):
+        w = widen(c, tol)
+        if w is None:
+            assert np.degrees(np.arccos((c.rays @ c.normal).min())) + 1.0 >= 79.0
+            continue
+        widened += 1
+        lam = rng.dirichlet(np.ones(len(c.rays)) * 0.3, size=2000)
+        d = lam @ c.rays
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        assert (d @ w.T).min() > tol  # the whole cone, its boundary included
+        # and not much more: the widened cone stays within a few tolerances of the cone
+        far = c.normal + 0.5 * rng.normal(size=(4000, 3))
+        far /= np.linalg.norm(far, axis=1)[:, None]
+        outside = (far @ c.facets.T).min(axis=1) < -np.sin(6 * tol) * 10
+        assert not np.any(outside & ((far @ w.T).min(axis=1) > 0))
+    assert widened > 10
 
 
-def _ring_of_near_misses(count: int, gap: float):
-    """``count`` triangle pairs round the z axis: A's triangle on the unit circle, B's the
-    same turned 10 degrees about the radius and pushed out by ``gap``."""
+def test_two_cones_side_by_side_leave_no_seam():
+    """A needle's tip half the tolerance below the shared edge of two triangles: each
+    triangle's cone stops at the edge's plane, so without widening neither blocked the
+    directions within the angular tolerance of that plane (+z tilted a little)."""
+    from types import SimpleNamespace
+
+    from ndbg_cli.contact_features import _pair_by_pair
+    from ndbg_cli.infinitesimal import blocking_sides
+
+    tol, ang = 1e-3, np.radians(1.0)
+    h = 0.5 * tol
+    needle = np.array([[0.0, 0, 0], [0.001, 0, -1], [0, 0.001, -1]])
+    w = 2 * tol  # the triangles' reach sideways: the cones stay within 76 degrees of +z
+    t1 = np.array([[0.0, -w, h], [w, 0, h], [0, w, h]])
+    t2 = np.array([[0.0, -w, h], [0, w, h], [-w, 0, h]])
+    ga = SimpleNamespace(triangles=needle[None], normals=np.array([[1.0, 1, 0]]) / np.sqrt(2))
+    gb = SimpleNamespace(triangles=np.stack([t1, t2]), normals=np.array([[0, 0, -1.0]] * 2))
+    out = _pair_by_pair(ga, gb, np.array([0, 0]), np.array([0, 1]), np.full(2, 2 * tol),
+                        tol, ang, [], "edge", np.zeros((1, 3)))
+    assert [f["blocking"] for f in out] == ["all", "all"]
+    for tilt in (0.0, 0.3, 0.6, 0.9, -0.6):
+        t = np.radians(tilt)
+        d = np.array([np.sin(t), 0, np.cos(t)])
+        assert any(blocking_sides(d @ np.asarray(f["normals"]).T, "all", ang)[0] for f in out)
+    # beside the triangles: free
+    t = np.radians(85)
+    d = np.array([np.sin(t), 0, np.cos(t)])
+    assert not any(blocking_sides(d @ np.asarray(f["normals"]).T, "all", ang)[0] for f in out)
+
+
+def _ring_of_near_misses(count: int, gap: float, size: float):
+    """``count`` triangle pairs round the z axis: A's triangle (of width ``size``) on the
+    unit circle, B's the same turned 10 degrees about the radius and pushed out by ``gap``."""
     from scipy.spatial.transform import Rotation
 
     ta, tb = [], []
-    base = np.array([[0.0, -0.05, -0.05], [0.0, 0.05, -0.05], [0.0, 0.0, 0.05]])
+    base = np.array([[0.0, -1, -1], [0.0, 1, -1], [0.0, 0.0, 1]]) * size / 2
     for k in range(count):
         th = 2 * np.pi * k / count
         turn = Rotation.from_euler("z", th)
@@ -254,7 +293,7 @@ def test_a_ring_of_near_misses_becomes_one_conservative_contact():
     dirs = rng.normal(size=(20000, 3))
     dirs /= np.linalg.norm(dirs, axis=1)[:, None]
     for count in (MAX_GAP_CONES - 2, 24):
-        ta, tb, na, nb = _ring_of_near_misses(count, 0.5 * tol)
+        ta, tb, na, nb = _ring_of_near_misses(count, 0.5 * tol, 2 * tol)
         ga, gb = SimpleNamespace(triangles=ta, normals=na), SimpleNamespace(triangles=tb,
                                                                             normals=nb)
         i = j = np.arange(count)
@@ -262,13 +301,31 @@ def test_a_ring_of_near_misses_becomes_one_conservative_contact():
         out = _pair_by_pair(ga, gb, i, j, reach, tol, ang, [], "edge", ta.mean(axis=1))
         cones = near_miss_cones(ta, tb, reach, triangle_gap(ta, tb), tol)
         assert len(cones) == count
-        deep = np.any([(dirs @ c.facets.T).min(axis=1) > 3 * ang for c in cones], axis=0)
-        assert deep.sum() > 100
+        inside = np.any([(dirs @ c.facets.T).min(axis=1) > 1e-9 for c in cones], axis=0)
+        assert inside.sum() > 100
         got = np.zeros(len(dirs), dtype=bool)
         for f in out:
             got |= blocking_sides(dirs @ np.asarray(f["normals"]).T, f["blocking"], ang)[0]
-        assert not np.any(deep & ~got)  # every direction a cone blocks is blocked
+        assert not np.any(inside & ~got)  # every direction a cone blocks is blocked
         if count <= MAX_GAP_CONES:
             assert [f["blocking"] for f in out] == ["all"] * count
         else:
             assert len(out) == 1 and out[0]["blocking"] == "any"
+
+
+def test_triangle_gap_on_coplanar_and_piercing_pairs():
+    a = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    # coplanar and disjoint: the gap in the plane, not 0 (no separating axis among the 11)
+    b = np.array([[2.0, 0, 0], [3, 0, 0], [2, 1, 0]])
+    dist, direction, mid = triangle_gap(a[None], b[None])
+    assert dist[0] == pytest.approx(1.0) and np.allclose(direction[0], [1, 0, 0])
+    assert np.allclose(mid[0], [1.5, 0, 0])
+    # a needle through the interior: meets although no vertex or edge pair is close
+    c = np.array([[0.25, 0.25, -1.0], [0.25, 0.25, 1.0], [0.25, 0.26, 1.0]])
+    dist, direction, _ = triangle_gap(a[None], c[None])
+    assert dist[0] == 0.0 and not direction[0].any()
+    dist, _, _ = triangle_gap(c[None], a[None])
+    assert dist[0] == 0.0
+    # the same needle beside the triangle: apart
+    dist, _, _ = triangle_gap(a[None], (c + [1.0, 1.0, 0])[None])
+    assert dist[0] == pytest.approx(0.75 * np.sqrt(2), rel=1e-9)

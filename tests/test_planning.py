@@ -532,6 +532,9 @@ def test_grasp_lazy_greedy_equals_the_plain_scan():
             (nd.ids[faces[f][0]], tuple(float(x) for x in faces[f][1])) for f in chosen]
         assert [f["covers"] for f in r["fingers"]] == covers
         assert len(r["uncovered"]) == uncovered and r["complete"] == (uncovered == 0)
+    # no candidate face: nothing placed, every requirement left
+    r = grasp(nd, [])
+    assert r["value"] == 0 and not r["complete"] and r["uncovered"]
     # over the budget: skipped with the reason, not computed
     r = grasp(nd, faces, budget=0)
     assert r["value"] is None and r["skipped"] and "budget" in r["why"]
