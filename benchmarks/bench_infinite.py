@@ -2,10 +2,10 @@
 
 Cases: AS1 (18 parts, 11k triangles), the beam (5 parts, 48k triangles), the engine GLB (115
 open meshes), AS1 and the beam restricted to their free domains (what ``--motion infinite``
-computes above the budget), and synthetic grids of 10 / 100 / 1000 boxes (unit cubes with
-0.5 gaps). Every pair of parts is processed (distant parts block too; each unordered pair
-once), so the cost grows with the number of part pairs times the triangle pairs that can
-face each other; the growth exponent is the log-log slope of the time over the grid sizes. A case whose estimated
+computes above the budget), and synthetic grids of 10 / 100 / 1000 boxes (unit cubes with 0.5
+gaps). Every pair of parts is processed (distant parts block too; each unordered pair once), so
+the cost grows with the number of part pairs times the triangle pairs that can face each other;
+the growth exponent is the log-log slope of the time over the grid sizes. A case whose estimated
 time exceeds ``BUDGET_S`` is skipped with the estimate.
 
 ``run()`` returns ``[(name, seconds, note)]``; ``python benchmarks/bench_infinite.py`` prints it.
