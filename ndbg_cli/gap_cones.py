@@ -187,17 +187,40 @@ def maximal(cones: list[GapCone]) -> list[int]:
     return np.flatnonzero(~drop).tolist()
 
 
-def meets_free(facets: np.ndarray, normals: np.ndarray) -> bool:
+def meets_free(facets: np.ndarray, normals: np.ndarray, hints: np.ndarray | None = None
+               ) -> bool:
     """Whether the open cone ``{d . m > 0 for m in facets}`` holds a direction outside the
     open half-spaces ``{d . n > 0}`` of ``normals`` ``(q, 3)`` (the face contacts'): the LP
     ``max t`` over ``|d_i| <= 1`` with ``facets d >= t`` and ``normals d <= 0`` exceeds
-    ``1e-9``. An LP that fails says ``True`` (the cone is kept)."""
+    ``1e-9``. An LP that fails says ``True`` (the cone is kept). ``hints`` ``(h, 3)``:
+    directions tried first (the cone's gap direction, its rays pulled inward): one inside the
+    cone by more than ``1e-9`` and outside every half-space answers without the LP."""
+    normals = normals.reshape(-1, 3)
+    if len(normals) == 0:
+        return True
+    if hints is not None and len(hints):
+        inside = (hints @ facets.T).min(axis=1) > 1e-9
+        if np.any(inside & ((hints @ normals.T).max(axis=1) <= 0.0)):
+            return True
     k = len(facets)
     a = np.vstack([np.hstack([-facets, np.ones((k, 1))]),
-                   np.hstack([normals.reshape(-1, 3), np.zeros((len(normals), 1))])])
+                   np.hstack([normals, np.zeros((len(normals), 1))])])
     res = linprog(np.array([0.0, 0.0, 0.0, -1.0]), A_ub=a, b_ub=np.zeros(len(a)),
                   bounds=[(-1, 1)] * 3 + [(None, 1)], method="highs")
     return bool(res.status != 0 or -res.fun > 1e-9)
+
+
+def surrounds(normals: np.ndarray) -> bool:
+    """Whether the origin lies inside the convex hull of ``normals`` ``(q, 3)`` by more than
+    ``1e-9``: then every direction ``d`` has ``d . n > 0`` for some ``n`` (the open
+    half-spaces cover the sphere), and no cone meets what they leave free."""
+    if len(normals) < 4:
+        return False
+    try:
+        hull = ConvexHull(normals)
+    except QhullError:  # flat: the origin is not inside
+        return False
+    return bool(np.all(hull.equations[:, -1] < -1e-9))
 
 
 def widen(cone: GapCone, tol: float) -> np.ndarray | None:

@@ -329,3 +329,21 @@ def test_triangle_gap_on_coplanar_and_piercing_pairs():
     # the same needle beside the triangle: apart
     dist, _, _ = triangle_gap(a[None], (c + [1.0, 1.0, 0])[None])
     assert dist[0] == pytest.approx(0.75 * np.sqrt(2), rel=1e-9)
+
+
+def test_surrounds_and_meets_free_hints():
+    from ndbg_cli.gap_cones import surrounds
+
+    axes = np.vstack([np.eye(3), -np.eye(3)])
+    assert surrounds(axes)
+    assert not surrounds(axes[:5])  # -z is left free
+    rng = np.random.default_rng(9)
+    up = rng.normal(size=(50, 3))
+    up[:, 2] = np.abs(up[:, 2])
+    assert not surrounds(up / np.linalg.norm(up, axis=1)[:, None])
+    # hints decide without the LP, and agree with it
+    s, c = np.sin(np.radians(60)), np.cos(np.radians(60))
+    facets = np.array([[c, 0, s], [-c, 0, s], [0, c, s], [0, -c, s]])
+    for normals in (np.array([[1.0, 0, 0]]), np.array([[0, 0, 1.0]]), axes[:5]):
+        assert meets_free(facets, normals, np.array([[0, 0, 1.0]])) == meets_free(facets,
+                                                                                   normals)
