@@ -5,6 +5,8 @@ samples), and the beam, whose bars the old every-normal rule locked onto their p
 
 from __future__ import annotations
 
+import json
+
 import fcl
 import numpy as np
 import pytest
@@ -347,3 +349,28 @@ def test_surrounds_and_meets_free_hints():
     for normals in (np.array([[1.0, 0, 0]]), np.array([[0, 0, 1.0]]), axes[:5]):
         assert meets_free(facets, normals, np.array([[0, 0, 1.0]])) == meets_free(facets,
                                                                                    normals)
+
+
+@pytest.mark.external
+@pytest.mark.slow
+def test_the_engine_and_the_beam_analyse_end_to_end(tmp_path):
+    """The whole default analysis of the two external models that used to end badly: the
+    engine GLB in an internal error (the grasp's requirements x faces matrix, 89 GiB), the
+    beam as interlocked. Exit 0, reports valid against the schema (the CLI validates)."""
+    from helpers import run_cli
+
+    out = tmp_path / "engine.json"
+    r = run_cli("analyze", shared("engine", "2CylinderEngine.glb"), "--format", "json",
+                "--no-cache", "-q", "--out", out)
+    assert r.returncode == 0, r.stderr[-2000:]
+    rep = json.loads(out.read_text())
+    assert "error" not in rep
+    grasp = rep["classes"]["infinitesimal_translation"]["grasp"]
+    assert grasp["value"] is not None and grasp["value"] > 0
+    r = run_cli("analyze", shared("beam", "assembled"), "--format", "json", "--no-cache",
+                "-q", "--out", tmp_path / "beam.json")
+    assert r.returncode == 0, r.stderr[-2000:]
+    rep = json.loads((tmp_path / "beam.json").read_text())
+    lock = rep["classes"]["infinitesimal_translation"]["interlocked"]
+    assert lock["value"] is False
+    assert rep["plan"]["found"] and len(rep["plan"]["sequence"]) == 4
