@@ -28,6 +28,7 @@ from pathlib import Path
 
 from .analysis import Options, analyze_path, error_record
 from .errors import InputError, NdbgError
+from .pools import end_pool
 
 
 class Interrupted(Exception):
@@ -99,13 +100,7 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
                 # under it once printed an OSError traceback from that thread at exit)
                 pool.shutdown(wait=True)
             else:  # interrupted, or the consumer stopped early: end the workers now
-                # (the workers first: the pool then fails its pending calls itself, and its
-                # manager thread ends before the interpreter's exit; cancelling first raced
-                # with that thread and, under load, printed a traceback from it at exit)
-                for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                    if proc.is_alive():
-                        proc.terminate()
-                pool.shutdown(wait=True, cancel_futures=True)
+                end_pool(pool)
         finally:  # a SIGTERM during the shutdown still leaves the caller's handler back
             signal.signal(signal.SIGTERM, previous)
 

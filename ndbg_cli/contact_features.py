@@ -457,7 +457,8 @@ def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
             if meets_free(cones[k].facets, blocked, _hints(cones[k]))]
     # a ring of near misses with no face contact to absorb it, or a cone too wide to widen
     # (nearly a half-space): blocking on any gap direction (a cone's directions are all
-    # within its widest ray's angle of its gap direction: a superset)
+    # within its widest ray's angle of its gap direction: a superset, but for directions
+    # within the tolerance of the plane across it, its sliding band as for a face)
     wide = [None if len(kept) > MAX_GAP_CONES else widen(c, ang) for c in kept]
     rows = np.array([c.normal for c, w in zip(kept, wide) if w is None]).reshape(-1, 3)
     if len(rows):

@@ -228,17 +228,35 @@ def widen(cone: GapCone, tol: float) -> np.ndarray | None:
     ``theta = 1.01 asin(tol)`` of ``cone``, so that each direction of ``cone`` clears every
     facet by more than ``tol`` (``d . m > tol``: an ``"all"`` contact blocks all of it under
     the DBGs' tolerance, and cones side by side leave no unblocked seam between them).
-    Each facet's line on the chart ``n . x = 1`` (``n``: the gap direction) moves out by
-    ``theta sec^2(phi + theta)`` (``phi``: the widest ray's angle from ``n``), which bounds
-    the chart image of an arc of length ``theta`` that stays within ``phi + theta`` of
-    ``n``. ``None`` when ``phi + theta`` reaches :data:`WIDEN_LIMIT` (the chart blows up)."""
+
+    The widened cone is the cone over octagons of angular circumradius ``theta / cos(pi /
+    8)`` round each ray (each holds the ``theta``-cap round its ray), so it reaches at most
+    that angle beyond ``cone``. The claim is checked exactly: on a unit direction ``d . m``
+    is concave where positive, so over the closed cone its least value is at a ray; the
+    radius grows by 10 % until it holds. ``None`` when the cone reaches :data:`WIDEN_LIMIT`
+    from its gap direction (the chart blows up) or the check keeps failing."""
     theta = 1.01 * float(np.arcsin(min(max(tol, 0.0), 1.0))) + 1e-12
     n = cone.normal
     phi = float(np.arccos(np.clip((cone.rays @ n).min(), -1.0, 1.0)))
-    if phi + theta >= WIDEN_LIMIT:
-        return None
-    delta = theta / np.cos(phi + theta) ** 2
-    m = cone.facets
-    mt = m - (m @ n)[:, None] * n  # the facet's in-chart normal, length |m_t|
-    out = m + (delta * np.linalg.norm(mt, axis=1))[:, None] * n
-    return out / np.linalg.norm(out, axis=1)[:, None]
+    rho = theta / np.cos(np.pi / 8)
+    for _ in range(5):
+        if phi + rho >= WIDEN_LIMIT:
+            return None
+        pts = _octagons(cone.rays, rho)
+        got = _cone(pts, n) if np.all(pts @ n > 0) else None
+        if got is not None and (cone.rays @ got[1].T).min() > tol:
+            return got[1]
+        rho *= 1.1
+    return None
+
+
+def _octagons(rays: np.ndarray, rho: float) -> np.ndarray:
+    """``(8 k, 3)`` unit directions at the angle ``rho`` round each unit ray ``(k, 3)``, at
+    8 even bearings."""
+    a = np.arange(8) * (np.pi / 4)
+    out = []
+    for r in rays:
+        u, v = _basis(r)
+        side = np.cos(a)[:, None] * u + np.sin(a)[:, None] * v
+        out.append(np.cos(rho) * r + np.sin(rho) * side)
+    return np.concatenate(out)

@@ -23,6 +23,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from .blocking_cones import face_unions, pruned_pair_cones, tri_tree
+from .pools import end_pool
 
 #: Fewest (moving x blocking) triangle pairs, summed over the pairs to compute, for which
 #: worker processes are started (below it their start-up costs more than they save).
@@ -98,9 +99,6 @@ def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, 
         # normal end: the workers are idle; else (Ctrl-C, an error, the caller stopping)
         # they are ended now rather than after the pairs under way
         if len(done) < len(pairs):
-            # the workers first: the pool then fails its pending calls itself (cancelling
-            # them first races with that and prints a traceback from its thread)
-            for proc in list((getattr(pool, "_processes", None) or {}).values()):
-                if proc.is_alive():
-                    proc.terminate()
-        pool.shutdown(wait=True)
+            end_pool(pool)
+        else:
+            pool.shutdown(wait=True)
