@@ -406,16 +406,17 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
             out += _pair_by_pair(ga, gb, i[sel], j[sel], gap[sel], tol, ang, patches,
                                  kind, points)
             continue
-        out.append(dict(kind=kind, normals=normals, points=points,
-                        point_normals=_mean_normal(normals, len(points)), area=0.0,
-                        blocking="all"))
+        out.append(_line_contact(kind, normals, points, "all"))
     return out
 
 
-def _mean_normal(normals: np.ndarray, count: int) -> np.ndarray:
-    """The unit mean of ``normals`` repeated ``count`` times (a contact's point normals)."""
-    pn = np.repeat(normals.mean(axis=0, keepdims=True), count, axis=0)
-    return pn / np.maximum(np.linalg.norm(pn, axis=1), 1e-300)[:, None]
+def _line_contact(kind: str, normals: np.ndarray, points: np.ndarray, blocking: str) -> dict:
+    """An edge or point contact over ``points`` ``(m, 3)``, each with the unit mean of
+    ``normals`` as its point normal."""
+    pn = np.repeat(normals.mean(axis=0, keepdims=True), len(points), axis=0)
+    pn /= np.maximum(np.linalg.norm(pn, axis=1), 1e-300)[:, None]
+    return dict(kind=kind, normals=normals, points=points, point_normals=pn, area=0.0,
+                blocking=blocking)
 
 
 def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
@@ -445,9 +446,7 @@ def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
     if close.any():
         normals = cluster_normals(np.concatenate([ga.normals[i[close]], -gb.normals[j[close]]]),
                                   ang)
-        out.append(dict(kind=kind, normals=normals, points=points,
-                        point_normals=_mean_normal(normals, len(points)), area=0.0,
-                        blocking="any"))
+        out.append(_line_contact(kind, normals, points, "any"))
         face.append(normals)
     blocked = np.concatenate(face) if face else np.zeros((0, 3))
     if surrounds(blocked):  # the faces block every direction: nothing for the cones to add
@@ -463,9 +462,7 @@ def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
     rows = np.array([c.normal for c, w in zip(kept, wide) if w is None]).reshape(-1, 3)
     if len(rows):
         normals = rows[np.sort(_unique_rows(rows)[0])]
-        out.append(dict(kind=kind, normals=normals, points=points,
-                        point_normals=_mean_normal(normals, len(points)), area=0.0,
-                        blocking="any"))
+        out.append(_line_contact(kind, normals, points, "any"))
     return out + [dict(kind="point", normals=w, points=c.point[None, :],
                        point_normals=c.normal[None, :], area=0.0, blocking="all")
                   for c, w in zip(kept, wide) if w is not None]

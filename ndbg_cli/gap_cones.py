@@ -39,6 +39,8 @@ import numpy as np
 from scipy.optimize import linprog
 from scipy.spatial import ConvexHull, QhullError
 
+from .sphere import plane_basis
+
 #: Pairs farther apart than this fraction of the length tolerance are near misses with a
 #: gap direction; closer ones are touching.
 GAP_FRACTION = 0.05
@@ -68,13 +70,6 @@ class GapCone:
     rays: np.ndarray
     point: np.ndarray
     normal: np.ndarray
-
-
-def _basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
-    u = np.cross(n, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(n, u)
 
 
 def _cut_points(ta: np.ndarray, tb: np.ndarray, n: np.ndarray, reach: np.ndarray
@@ -110,7 +105,7 @@ def _cone(w: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     is flat: the convex hull of their central projection on ``n . x = 1``."""
     if len(w) < 3:
         return None
-    u, e = _basis(n)
+    u, e = (b[0] for b in plane_basis(n))
     xy = np.stack([w @ u, w @ e], axis=1) / (w @ n)[:, None]
     try:
         hull = ConvexHull(xy)
@@ -253,10 +248,7 @@ def widen(cone: GapCone, tol: float) -> np.ndarray | None:
 def _octagons(rays: np.ndarray, rho: float) -> np.ndarray:
     """``(8 k, 3)`` unit directions at the angle ``rho`` round each unit ray ``(k, 3)``, at
     8 even bearings."""
+    u, v = plane_basis(rays)
     a = np.arange(8) * (np.pi / 4)
-    out = []
-    for r in rays:
-        u, v = _basis(r)
-        side = np.cos(a)[:, None] * u + np.sin(a)[:, None] * v
-        out.append(np.cos(rho) * r + np.sin(rho) * side)
-    return np.concatenate(out)
+    side = np.cos(a)[None, :, None] * u[:, None] + np.sin(a)[None, :, None] * v[:, None]
+    return (np.cos(rho) * rays[:, None] + np.sin(rho) * side).reshape(-1, 3)
