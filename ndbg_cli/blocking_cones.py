@@ -27,7 +27,8 @@ open-set re-test of :class:`ndbg_cli.infinite.BlockedSets` relies on). Node pair
 ``4 eps`` of each other (contacts) are never pruned, so every near triangle pair is kept and
 the contact circles are complete. The tree is walked breadth-first; at each level every
 surviving node pair contributes the exact term of its two largest triangles, which fills the
-union from the inside before the leaves are reached. Leaf pairs (at most :data:`LEAF`
+union from the inside before the leaves are reached. Leaf pairs (at most
+:data:`~ndbg_cli.tritree.LEAF`
 triangles a side) that survive contribute all their terms. Flat terms (:func:`flat`: two
 coplanar triangles, an empty open cone) are dropped as they are made.
 
@@ -51,7 +52,7 @@ inward by ``1.5 eps`` along their normals, so contact never blocks by itself (se
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
 
 import numpy as np
 import shapely
@@ -60,13 +61,12 @@ import trimesh
 from .assembly import Assembly
 from .cover import Cover, run_offsets
 from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, clip_halfplanes, compact, cone_normals
+from .tritree import TriTree, tri_tree  # noqa: F401 (tri_tree: part of this API)
 
 #: Snapping grid of the arrangement linework, chart units.
 GRID = 1e-10
 #: Triangle pairs processed per vectorised chunk.
 CHUNK = 20000
-#: Most triangles in a leaf of the pruning tree.
-LEAF = 8
 
 
 def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -111,9 +111,15 @@ _EMPTY = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
 
 
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
-          jb: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
+          jb: np.ndarray, eps: float, boxes: tuple[np.ndarray, ...] | None = None,
+          covered: Callable[[np.ndarray], np.ndarray] | None = None
+          ) -> tuple[np.ndarray, np.ndarray]:
     """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other:
-    open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs."""
+    open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs.
+    ``boxes``: the triangles' bounding boxes ``(lo_i, hi_i, lo_j, hi_j)`` (each ``(n, 3)``),
+    when the caller has them (a walk calls this hundreds of times on the same parts).
+    ``covered``: a test ``(p, k, 3) open cones -> (p,) bool`` that a term adds nothing to
+    what is kept (:meth:`~ndbg_cli.cover.Cover.misses_open`); those are left out early."""
     if not len(ia):
         return _EMPTY
     # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
@@ -128,8 +134,7 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     ia, jb = ia[ok], jb[ok]
     if not len(ia):
         return _EMPTY
-    lo_i, hi_i = ti.min(axis=1), ti.max(axis=1)
-    lo_j, hi_j = tj.min(axis=1), tj.max(axis=1)
+    lo_i, hi_i, lo_j, hi_j = boxes if boxes is not None else triangle_boxes(ti, tj)
     gap = np.maximum(lo_j[jb] - hi_i[ia], lo_i[ia] - hi_j[jb]).max(axis=1)
     near = gap <= 4 * eps
     parts = []
@@ -141,13 +146,23 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
             if is_near:
                 # Both triangles moved inward by 1.5 eps along their normals (erosion).
                 gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
-            m = compact(cone_normals(gens, pairs=DIFFERENCE_PAIRS))
+            m = cone_normals(gens, pairs=DIFFERENCE_PAIRS)
             facing = np.stack([ni[a], -nj[b]], axis=1)
-            cone = np.concatenate([m, facing], axis=1)
+            if covered is not None:
+                fresh = ~covered(np.concatenate([m, facing], axis=1))
+                m, facing = m[fresh], facing[fresh]
+                if not len(m):
+                    continue
+            cone = np.concatenate([compact(m), facing], axis=1)
             parts.append(cone[~flat(cone)])
     cones = _stack(parts)
     circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
     return cones, circles
+
+
+def triangle_boxes(ti: np.ndarray, tj: np.ndarray) -> tuple[np.ndarray, ...]:
+    """``(lo_i, hi_i, lo_j, hi_j)``: the bounding boxes ``(n, 3)`` of two triangle sets."""
+    return ti.min(axis=1), ti.max(axis=1), tj.min(axis=1), tj.max(axis=1)
 
 
 #: Two rows of a cone at least this anti-parallel (``m . m' <= -1 + FLAT``) make it flat:
@@ -401,59 +416,6 @@ def robust_union(polys: np.ndarray) -> object:
     return out
 
 
-# --------------------------------------------------------------------------------------------
-# Pruning tree
-# --------------------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class TriTree:
-    """A bounding-box tree over a part's triangles. Node ``k`` holds the triangles
-    ``perm[start[k]:stop[k]]`` inside the box ``lo[k]..hi[k]`` (``(m, 3)``, model units);
-    ``left``/``right`` are ``-1`` for leaves; ``big[k]`` are the node's two largest triangles
-    (indices into the part's triangles, repeated when the node has one)."""
-
-    perm: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    start: np.ndarray
-    stop: np.ndarray
-    left: np.ndarray
-    right: np.ndarray
-    big: np.ndarray
-
-
-def tri_tree(tri: np.ndarray, leaf: int = LEAF) -> TriTree:
-    """Median-split tree over triangles ``(t, 3, 3)`` (longest box axis of the centroids)."""
-    cen = tri.mean(axis=1)
-    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    perm = np.arange(len(tri))
-    start, stop, left, right = [0], [len(tri)], [-1], [-1]
-    todo = [0] if len(tri) > leaf else []
-    while todo:
-        k = todo.pop()
-        s, e = start[k], stop[k]
-        idx = perm[s:e]
-        c = cen[idx]
-        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
-        perm[s:e] = idx[np.argsort(c[:, axis], kind="stable")]
-        mid = (s + e) // 2
-        for a, b in ((s, mid), (mid, e)):
-            start.append(a)
-            stop.append(b)
-            left.append(-1)
-            right.append(-1)
-            if b - a > leaf:
-                todo.append(len(start) - 1)
-        left[k], right[k] = len(start) - 2, len(start) - 1
-    start_a, stop_a = np.array(start), np.array(stop)
-    lo = np.array([tri[perm[a:b]].reshape(-1, 3).min(axis=0) for a, b in zip(start, stop)])
-    hi = np.array([tri[perm[a:b]].reshape(-1, 3).max(axis=0) for a, b in zip(start, stop)])
-    big = np.array([perm[a:b][np.argsort(-area[perm[a:b]], kind="stable")[:2]][[0, -1]]
-                    for a, b in zip(start, stop)])
-    return TriTree(perm, lo.reshape(-1, 3), hi.reshape(-1, 3), start_a, stop_a,
-                   np.array(left), np.array(right), big.reshape(-1, 2))
-
-
 def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.ndarray,
                       nj: np.ndarray, tree_j: TriTree, eps: float, stats: dict | None = None,
                       domain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -553,6 +515,7 @@ class _Walk:
         self.ti, self.ni, self.tree_i = ti, ni, tree_i
         self.tj, self.nj, self.tree_j = tj, nj, tree_j
         self.eps = eps
+        self.boxes = triangle_boxes(ti, tj)
         self.kept: list[np.ndarray] = []
         self.circles: list[np.ndarray] = []
         self.cover = Cover(domain=domain)
@@ -588,7 +551,9 @@ class _Walk:
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
         """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already
         inside the cover and add them to it."""
-        cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps)
+        cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps,
+                            boxes=self.boxes,
+                            covered=None if self.cover.empty else self.cover.misses_open)
         self.stats["terms"] += len(cones)
         if len(circ):
             self.circles.append(circ)

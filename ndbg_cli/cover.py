@@ -172,7 +172,11 @@ class Cover:
         mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
         ok = np.ones(len(gens), dtype=bool)
         if mixed.any():
-            ok[mixed] = self.covers(compact(cone_normals(gens[mixed], pairs=pairs)))
+            idx = np.flatnonzero(mixed)
+            nrm = cone_normals(gens[idx], pairs=pairs)
+            test = ~self.misses_open(nrm)  # the quick window test first, then the clipping
+            if test.any():
+                ok[idx[test]] = self.covers(compact(nrm[test]))
         for face in range(6):
             e, u, v = FACES[face]
             sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
@@ -197,6 +201,31 @@ class Cover:
         got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
         return got == (y1 - y0 + 1) * (x1 - x0 + 1)
 
+    def _outside(self, cones: np.ndarray, face: int) -> np.ndarray | None:
+        """``(p,)`` whether each open cone ``(p, k, 3)`` misses the window of ``face``
+        (:meth:`window`): one of its half-spaces has the window's four corner directions
+        strictly outside (a quick test, no clipping); ``None`` when the face has no
+        window."""
+        win = self.window(face)
+        if win is None:
+            return None
+        e, u, v = FACES[face]
+        x0, y0, x1, y1 = win
+        corners = np.array([e + x * u + y * v for x in (x0, x1) for y in (y0, y1)])
+        val = cones @ corners.T  # (p, k, 4); zero rows give 0: never outside
+        return (val < 0.0).all(axis=2).any(axis=1)
+
+    def misses_open(self, cones: np.ndarray) -> np.ndarray:
+        """``(p,)`` whether each open cone ``(p, k, 3)`` (zero rows allowed) misses every
+        cell not yet covered (the window test of :meth:`_outside` on every face): it then
+        lies in covered cells or nowhere, as :meth:`covers` would find, without clipping."""
+        out = np.ones(len(cones), dtype=bool)
+        for face in range(6):
+            miss = self._outside(cones, face)
+            if miss is not None:
+                out &= miss
+        return out
+
     def covers(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every
         face it meets."""
@@ -204,14 +233,15 @@ class Cover:
             return np.zeros(len(cones), dtype=bool)
         ok = np.ones(len(cones), dtype=bool)
         for face in range(6):
-            win = self.window(face)
-            if win is None:  # every cell of the face is covered
+            miss = self._outside(cones, face)
+            if miss is None or miss.all():  # every cell of the face covered, or missed
                 continue
-            poly, cnt = clip_halfplanes(cones, face, rect=win)
+            some = np.flatnonzero(~miss)
+            poly, cnt = clip_halfplanes(cones[some], face, rect=self.window(face))
             hit = cnt >= 3
             if not hit.any():
                 continue
-            idx = np.nonzero(hit)[0]
+            idx = some[hit]
             poly, cnt = poly[hit], cnt[hit]
             valid = (np.arange(poly.shape[1])[None, :] < cnt[:, None])[:, :, None]
             lo = np.where(valid, poly, np.inf).min(axis=1)

@@ -22,8 +22,9 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
-from .blocking_cones import face_unions, pruned_pair_cones, tri_tree
+from .blocking_cones import face_unions, pruned_pair_cones
 from .pools import end_pool
+from .tritree import tri_tree
 
 #: Fewest (moving x blocking) triangle pairs, summed over the pairs to compute, for which
 #: worker processes are started (below it their start-up costs more than they save).

@@ -1,0 +1,79 @@
+"""The pruning raster's quick tests and the triangle tree's node data, against direct
+computations (clipping, per-node scans)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ndbg_cli import blocking_cones as bc
+from ndbg_cli.cover import Cover
+from ndbg_cli.cubemap import FACES, clip_halfplanes, cone_normals
+
+
+def _random_cones(rng: np.random.Generator, p: int, spread: float) -> np.ndarray:
+    """Open cones ``(p, k, 3)`` spanned by 4 generators round random axes (uncompacted
+    normals, zero rows included, as the walk's terms have them)."""
+    axis = rng.normal(size=(p, 1, 3))
+    gens = axis + spread * rng.normal(size=(p, 4, 3))
+    return cone_normals(gens)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_window_test_agrees_with_clipping(seed: int) -> None:
+    """A cone the quick corner test calls outside a face's window has no polygon there
+    (clipping to the window), and a cone :meth:`misses_open` reports missing every window
+    is reported covered by :meth:`covers`; some cones do meet windows (the test can fail)."""
+    rng = np.random.default_rng(seed)
+    domain = np.zeros((6, 64, 64), dtype=bool)
+    domain[0, 28:36, 28:36] = domain[1, 28:36, 28:36] = True  # caps round +x and -x
+    domain[4, 10:20, 40:50] = domain[5, 44:54, 14:24] = True
+    cover = Cover(domain=domain)
+    cones = _random_cones(rng, 3000, 0.3)
+    met = 0
+    for face in range(6):
+        out = cover._outside(cones, face)
+        if out is None:
+            assert cover.window(face) is None
+            continue
+        _, cnt = clip_halfplanes(cones, face, rect=cover.window(face))
+        assert not np.any(out & (cnt >= 3))
+        met += int((cnt >= 3).sum())
+    assert met > 0
+    miss = cover.misses_open(cones)
+    assert miss.any() and not miss.all()
+    assert cover.covers(cones)[miss].all()
+
+
+def test_window_test_keeps_cones_through_a_window() -> None:
+    """A cone round the centre of a face's window is never reported outside it, nor one
+    with no facet (every direction)."""
+    domain = np.zeros((6, 64, 64), dtype=bool)
+    domain[4, 30:34, 30:34] = True
+    cover = Cover(domain=domain)
+    e = FACES[4, 0]
+    gens = e + 1e-3 * np.array([[1, 0, 0], [0, 1, 0], [-1, -1, 0]], dtype=float)
+    cones = np.concatenate([cone_normals(gens[None]), np.zeros((1, 3, 3))])
+    assert not cover.misses_open(cones).any()
+    assert not cover.covers(cones).any()
+
+
+@pytest.mark.parametrize("n", [1, 7, 9, 200, 1001])
+def test_tree_nodes_match_a_scan(n: int) -> None:
+    """Each node's box and two largest triangles (ties to the first in the tree's order)
+    equal a direct scan of its triangles; equal areas are frequent (a grid of copies)."""
+    rng = np.random.default_rng(n)
+    base = rng.normal(size=(max(n // 4, 1), 3, 3))
+    tri = np.concatenate([base + rng.integers(0, 5, size=(len(base), 1, 3))
+                          for _ in range(4)])[:n]
+    if len(tri) < n:
+        tri = np.concatenate([tri, rng.normal(size=(n - len(tri), 3, 3))])
+    tree = bc.tri_tree(tri)
+    area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    for k, (a, b) in enumerate(zip(tree.start, tree.stop)):
+        idx = tree.perm[a:b]
+        pts = tri[idx].reshape(-1, 3)
+        assert np.array_equal(tree.lo[k], pts.min(axis=0))
+        assert np.array_equal(tree.hi[k], pts.max(axis=0))
+        top = idx[np.argsort(-area[idx], kind="stable")[:2]][[0, -1]]
+        assert np.array_equal(tree.big[k], top)
