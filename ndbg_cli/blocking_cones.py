@@ -337,14 +337,16 @@ def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
 # Chart polygons and their unions
 # --------------------------------------------------------------------------------------------
 
-def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48
+def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48,
+                  rect: tuple[float, float, float, float] | None = None
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Chart polygons of ``cones`` ``(p, k, 3)`` on ``face`` (convex) and the index of the
     cone of each; cones missing the face and pieces of area below ``GRID**2`` are left
-    out. ``max_vertices``: see :func:`~ndbg_cli.cubemap.clip_halfplanes`."""
+    out. ``max_vertices``, ``rect`` (clip to that chart rectangle of the face only): see
+    :func:`~ndbg_cli.cubemap.clip_halfplanes`."""
     if not len(cones):
         return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
-    poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices)
+    poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
     keep = cnt >= 3
     if not keep.any():
         return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
@@ -358,19 +360,27 @@ def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48
     return polys[big], index[big]
 
 
-def cones_to_face_geoms(cones: np.ndarray) -> list[tuple | None]:
+def cones_to_face_geoms(cones: np.ndarray, windows: list | None = None
+                        ) -> list[tuple | None]:
     """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
     empty, else ``(union, tree, index)``: the union (closed polygons in chart coordinates),
-    an STR-tree over the pieces' polygons and the cone index of each tree item."""
-    return with_trees(face_unions(cones))
+    an STR-tree over the pieces' polygons and the cone index of each tree item. With
+    ``windows`` (per face a chart rectangle or ``None``, :func:`ndbg_cli.domain.
+    domain_windows`) only the part inside each face's rectangle is made, none where
+    ``None``: the sets are then right inside the windows only."""
+    return with_trees(face_unions(cones, windows))
 
 
-def face_unions(cones: np.ndarray) -> list[tuple | None]:
+def face_unions(cones: np.ndarray, windows: list | None = None) -> list[tuple | None]:
     """:func:`cones_to_face_geoms` with the pieces ``(union, pieces, index)`` instead of
     their search tree (which does not pickle: what a worker process returns)."""
     out: list[tuple | None] = []
     for face in range(6):
-        polys, index = face_polygons(cones, face)
+        if windows is not None and windows[face] is None:
+            out.append(None)
+            continue
+        polys, index = face_polygons(cones, face,
+                                     rect=None if windows is None else windows[face])
         if not len(polys):
             out.append(None)
             continue

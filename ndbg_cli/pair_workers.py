@@ -23,6 +23,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from .blocking_cones import face_unions, pruned_pair_cones
+from .domain import domain_windows
 from .pools import end_pool
 from .tritree import tri_tree
 
@@ -47,7 +48,8 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees[a], tris[b][0], tris[b][1],
                                     trees[b], eps, domain=domain)
     t1 = time.perf_counter()
-    faces = face_unions(cones)
+    # with a domain only its part of the sets is used: the unions are made in its windows
+    faces = face_unions(cones, None if domain is None else domain_windows(domain))
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1
 
 

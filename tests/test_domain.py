@@ -12,7 +12,7 @@ from ndbg_cli.contacts import analyze_contacts
 from ndbg_cli.cover import RASTER
 from ndbg_cli.cubemap import face_of, random_directions
 from ndbg_cli.dbg import strong_components
-from ndbg_cli.domain import cell_directions, free_domain
+from ndbg_cli.domain import cell_directions, domain_polygons, domain_windows, free_domain
 from ndbg_cli.infinite import boundary_distance, build_infinite, lookup
 from ndbg_cli.infinitesimal import contact_pairs, dbg_at
 from ndbg_cli.ndbg import partitionings
@@ -100,3 +100,24 @@ def test_analyze_over_budget_reports_the_restricted_section(tmp_path):
     # no plan or classes from the restricted family
     assert rep["plan"]["family"] != "infinite_translation"
     assert "infinite_translation" not in rep["classes"]
+
+
+def test_domain_windows_bound_the_domain_cells():
+    """Each face's window is the box of its domain cells (hand-made cells, cube-edge margin
+    where they reach the border); the domain's polygons lie inside their windows."""
+    dom = np.zeros((6, 8, 8), dtype=bool)
+    dom[0, 2:4, 5] = True  # rows 2..3, column 5: s in [0.25, 0.5], t in [-0.5, 0]
+    dom[3, 0, 7] = True  # a corner cell: the margin on two sides
+    dom[4] = True
+    win = domain_windows(dom)
+    assert win[1] is None and win[2] is None and win[5] is None
+    assert win[0] == (0.25, -0.5, 0.5, 0.0)
+    m = 1.0 + 1e-9
+    assert win[3] == (0.75, -m, m, -0.75)
+    assert win[4] == (-m, -m, m, m)
+    for face, poly in enumerate(domain_polygons(dom)):
+        if poly is None:
+            continue
+        x0, y0, x1, y1 = poly.bounds
+        wx0, wy0, wx1, wy1 = win[face]
+        assert wx0 <= x0 and wy0 <= y0 and x1 <= wx1 and y1 <= wy1
