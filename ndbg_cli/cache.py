@@ -19,6 +19,7 @@ The cache is the user's own (pickle is only safe for files you wrote yourself).
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import os
 import pickle
@@ -29,11 +30,47 @@ from typing import Any
 from . import __version__
 from .report import write_atomic
 
-#: Modules whose code determines each stage's per-pair results.
+#: Modules whose code determines each stage's per-pair results, with every package module
+#: they import (:func:`stage_modules`).
 STAGE_MODULES = {
     "contacts": ("contacts", "contact_features", "facets", "interference", "assembly"),
     "infinite": ("infinite", "cubemap", "assembly"),
 }
+
+
+def _relative_imports(source: str) -> set[str]:
+    """The package modules a module's source imports (``from .x import ...``,
+    ``from . import x``; anywhere in the file, functions included)."""
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            if node.module:
+                out.add(node.module.split(".")[0])
+            else:
+                out.update(a.name for a in node.names if not a.name.startswith("__"))
+    return out
+
+
+@cache_fn
+def stage_modules(stage: str) -> tuple[str, ...]:
+    """The modules of :data:`STAGE_MODULES` for ``stage`` and all package modules they
+    import, directly or not (sorted): a change to any of them changes the stage's digest.
+    (Listing the roots alone missed the helpers they call: the pruning walk, the gap
+    cones.)"""
+    here = Path(__file__).resolve().parent
+    seen: set[str] = set()
+    todo = list(STAGE_MODULES[stage])
+    while todo:
+        name = todo.pop()
+        if name in seen:
+            continue
+        seen.add(name)
+        try:
+            source = (here / f"{name}.py").read_text(encoding="utf-8")
+        except OSError:  # a subpackage or an installed wheel without sources
+            continue
+        todo.extend(_relative_imports(source) - seen)
+    return tuple(sorted(seen))
 
 
 def default_dir() -> Path:
@@ -53,7 +90,7 @@ def code_digest(stage: str) -> str:
 
     h = hashlib.sha256(__version__.encode())
     here = Path(__file__).resolve().parent
-    for name in STAGE_MODULES[stage]:
+    for name in stage_modules(stage):
         try:
             h.update((here / f"{name}.py").read_bytes())
         except OSError:  # installed without sources: the version stands for them

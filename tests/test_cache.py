@@ -82,3 +82,47 @@ def test_no_cache_wins_whatever_the_order(tmp_path):
         assert r.returncode == 0, r.stderr
         assert not [k for k in json.loads(r.stdout)["timings"] if k.startswith("cache_")]
     assert not cache.exists()
+
+
+def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
+    """A stage's digest reads its modules and every package module they import, directly
+    or not: the pruning walk and the gap cones change the cached results too. Checked on
+    a copy of the package whose gap_cones.py is edited: the contacts digest changes, and
+    so does the infinite one (it imports the contacts), while an unrelated module's edit
+    (the text report) changes neither."""
+    import ast
+    import subprocess
+    import sys
+
+    import ndbg_cli
+    from ndbg_cli.cache import stage_modules
+
+    here = Path(ndbg_cli.__file__).parent
+    for stage in ("contacts", "infinite"):
+        mods = set(stage_modules(stage))
+        for name in mods:  # closed under the package's relative imports
+            for node in ast.walk(ast.parse((here / f"{name}.py").read_text())):
+                if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
+                    assert node.module.split(".")[0] in mods
+    assert {"gap_cones", "facets", "sphere"} <= set(stage_modules("contacts"))
+    assert {"blocking_cones", "cover", "tritree", "domain"} <= set(stage_modules("infinite"))
+    assert "text" not in stage_modules("infinite")
+
+    copy = tmp_path / "pkg" / "ndbg_cli"
+    shutil.copytree(here, copy, ignore=shutil.ignore_patterns("__pycache__"))
+
+    def digests() -> list[str]:
+        code = ("from ndbg_cli.cache import code_digest; "
+                "print(code_digest('contacts'), code_digest('infinite'))")
+        out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path / "pkg",
+                             capture_output=True, text=True, check=True)
+        return out.stdout.split()
+
+    before = digests()
+    with open(copy / "text.py", "a") as f:
+        f.write("\n# an edit elsewhere\n")
+    assert digests() == before
+    with open(copy / "gap_cones.py", "a") as f:
+        f.write("\n# an edit of a helper\n")
+    after = digests()
+    assert after[0] != before[0] and after[1] != before[1]
