@@ -15,6 +15,12 @@ entry is treated as a miss and rewritten. The key includes a digest of the sourc
 modules that compute the stage, so results from another version of ndbg are never reused.
 Default directory: ``$NDBG_CACHE_DIR``, else ``$XDG_CACHE_HOME/ndbg``, else ``~/.cache/ndbg``.
 The cache is the user's own (pickle is only safe for files you wrote yourself).
+
+Size: a hit refreshes its entry's modification time, and after each ``analyze`` / ``check``
+run the CLI trims the cache to ``$NDBG_CACHE_MAX_MB`` megabytes (:data:`DEFAULT_MAX_MB`;
+0: no limit), least recently used entries first, down to :data:`TRIM_TO` of the limit
+(:func:`trim`): a CI runner's cache stays bounded however many part versions it sees.
+``ndbg cache info`` / ``ndbg cache clear`` show and empty it.
 """
 
 from __future__ import annotations
@@ -71,6 +77,13 @@ def stage_modules(stage: str) -> tuple[str, ...]:
             continue
         todo.extend(_relative_imports(source) - seen)
     return tuple(sorted(seen))
+
+
+#: Default size limit of the cache directory, megabytes (``$NDBG_CACHE_MAX_MB`` overrides).
+DEFAULT_MAX_MB = 2048
+#: A trim removes entries until the cache holds at most this fraction of the limit (so that
+#: the next runs do not trim again at once).
+TRIM_TO = 0.8
 
 
 def default_dir() -> Path:
@@ -133,6 +146,10 @@ class PairCache:
             self.misses[stage] = self.misses.get(stage, 0) + 1
             return None
         self.hits[stage] = self.hits.get(stage, 0) + 1
+        try:  # used now: the last entry a trim removes
+            os.utime(self._path(stage, key))
+        except OSError:
+            pass
         return value
 
     def put(self, stage: str, key: str, value: Any) -> None:
@@ -154,3 +171,79 @@ class PairCache:
 def open_cache(directory: str | Path | None) -> PairCache | None:
     """A :class:`PairCache` on ``directory``, or ``None`` for no caching (``None`` or ``""``)."""
     return PairCache(directory) if directory else None
+
+
+def max_bytes() -> int | None:
+    """The cache's size limit in bytes: ``$NDBG_CACHE_MAX_MB`` (a non-negative number of
+    megabytes; 0 means none), else :data:`DEFAULT_MAX_MB`. ``None``: no limit. Raises
+    ``ValueError`` on a malformed value."""
+    text = os.environ.get("NDBG_CACHE_MAX_MB", "").strip()
+    try:
+        mb = float(text) if text else float(DEFAULT_MAX_MB)
+    except ValueError:
+        mb = float("nan")
+    if not 0 <= mb < float("inf"):  # negative, NaN or infinite
+        raise ValueError(f"NDBG_CACHE_MAX_MB must be a number of megabytes >= 0, not {text!r}")
+    return None if mb == 0 else int(mb * 1024 * 1024)
+
+
+def _entries(root: Path) -> list[tuple[float, int, str, Path]]:
+    """``(mtime, bytes, stage, path)`` of every entry under ``root`` (vanished ones skipped:
+    another run may be trimming too)."""
+    out = []
+    for path in root.glob("*/*/*.pkl"):
+        try:
+            st = path.stat()
+        except OSError:
+            continue
+        out.append((st.st_mtime, st.st_size, path.parent.parent.name, path))
+    return out
+
+
+def usage(root: str | Path) -> dict:
+    """``{"entries": n, "bytes": b, "stages": {stage: {"entries": n, "bytes": b}}}`` of the
+    cache directory ``root`` (zeros when it does not exist)."""
+    stages: dict[str, dict[str, int]] = {}
+    for _, size, stage, _ in _entries(Path(root)):
+        st = stages.setdefault(stage, {"entries": 0, "bytes": 0})
+        st["entries"] += 1
+        st["bytes"] += size
+    return {"entries": sum(s["entries"] for s in stages.values()),
+            "bytes": sum(s["bytes"] for s in stages.values()),
+            "stages": dict(sorted(stages.items()))}
+
+
+def trim(root: str | Path, limit: int | None) -> tuple[int, int]:
+    """Remove the least recently used entries of the cache ``root`` while it holds more than
+    ``limit`` bytes, down to :data:`TRIM_TO` of it (``None``: no limit). Returns ``(entries
+    removed, bytes freed)``; files that cannot be removed are left (never an error)."""
+    if limit is None:
+        return 0, 0
+    entries = _entries(Path(root))
+    total = sum(e[1] for e in entries)
+    if total <= limit:
+        return 0, 0
+    removed = freed = 0
+    for _, size, _, path in sorted(entries, key=lambda e: (e[0], str(e[3]))):
+        if total - freed <= TRIM_TO * limit:
+            break
+        try:
+            path.unlink()
+        except OSError:
+            continue
+        removed += 1
+        freed += size
+    return removed, freed
+
+
+def clear(root: str | Path) -> tuple[int, int]:
+    """Remove every entry of the cache ``root``; ``(entries removed, bytes freed)``."""
+    removed = freed = 0
+    for _, size, _, path in _entries(Path(root)):
+        try:
+            path.unlink()
+        except OSError:
+            continue
+        removed += 1
+        freed += size
+    return removed, freed

@@ -126,3 +126,65 @@ def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
         f.write("\n# an edit of a helper\n")
     after = digests()
     assert after[0] != before[0] and after[1] != before[1]
+
+
+def test_trim_removes_the_least_recently_used_entries(tmp_path):
+    """Entries of known sizes and ages: a hit makes an old entry recent, and a trim over
+    the limit removes the oldest others until the cache holds at most TRIM_TO of it."""
+    import os
+
+    from ndbg_cli.cache import TRIM_TO, PairCache, clear, trim, usage
+
+    c = PairCache(tmp_path / "c")
+    keys = [c.key("contacts", k) for k in range(6)]
+    for k, key in enumerate(keys):
+        c.put("contacts", key, bytes(10_000))
+        os.utime(c._path("contacts", key), (1000.0 + k, 1000.0 + k))  # key 0 the oldest
+    size = usage(c.root)["bytes"]
+    assert usage(c.root)["entries"] == 6 and size > 60_000
+    assert c.get("contacts", keys[0]) == bytes(10_000)  # used now: the newest
+    assert trim(c.root, None) == (0, 0) and trim(c.root, size) == (0, 0)
+    limit = size // 2
+    removed, freed = trim(c.root, limit)
+    left = usage(c.root)
+    assert left["bytes"] <= TRIM_TO * limit and left["bytes"] == size - freed
+    assert removed == 6 - left["entries"] and 0 < left["entries"] < 6
+    alive = [c.get("contacts", key) is not None for key in keys]
+    # the survivors are the most recently used: key 0 (the hit), then the youngest
+    assert alive[0] and alive == [True] + [False] * (6 - left["entries"]) \
+        + [True] * (left["entries"] - 1)
+    assert clear(c.root)[0] == left["entries"] and usage(c.root)["entries"] == 0
+
+
+def test_analyze_keeps_the_cache_under_its_limit(tmp_path):
+    """NDBG_CACHE_MAX_MB bounds the cache after a run (stderr says what went); a malformed
+    value is a warning, not a failure; ``cache info`` and ``cache clear`` report and empty
+    it."""
+    import os
+    import subprocess
+    import sys
+
+    manifest = _copy_hover(tmp_path / "a")
+    cache = tmp_path / "cache"
+
+    def run(*args: str, limit: str | None = None) -> subprocess.CompletedProcess:
+        env = {k: v for k, v in os.environ.items() if k != "NDBG_CACHE_MAX_MB"}
+        if limit is not None:
+            env["NDBG_CACHE_MAX_MB"] = limit
+        return subprocess.run([sys.executable, "-m", "ndbg_cli", *map(str, args)], env=env,
+                              capture_output=True, text=True, timeout=300)
+
+    r = run("analyze", manifest, "--cache", cache, "--format", "json")
+    assert r.returncode == 0 and "trimmed" not in r.stderr
+    info = json.loads(run("cache", "info", "--cache", cache).stdout)
+    assert info["entries"] == 5 and info["stages"]["infinite"]["entries"] == 3
+    limit_mb = info["bytes"] / 2 / 2**20
+    r = run("analyze", manifest, "--cache", cache, "--format", "json", limit=f"{limit_mb}")
+    assert r.returncode == 0 and "cache trimmed" in r.stderr
+    assert json.loads(run("cache", "info", "--cache", cache).stdout)["bytes"] \
+        <= 0.8 * limit_mb * 2**20
+    r = run("analyze", manifest, "--cache", cache, "--format", "json", limit="lots")
+    assert r.returncode == 0 and "NDBG_CACHE_MAX_MB" in r.stderr
+    r = run("cache", "clear", "--cache", cache)
+    assert r.returncode == 0 and "5 cache entries" in r.stderr
+    assert json.loads(run("cache", "info", "--cache", cache).stdout)["entries"] == 0
