@@ -35,13 +35,13 @@ from .andor import (
     AndOrGraph,
     Budget,
     Hyperarc,
-    condense,
     contains,
     gc_paused,
     greedy_tree,
     lower_bound_depth,
     node_splits,
 )
+from .components import condense
 from .dbg import bits
 from .ndbg import NDBG, ConnectivityTest
 
