@@ -215,6 +215,37 @@ class Cover:
         val = cones @ corners.T  # (p, k, 4); zero rows give 0: never outside
         return (val < 0.0).all(axis=2).any(axis=1)
 
+    def _window_pyramid(self, face: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The window of ``face`` as a cone: its four corner directions ``(4, 3)`` and the
+        inward normals of its four sides ``(4, 3)``; ``None`` without a window."""
+        win = self.window(face)
+        if win is None:
+            return None
+        e, u, v = FACES[face]
+        x0, y0, x1, y1 = win
+        corners = np.array([e + x0 * u + y0 * v, e + x1 * u + y0 * v, e + x1 * u + y1 * v,
+                            e + x0 * u + y1 * v])
+        sides = np.cross(corners, np.roll(corners, -1, axis=0))
+        centre = e + 0.5 * (x0 + x1) * u + 0.5 * (y0 + y1) * v
+        return corners, sides * np.sign(sides @ centre)[:, None]
+
+    def misses_spanned_open(self, gens: np.ndarray, facing: np.ndarray) -> np.ndarray:
+        """``(p,)`` whether each term, the cone spanned by ``gens`` ``(p, g, 3)`` cut by the
+        open half-spaces ``facing`` ``(p, f, 3)`` (``{d : m . d > 0}``), misses every window
+        (so every cell not yet covered), by two quick tests per window, no facet computed:
+        every generator strictly outside one side of the window's cone, or the four corners
+        outside one of the half-spaces."""
+        out = np.ones(len(gens), dtype=bool)
+        for face in range(6):
+            pyr = self._window_pyramid(face)
+            if pyr is None:
+                continue
+            corners, sides = pyr
+            miss = (gens @ sides.T < 0.0).all(axis=1).any(axis=1)
+            miss |= (facing @ corners.T <= 0.0).all(axis=2).any(axis=1)
+            out &= miss
+        return out
+
     def misses_open(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each open cone ``(p, k, 3)`` (zero rows allowed) misses every
         cell not yet covered (the window test of :meth:`_outside` on every face): it then

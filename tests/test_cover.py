@@ -77,3 +77,26 @@ def test_tree_nodes_match_a_scan(n: int) -> None:
         assert np.array_equal(tree.hi[k], pts.max(axis=0))
         top = idx[np.argsort(-area[idx], kind="stable")[:2]][[0, -1]]
         assert np.array_equal(tree.big[k], top)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_generator_window_test_agrees_with_clipping(seed: int) -> None:
+    """A term (generators' cone cut by two open half-spaces) that the generator test calls
+    outside every window has no polygon in any window once its facets are computed and
+    clipped; the test does call some terms outside and not others."""
+    rng = np.random.default_rng(seed)
+    domain = np.zeros((6, 64, 64), dtype=bool)
+    domain[4, 28:36, 20:44] = domain[5, 20:44, 28:36] = True  # a band round +z and -z
+    cover = Cover(domain=domain)
+    axis = rng.normal(size=(4000, 1, 3))
+    gens = axis + 0.4 * rng.normal(size=(4000, 9, 3))
+    facing = rng.normal(size=(4000, 2, 3))
+    facing /= np.linalg.norm(facing, axis=2, keepdims=True)
+    miss = cover.misses_spanned_open(gens, facing)
+    assert 0.05 < miss.mean() < 0.95
+    cones = np.concatenate([cone_normals(gens), facing], axis=1)
+    for face in range(6):
+        if cover.window(face) is None:
+            continue
+        _, cnt = clip_halfplanes(cones, face, rect=cover.window(face))
+        assert not np.any(miss & (cnt >= 3))
