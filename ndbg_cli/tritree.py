@@ -31,26 +31,50 @@ class TriTree:
 
 
 def tri_tree(tri: np.ndarray, leaf: int = LEAF) -> TriTree:
-    """Median-split tree over triangles ``(t, 3, 3)`` (longest box axis of the centroids)."""
+    """Median-split tree over triangles ``(t, 3, 3)`` (longest box axis of the centroids).
+
+    Each node's triangles are sorted (stably) along the longest extent of their centroids
+    and halved; nodes of more than ``leaf`` triangles are split. The splits of one depth are
+    made together (a node's split depends on its own triangles only); the nodes are numbered
+    as a depth-first construction would number them: a node's two children get the next two
+    numbers when it is split, the right child's subtree split first."""
+    n = len(tri)
     cen = tri.mean(axis=1)
     area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    perm = np.arange(len(tri))
-    start, stop, left, right = [0], [len(tri)], [-1], [-1]
-    todo = [0] if len(tri) > leaf else []
+    perm = np.arange(n)
+    split: set[tuple[int, int]] = set()  # the (start, stop) of every inner node
+    seg = np.array([[0, n]]) if n > leaf else np.zeros((0, 2), dtype=np.int64)
+    while len(seg):
+        s, e = seg[:, 0], seg[:, 1]
+        split.update(zip(s.tolist(), e.tolist()))
+        # the segments' triangles, in their current order, each tagged with its segment
+        size = e - s
+        owner = np.repeat(np.arange(len(seg)), size)
+        pos = np.arange(int(size.sum())) - np.repeat(np.cumsum(size) - size, size) \
+            + np.repeat(s, size)
+        c = cen[perm[pos]]
+        starts = np.cumsum(size) - size
+        ext = np.maximum.reduceat(c, starts, axis=0) - np.minimum.reduceat(c, starts, axis=0)
+        axis = np.argmax(ext, axis=1)
+        key = c[np.arange(len(c)), axis[owner]]
+        order = np.lexsort((key, owner))  # stable: ties keep their order
+        perm[pos] = perm[pos[order]]
+        mid = (s + e) // 2
+        kids = np.concatenate([np.stack([s, mid], axis=1), np.stack([mid, e], axis=1)])
+        seg = kids[kids[:, 1] - kids[:, 0] > leaf]
+    # number the nodes in the order of the depth-first construction
+    start, stop, left, right = [0], [n], [-1], [-1]
+    todo = [0] if n > leaf else []
     while todo:
         k = todo.pop()
-        s, e = start[k], stop[k]
-        idx = perm[s:e]
-        c = cen[idx]
-        axis = int(np.argmax(c.max(axis=0) - c.min(axis=0)))
-        perm[s:e] = idx[np.argsort(c[:, axis], kind="stable")]
-        mid = (s + e) // 2
-        for a, b in ((s, mid), (mid, e)):
-            start.append(a)
-            stop.append(b)
+        s0, e0 = start[k], stop[k]
+        mid = (s0 + e0) // 2
+        for a0, b0 in ((s0, mid), (mid, e0)):
+            start.append(a0)
+            stop.append(b0)
             left.append(-1)
             right.append(-1)
-            if b - a > leaf:
+            if (a0, b0) in split:
                 todo.append(len(start) - 1)
         left[k], right[k] = len(start) - 2, len(start) - 1
     start_a, stop_a = np.array(start), np.array(stop)
