@@ -25,13 +25,19 @@ import numpy as np
 from .blocking_cones import face_unions, pruned_pair_cones
 from .domain import domain_windows
 from .pools import end_pool
-from .tritree import tri_tree
+from .tritree import LEAF, tri_tree
 
 #: Fewest (moving x blocking) triangle pairs, summed over the pairs to compute, for which
 #: worker processes are started (below it their start-up costs more than they save).
 MIN_PARALLEL_PAIRS = 1_000_000
 #: Seconds between a worker's checks that its parent is alive.
 ORPHAN_POLL = 0.5
+
+#: Leaf size of the triangle trees with a domain (the NDBG restricted to small caps): larger
+#: leaves than on the whole sphere, since most of a leaf pair's terms are then dropped by
+#: the cheap window tests before their facets are computed, and fewer node pairs are tested
+#: (the beam: 1.63 -> 1.38 s). The whole sphere keeps :data:`~ndbg_cli.tritree.LEAF`.
+DOMAIN_LEAF = 16
 
 _STATE: dict = {}
 
@@ -44,7 +50,7 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     t0 = time.perf_counter()
     for k in (a, b):
         if trees[k] is None:
-            trees[k] = tri_tree(tris[k][0])
+            trees[k] = tri_tree(tris[k][0], LEAF if domain is None else DOMAIN_LEAF)
     cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees[a], tris[b][0], tris[b][1],
                                     trees[b], eps, domain=domain)
     t1 = time.perf_counter()
