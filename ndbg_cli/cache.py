@@ -29,6 +29,8 @@ import ast
 import hashlib
 import os
 import pickle
+import re
+import stat
 from functools import cache as cache_fn
 from pathlib import Path
 from typing import Any
@@ -79,6 +81,10 @@ def stage_modules(stage: str) -> tuple[str, ...]:
     return tuple(sorted(seen))
 
 
+#: The content of ``CACHEDIR.TAG``, written in the cache directory: the standard signature
+#: line, then what the folder is.
+CACHEDIR_TAG = ("Signature: 8a477f597d28d172789f06886806bc55\n"
+                "# This file is a cache directory tag created by ndbg (per-part-pair results).\n")
 #: Default size limit of the cache directory, megabytes (``$NDBG_CACHE_MAX_MB`` overrides).
 DEFAULT_MAX_MB = 2048
 #: A trim removes entries until the cache holds at most this fraction of the limit (so that
@@ -158,6 +164,9 @@ class PairCache:
         try:
             write_atomic(self._path(stage, key),
                          pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), durable=False)
+            tag = self.root / "CACHEDIR.TAG"
+            if not tag.exists():  # backup tools skip a tagged folder (bford.info/cachedir)
+                write_atomic(tag, CACHEDIR_TAG.encode(), durable=False)
         except OSError:
             pass
 
@@ -187,16 +196,27 @@ def max_bytes() -> int | None:
     return None if mb == 0 else int(mb * 1024 * 1024)
 
 
+#: The file name of an entry: its key, 64 hexadecimal digits (:meth:`PairCache.key`).
+_ENTRY = re.compile(r"[0-9a-f]{64}\.pkl")
+
+
 def _entries(root: Path) -> list[tuple[float, int, str, Path]]:
-    """``(mtime, bytes, stage, path)`` of every entry under ``root`` (vanished ones skipped:
-    another run may be trimming too)."""
+    """``(mtime, bytes, stage, path)`` of every entry under ``root``: only files that ndbg
+    writes, ``<stage>/<key[:2]>/<key>.pkl`` for a stage of :data:`STAGE_MODULES` (a cache
+    pointed at a folder of one's own leaves its other files alone); vanished ones skipped
+    (another run may be trimming too)."""
     out = []
-    for path in root.glob("*/*/*.pkl"):
-        try:
-            st = path.stat()
-        except OSError:
-            continue
-        out.append((st.st_mtime, st.st_size, path.parent.parent.name, path))
+    for stage in sorted(STAGE_MODULES):
+        for path in (root / stage).glob("??/*.pkl"):
+            if not _ENTRY.fullmatch(path.name) or path.name[:2] != path.parent.name:
+                continue
+            try:
+                st = path.stat()
+            except OSError:
+                continue
+            if not stat.S_ISREG(st.st_mode):
+                continue
+            out.append((st.st_mtime, st.st_size, stage, path))
     return out
 
 
@@ -229,6 +249,9 @@ def trim(root: str | Path, limit: int | None) -> tuple[int, int]:
             break
         try:
             path.unlink()
+        except FileNotFoundError:  # another run trimmed it: gone all the same
+            freed += size
+            continue
         except OSError:
             continue
         removed += 1

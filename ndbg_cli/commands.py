@@ -323,5 +323,6 @@ def cache_clear(cache_dir) -> None:
 
     directory = cache_dir or str(default_dir())
     removed, freed = clear(directory)
-    click.echo(f"ndbg: {removed} cache entries ({freed / 2**20:.1f} MB) removed from "
-               f"{directory}", err=True)
+    if not STATE.quiet:
+        click.echo(f"ndbg: {removed} cache entries ({freed / 2**20:.1f} MB) removed from "
+                   f"{directory}", err=True)

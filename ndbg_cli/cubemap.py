@@ -215,7 +215,8 @@ def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
 
 
 def compact(normals: np.ndarray) -> np.ndarray:
-    """Drop zero rows and exact duplicates per cone, trimming the padding ``(p, k, 3)``."""
+    """Drop zero rows and duplicates (rows equal when rounded to 1e-9) per cone, trimming
+    the padding ``(p, k, 3)``."""
     if not len(normals):
         return normals
     # zero rows out first (stably): the sort below then runs on the few facets only
@@ -225,11 +226,16 @@ def compact(normals: np.ndarray) -> np.ndarray:
         first = np.argsort(~nonzero, axis=1, kind="stable")[:, :width]
         normals = np.take_along_axis(normals, first[:, :, None].repeat(3, axis=2), axis=1)
     key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
-    order = np.argsort(key, axis=1, kind="stable")
+    # sorted by that number, ties by the rounded rows themselves: two different facets can
+    # share the number (a circle of unit normals does), and only equal rows are duplicates
+    # (dropping a different facet would enlarge the cone)
+    q = np.round(normals * 1e9)
+    order = np.lexsort((q[:, :, 2], q[:, :, 1], q[:, :, 0], key), axis=1)
     key = np.take_along_axis(key, order, axis=1)
+    q = np.take_along_axis(q, order[:, :, None].repeat(3, axis=2), axis=1)
     nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
     dup = np.zeros_like(key, dtype=bool)
-    dup[:, 1:] = key[:, 1:] == key[:, :-1]
+    dup[:, 1:] = (key[:, 1:] == key[:, :-1]) & np.all(q[:, 1:] == q[:, :-1], axis=2)
     zero = ~np.any(nm != 0.0, axis=2)
     drop = dup | zero
     order = np.argsort(drop, axis=1, kind="stable")

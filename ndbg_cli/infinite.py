@@ -282,6 +282,9 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     inside those cells, and computed only there. ``workers``: processes computing the pairs
     (:func:`ndbg_cli.pair_workers.pair_sets`; the result does not depend on it); ``progress``:
     a bar over the pairs on stderr (a terminal only)."""
+    if domain is not None and not antipodal_symmetric(domain):
+        # B_ji is made from B_ij on the opposite face: both must lie in the domain
+        raise ValueError("the domain must be symmetric under d -> -d")
     t0 = time.perf_counter()
     tris = part_triangles(asm)
     eps = asm.length_tolerance
@@ -373,6 +376,13 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     stats["contact_circles"] = len(circ)
     return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, trees=trees, circles=circ,
                        space_dimension=asm.dimension, stats=stats, domain=dom)
+
+
+def antipodal_symmetric(domain: np.ndarray) -> bool:
+    """Whether the cube-map cells ``domain`` ``(6, r, r)`` are symmetric under ``d -> -d``
+    (cell ``(row, col)`` of face ``f`` maps to ``(r-1-col, r-1-row)`` of face ``f ^ 1``,
+    see :data:`_ANTIPODAL`)."""
+    return all(np.array_equal(domain[f ^ 1], domain[f].T[::-1, ::-1]) for f in range(6))
 
 
 #: The chart map of the antipodal map ``d -> -d``: a direction at ``(s, t)`` on face ``f``

@@ -122,6 +122,9 @@ def _node_boxes(tri: np.ndarray, area: np.ndarray, perm: np.ndarray, start: np.n
         # the two largest of the union are among the children's two largest; the left
         # child's triangles come first in perm, so a stable sort keeps the tie order
         cand = np.concatenate([big[a], big[b]], axis=1)
-        order = np.argsort(-area[cand], axis=1, kind="stable")
+        # a child of one triangle lists it twice: its second entry is no candidate
+        single = np.stack([np.zeros(len(k), bool), stop[a] - start[a] == 1,
+                           np.zeros(len(k), bool), stop[b] - start[b] == 1], axis=1)
+        order = np.argsort(np.where(single, np.inf, -area[cand]), axis=1, kind="stable")
         big[k] = np.take_along_axis(cand, order[:, :2], axis=1)
     return lo, hi, big

@@ -188,3 +188,45 @@ def test_analyze_keeps_the_cache_under_its_limit(tmp_path):
     r = run("cache", "clear", "--cache", cache)
     assert r.returncode == 0 and "5 cache entries" in r.stderr
     assert json.loads(run("cache", "info", "--cache", cache).stdout)["entries"] == 0
+
+
+def test_trim_and_clear_touch_only_ndbg_entries(tmp_path):
+    """A cache pointed at a folder of one's own: its other files (pickles included, even
+    in folders shaped like the cache's) survive a trim and a clear; the cache folder gets a
+    CACHEDIR.TAG; an entry another run removed first counts as freed (no extra removals)."""
+    from ndbg_cli.cache import PairCache, clear, trim, usage
+
+    mine = [tmp_path / "results" / "run1" / "model.pkl",
+            tmp_path / "contacts" / "ab" / "notes.pkl",
+            tmp_path / "contacts" / "zz" / ("0" * 64 + ".pkl")]  # folder is not key[:2]
+    for f in mine:
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_bytes(bytes(100_000))
+    c = PairCache(tmp_path)
+    keys = [c.key("contacts", k) for k in range(4)]
+    for key in keys:
+        c.put("contacts", key, bytes(10_000))
+    assert (tmp_path / "CACHEDIR.TAG").read_text().startswith("Signature: 8a477f597d28d172")
+    assert usage(tmp_path)["entries"] == 4
+    removed, _ = trim(tmp_path, 1)
+    assert removed == 4 and all(f.exists() for f in mine)
+    for key in keys:
+        c.put("contacts", key, bytes(10_000))
+    assert clear(tmp_path)[0] == 4 and all(f.exists() for f in mine)
+
+    # two trims from one listing: the second finds the first one's removals done
+    for key in keys:
+        c.put("contacts", key, bytes(10_000))
+    size = usage(tmp_path)["bytes"]
+    limit = int(size * 0.9)  # target 0.8 * 0.9 of it: two of the four entries go
+    import ndbg_cli.cache as cache_mod
+    listing = cache_mod._entries(tmp_path)
+    assert trim(tmp_path, limit)[0] == 2
+    left = usage(tmp_path)["bytes"]
+    real = cache_mod._entries
+    cache_mod._entries = lambda root: listing  # the second run's stale listing
+    try:
+        assert trim(tmp_path, limit) == (0, size - left)
+    finally:
+        cache_mod._entries = real
+    assert usage(tmp_path)["entries"] == 2

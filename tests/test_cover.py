@@ -58,8 +58,9 @@ def test_window_test_keeps_cones_through_a_window() -> None:
     assert not cover.covers(cones).any()
 
 
-@pytest.mark.parametrize("n", [1, 7, 9, 200, 1001])
-def test_tree_nodes_match_a_scan(n: int) -> None:
+@pytest.mark.parametrize("n,leaf", [(1, 8), (7, 8), (9, 8), (200, 8), (1001, 8), (3, 2),
+                                    (5, 1), (33, 16), (200, 3)])
+def test_tree_nodes_match_a_scan(n: int, leaf: int) -> None:
     """Each node's box and two largest triangles (ties to the first in the tree's order)
     equal a direct scan of its triangles; equal areas are frequent (a grid of copies)."""
     rng = np.random.default_rng(n)
@@ -68,7 +69,8 @@ def test_tree_nodes_match_a_scan(n: int) -> None:
                           for _ in range(4)])[:n]
     if len(tri) < n:
         tri = np.concatenate([tri, rng.normal(size=(n - len(tri), 3, 3))])
-    tree = bc.tri_tree(tri)
+    tree = bc.tri_tree(tri, leaf)
+    assert (tree.stop - tree.start)[tree.left < 0].max() <= max(leaf, 1)
     area = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     for k, (a, b) in enumerate(zip(tree.start, tree.stop)):
         idx = tree.perm[a:b]
@@ -100,3 +102,22 @@ def test_generator_window_test_agrees_with_clipping(seed: int) -> None:
             continue
         _, cnt = clip_halfplanes(cones, face, rect=cover.window(face))
         assert not np.any(miss & (cnt >= 3))
+
+
+def test_compact_keeps_different_facets_with_equal_keys() -> None:
+    """``compact`` sorts a cone's facets by one number per row (n . (1, pi, e)); two
+    different unit normals on the circle where that number is 1 share it and must both stay
+    (dropping one would enlarge the cone); true duplicates and zero rows go."""
+    from ndbg_cli.cubemap import compact
+
+    v = np.array([1.0, np.pi, np.e])
+    a = v / np.linalg.norm(v) ** 2  # n . v = 1 for n = a + b w, w unit and orthogonal to v
+    w = np.cross(v, [0.0, 0.0, 1.0])
+    w /= np.linalg.norm(w)
+    n1 = a + np.sqrt(1.0 - a @ a) * w
+    n2 = a - np.sqrt(1.0 - a @ a) * w
+    assert abs(n1 @ v - n2 @ v) < 1e-12 and np.linalg.norm(n1 - n2) > 1.0
+    out = compact(np.array([[n1, np.zeros(3), n2, n1]]))
+    assert out.shape == (1, 2, 3)
+    assert sorted(map(tuple, out[0].round(12))) == sorted([tuple(n1.round(12)),
+                                                            tuple(n2.round(12))])

@@ -121,3 +121,18 @@ def test_domain_windows_bound_the_domain_cells():
         x0, y0, x1, y1 = poly.bounds
         wx0, wy0, wx1, wy1 = win[face]
         assert wx0 <= x0 and wy0 <= y0 and x1 <= wx1 and y1 <= wy1
+
+
+def test_an_asymmetric_domain_is_refused():
+    """The blocked sets make B_ji from B_ij on the opposite face, so a domain must be
+    symmetric under d -> -d (free_domain's always is); one that is not is an error."""
+    from ndbg_cli.infinite import antipodal_symmetric, blocked_sets
+
+    asm, _, _, dom = _domain("peg-37")
+    assert antipodal_symmetric(dom)
+    bad = dom.copy()
+    f, row, col = (int(x[0]) for x in np.nonzero(dom))
+    bad[f, row, col] = False  # its antipode stays in
+    assert not antipodal_symmetric(bad)
+    with pytest.raises(ValueError, match="symmetric"):
+        blocked_sets(asm, domain=bad)
