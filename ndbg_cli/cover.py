@@ -169,7 +169,10 @@ class Cover:
             return np.zeros(len(gens), dtype=bool)
         se = gens @ FACES[:, 0].T  # (p, g, 6)
         front = se > 0.0
-        mixed = (front.any(axis=1) & ~front.all(axis=1)).any(axis=1)
+        # only the faces with open cells matter (elsewhere everything is covered)
+        faces = [f for f in range(6) if self.window(f) is not None]
+        fw = front[:, :, faces]
+        mixed = (fw.any(axis=1) & ~fw.all(axis=1)).any(axis=1)
         ok = np.ones(len(gens), dtype=bool)
         if mixed.any():
             idx = np.flatnonzero(mixed)
@@ -177,7 +180,7 @@ class Cover:
             test = ~self.misses_open(nrm)  # the quick window test first, then the clipping
             if test.any():
                 ok[idx[test]] = self.covers(compact(nrm[test]))
-        for face in range(6):
+        for face in faces:
             e, u, v = FACES[face]
             sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
             if not len(sel):
