@@ -37,6 +37,10 @@ covered from the start: what lies only there is pruned, near node pairs included
 union is right inside the domain only. The near leaf pairs are then emitted before the walk:
 inside the domain's small caps a contact's terms often block the whole cap, and the far
 pairs behind them are pruned (the order changes which terms are kept, not their union).
+Most terms there miss every open cell: two quick tests drop them before their facets are
+computed or clipped (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open` on the generators and
+the facing half-spaces, :meth:`~ndbg_cli.cover.Cover.misses_open` on the facets), and the
+trees have larger leaves (:data:`ndbg_cli.pair_workers.DOMAIN_LEAF`).
 
 The facets of a term's cone are sought among the planes through two of its 9 generators
 ``t_j[v] - t_i[w]`` that share ``v`` or ``w`` (:data:`~ndbg_cli.cubemap.DIFFERENCE_PAIRS`,
