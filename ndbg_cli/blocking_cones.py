@@ -56,8 +56,6 @@ inward by ``1.5 eps`` along their normals, so contact never blocks by itself (se
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 import shapely
 import trimesh
@@ -116,17 +114,15 @@ _EMPTY = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
 
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
           jb: np.ndarray, eps: float, boxes: tuple[np.ndarray, ...] | None = None,
-          covered: Callable[[np.ndarray], np.ndarray] | None = None,
-          spanned_covered: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
-          ) -> tuple[np.ndarray, np.ndarray]:
+          cover: Cover | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other:
     open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs.
     ``boxes``: the triangles' bounding boxes ``(lo_i, hi_i, lo_j, hi_j)`` (each ``(n, 3)``),
     when the caller has them (a walk calls this hundreds of times on the same parts).
-    ``covered``: a test ``(p, k, 3) open cones -> (p,) bool`` that a term adds nothing to
-    what is kept (:meth:`~ndbg_cli.cover.Cover.misses_open`); those are left out early.
-    ``spanned_covered``: the same from a term's generators and facing half-spaces, before
-    its facets are computed (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open`)."""
+    ``cover``: what is kept so far (a non-empty :class:`~ndbg_cli.cover.Cover`); the terms
+    that miss every cell it leaves open are left out early, by its quick tests on the
+    generators (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open`) before the facets are
+    computed, then on the facets (:meth:`~ndbg_cli.cover.Cover.misses_open`)."""
     if not len(ia):
         return _EMPTY
     # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
@@ -154,14 +150,14 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
                 # Both triangles moved inward by 1.5 eps along their normals (erosion).
                 gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
             facing = np.stack([ni[a], -nj[b]], axis=1)
-            if spanned_covered is not None:
-                fresh = ~spanned_covered(gens, facing)
+            if cover is not None:
+                fresh = ~cover.misses_spanned_open(gens, facing)
                 gens, facing = gens[fresh], facing[fresh]
                 if not len(gens):
                     continue
             m = cone_normals(gens, pairs=DIFFERENCE_PAIRS)
-            if covered is not None:
-                fresh = ~covered(np.concatenate([m, facing], axis=1))
+            if cover is not None:
+                fresh = ~cover.misses_open(np.concatenate([m, facing], axis=1))
                 m, facing = m[fresh], facing[fresh]
                 if not len(m):
                     continue
@@ -574,10 +570,7 @@ class _Walk:
         """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already
         inside the cover and add them to it."""
         cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps,
-                            boxes=self.boxes,
-                            covered=None if self.cover.empty else self.cover.misses_open,
-                            spanned_covered=None if self.cover.empty
-                            else self.cover.misses_spanned_open)
+                            boxes=self.boxes, cover=None if self.cover.empty else self.cover)
         self.stats["terms"] += len(cones)
         if len(circ):
             self.circles.append(circ)

@@ -296,15 +296,27 @@ def cache() -> None:
     """
 
 
-@cache.command("info", context_settings=CONTEXT)
-@click.option("--cache", "cache_dir", type=click.Path(file_okay=False), default=None,
-              help="Cache directory (default: $NDBG_CACHE_DIR, else ~/.cache/ndbg).")
-@_global_options
-def cache_info(cache_dir) -> None:
-    """Print the cache's directory, entries and size per stage (JSON)."""
-    from .cache import default_dir, max_bytes, usage
+def _cache_dir_option(f):
+    """``--cache DIR`` of the ``cache`` commands, passed as ``directory`` (the default cache
+    directory when not given)."""
+    def resolve(ctx, param, value):
+        from .cache import default_dir
 
-    directory = cache_dir or str(default_dir())
+        return value or str(default_dir())
+
+    return click.option("--cache", "directory", type=click.Path(file_okay=False),
+                        default=None, callback=resolve,
+                        help="Cache directory (default: $NDBG_CACHE_DIR, else ~/.cache/ndbg)."
+                        )(f)
+
+
+@cache.command("info", context_settings=CONTEXT)
+@_cache_dir_option
+@_global_options
+def cache_info(directory) -> None:
+    """Print the cache's directory, entries and size per stage (JSON)."""
+    from .cache import max_bytes, usage
+
     try:
         limit = max_bytes()
     except ValueError as exc:
@@ -314,14 +326,12 @@ def cache_info(cache_dir) -> None:
 
 
 @cache.command("clear", context_settings=CONTEXT)
-@click.option("--cache", "cache_dir", type=click.Path(file_okay=False), default=None,
-              help="Cache directory (default: $NDBG_CACHE_DIR, else ~/.cache/ndbg).")
+@_cache_dir_option
 @_global_options
-def cache_clear(cache_dir) -> None:
+def cache_clear(directory) -> None:
     """Remove every entry of the cache."""
-    from .cache import clear, default_dir
+    from .cache import clear
 
-    directory = cache_dir or str(default_dir())
     removed, freed = clear(directory)
     if not STATE.quiet:
         click.echo(f"ndbg: {removed} cache entries ({freed / 2**20:.1f} MB) removed from "

@@ -8,32 +8,29 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 
-from .dbg import bits
+from .dbg import bits, reach
 
 
 def strongly_connected(succ: Sequence[int], mask: int) -> bool:
     """Whether the DBG induced on ``mask`` is strongly connected: forward and backward reach of
     the lowest part, on bitsets (``O(n)`` word operations per sweep, cheap on dense graphs)."""
     v = mask & -mask
-    seen = frontier = v
-    while frontier:
-        new = 0
-        for i in bits(frontier):
-            new |= succ[i]
-        new &= mask & ~seen
-        seen |= new
-        frontier = new
-    if seen != mask:
-        return False
-    seen = v
+    return reach(v, succ, mask) == mask and _reached_from(v, succ, mask) == mask
+
+
+def _reached_from(x: int, succ: Sequence[int], within: int) -> int:
+    """The parts of ``within`` from which ``x`` (a part bitmask inside it) is reachable,
+    ``x`` included: the backward counterpart of :func:`ndbg_cli.dbg.reach`, grown until no
+    part of ``within`` has a successor in the set."""
+    seen = x
     grew = True
     while grew:
         grew = False
-        for i in bits(mask & ~seen):
+        for i in bits(within & ~seen):
             if succ[i] & seen:
                 seen |= 1 << i
                 grew = True
-    return seen == mask
+    return seen
 
 
 def condense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
@@ -112,31 +109,16 @@ def _condense_dense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int
     rem = mask
     while rem:
         v = rem & -rem
-        fwd = frontier = v
-        while frontier:
-            new = 0
-            for i in bits(frontier):
-                new |= succ[i]
-            new &= rem & ~fwd
-            fwd |= new
-            frontier = new
-        comp = v
-        grew = True
-        while grew:
-            grew = False
-            for i in bits(fwd & ~comp):
-                if succ[i] & comp:
-                    comp |= 1 << i
-                    grew = True
+        comp = _reached_from(v, succ, reach(v, succ, rem))
         comps.append(comp)
         rem &= ~comp
-    reach = []
+    out_of = []  # each component's successors outside it
     for c in comps:
         r = 0
         for i in bits(c):
             r |= succ[i]
-        reach.append(r & mask & ~c)
-    comp_succ = [sum(1 << b for b, cb in enumerate(comps) if r & cb) for r in reach]
+        out_of.append(r & mask & ~c)
+    comp_succ = [sum(1 << b for b, cb in enumerate(comps) if r & cb) for r in out_of]
     return comps, comp_succ
 
 

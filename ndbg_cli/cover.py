@@ -22,6 +22,22 @@ def run_offsets(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return run, np.arange(len(run)) - (np.cumsum(counts) - counts)[run]
 
 
+def cells_window(cells: np.ndarray) -> tuple[float, float, float, float] | None:
+    """The chart rectangle ``(x0, y0, x1, y1)`` round the marked cells of an ``r x r`` raster
+    of one cube face (``cells[row, col]``, row = ``t``; on cell boundaries, the chart
+    square's margin where it reaches the face's border so that cube edges stay inside on
+    both faces), or ``None`` when none is marked."""
+    rows = np.nonzero(cells.any(axis=1))[0]
+    if not len(rows):
+        return None
+    cols = np.nonzero(cells.any(axis=0))[0]
+    r, m = cells.shape[0], 1.0 + SQUARE_MARGIN
+    h = 2.0 / r
+    lo = [-m if c == 0 else -1.0 + c * h for c in (cols[0], rows[0])]
+    hi = [m if c == r else -1.0 + c * h for c in (cols[-1] + 1, rows[-1] + 1)]
+    return lo[0], lo[1], hi[0], hi[1]
+
+
 class Cover:
     """An inner approximation of the union of the kept terms, for the pruning test: per cube
     face, a raster of :data:`RASTER` x :data:`RASTER` chart cells, a cell being *covered* when
@@ -41,6 +57,7 @@ class Cover:
         self.covered = np.zeros((6, raster, raster), dtype=bool)
         self.sat: list[np.ndarray | None] = [None] * 6  # summed-area tables, built lazily
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
+        self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
         self.empty = True
         if domain is not None:
             # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
@@ -55,16 +72,7 @@ class Cover:
         ``None`` when every cell is covered. Cones are clipped to it only: outside it there
         is nothing to mark or to test."""
         if self.win[face] is False:
-            open_ = ~self.covered[face]
-            rows = np.nonzero(open_.any(axis=1))[0]
-            if not len(rows):
-                self.win[face] = None
-            else:
-                cols = np.nonzero(open_.any(axis=0))[0]
-                r, h, m = self.r, self.h, 1.0 + SQUARE_MARGIN
-                lo = [-m if c == 0 else -1.0 + c * h for c in (cols[0], rows[0])]
-                hi = [m if c == r else -1.0 + c * h for c in (cols[-1] + 1, rows[-1] + 1)]
-                self.win[face] = (lo[0], lo[1], hi[0], hi[1])
+            self.win[face] = cells_window(~self.covered[face])
         return self.win[face]
 
     def add(self, cones: np.ndarray) -> None:
@@ -175,11 +183,7 @@ class Cover:
         mixed = (fw.any(axis=1) & ~fw.all(axis=1)).any(axis=1)
         ok = np.ones(len(gens), dtype=bool)
         if mixed.any():
-            idx = np.flatnonzero(mixed)
-            nrm = cone_normals(gens[idx], pairs=pairs)
-            test = ~self.misses_open(nrm)  # the quick window test first, then the clipping
-            if test.any():
-                ok[idx[test]] = self.covers(compact(nrm[test]))
+            ok[mixed] = self.covers(compact(cone_normals(gens[mixed], pairs=pairs)))
         for face in faces:
             e, u, v = FACES[face]
             sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
@@ -209,28 +213,29 @@ class Cover:
         (:meth:`window`): one of its half-spaces has the window's four corner directions
         strictly outside (a quick test, no clipping); ``None`` when the face has no
         window."""
-        win = self.window(face)
-        if win is None:
+        pyr = self._window_pyramid(face)
+        if pyr is None:
             return None
-        e, u, v = FACES[face]
-        x0, y0, x1, y1 = win
-        corners = np.array([e + x * u + y * v for x in (x0, x1) for y in (y0, y1)])
-        val = cones @ corners.T  # (p, k, 4); zero rows give 0: never outside
+        val = cones @ pyr[0].T  # (p, k, 4); zero rows give 0: never outside
         return (val < 0.0).all(axis=2).any(axis=1)
 
     def _window_pyramid(self, face: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """The window of ``face`` as a cone: its four corner directions ``(4, 3)`` and the
-        inward normals of its four sides ``(4, 3)``; ``None`` without a window."""
+        """The window of ``face`` as a cone: its four corner directions ``(4, 3)`` (in turn
+        round it) and the inward normals of its four sides ``(4, 3)``; ``None`` without a
+        window. Made once per window (the quick tests ask for it on every batch)."""
         win = self.window(face)
         if win is None:
             return None
-        e, u, v = FACES[face]
-        x0, y0, x1, y1 = win
-        corners = np.array([e + x0 * u + y0 * v, e + x1 * u + y0 * v, e + x1 * u + y1 * v,
-                            e + x0 * u + y1 * v])
-        sides = np.cross(corners, np.roll(corners, -1, axis=0))
-        centre = e + 0.5 * (x0 + x1) * u + 0.5 * (y0 + y1) * v
-        return corners, sides * np.sign(sides @ centre)[:, None]
+        got = self._pyramids.get(face)
+        if got is None or got[0] != win:
+            e, u, v = FACES[face]
+            x0, y0, x1, y1 = win
+            corners = np.array([e + x0 * u + y0 * v, e + x1 * u + y0 * v,
+                                e + x1 * u + y1 * v, e + x0 * u + y1 * v])
+            sides = np.cross(corners, np.roll(corners, -1, axis=0))
+            centre = e + 0.5 * (x0 + x1) * u + 0.5 * (y0 + y1) * v
+            got = self._pyramids[face] = (win, corners, sides * np.sign(sides @ centre)[:, None])
+        return got[1], got[2]
 
     def misses_spanned_open(self, gens: np.ndarray, facing: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each term, the cone spanned by ``gens`` ``(p, g, 3)`` cut by the

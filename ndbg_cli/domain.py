@@ -24,8 +24,8 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 
-from .cover import RASTER
-from .cubemap import FACES, SQUARE_MARGIN
+from .cover import RASTER, cells_window
+from .cubemap import FACES
 from .dbg import DBG, strong_components
 from .infinitesimal import blocking_sides
 
@@ -131,21 +131,7 @@ def domain_polygons(dom: np.ndarray) -> list[object]:
 
 
 def domain_windows(dom: np.ndarray) -> list[tuple[float, float, float, float] | None]:
-    """Per face, the chart rectangle ``(x0, y0, x1, y1)`` round the domain cells (on cell
-    boundaries; the chart square's margin where it reaches the face's border, so that cube
-    edges stay covered on both faces), ``None`` where the face has none: what the blocked
-    sets are clipped to before their union (nothing outside it is used)."""
-    r = dom.shape[1]
-    h = 2.0 / r
-    m = 1.0 + SQUARE_MARGIN
-    out: list[tuple[float, float, float, float] | None] = []
-    for f in range(6):
-        rows = np.nonzero(dom[f].any(axis=1))[0]
-        if not len(rows):
-            out.append(None)
-            continue
-        cols = np.nonzero(dom[f].any(axis=0))[0]
-        lo = [-m if c == 0 else -1.0 + c * h for c in (cols[0], rows[0])]
-        hi = [m if c == r else -1.0 + c * h for c in (cols[-1] + 1, rows[-1] + 1)]
-        out.append((lo[0], lo[1], hi[0], hi[1]))
-    return out
+    """Per face, the chart rectangle round the domain cells (:func:`ndbg_cli.cover.
+    cells_window`), ``None`` where the face has none: what the blocked sets are clipped to
+    before their union (nothing outside it is used)."""
+    return [cells_window(dom[f]) for f in range(6)]
