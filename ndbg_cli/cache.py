@@ -20,7 +20,9 @@ Size: a hit refreshes its entry's modification time, and after each ``analyze`` 
 run the CLI trims the cache to ``$NDBG_CACHE_MAX_MB`` megabytes (:data:`DEFAULT_MAX_MB`;
 0: no limit), least recently used entries first, down to :data:`TRIM_TO` of the limit
 (:func:`trim`): a CI runner's cache stays bounded however many part versions it sees.
-``ndbg cache info`` / ``ndbg cache clear`` show and empty it.
+A trim also removes the temporary files of writes that never finished (a run killed by
+SIGKILL or a power cut between writing and renaming) once they are :data:`STALE_TEMP_S`
+seconds old. ``ndbg cache info`` / ``ndbg cache clear`` show and empty it.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import os
 import pickle
 import re
 import stat
+import time
 from functools import cache as cache_fn
 from pathlib import Path
 from typing import Any
@@ -90,6 +93,9 @@ DEFAULT_MAX_MB = 2048
 #: A trim removes entries until the cache holds at most this fraction of the limit (so that
 #: the next runs do not trim again at once).
 TRIM_TO = 0.8
+#: Age (seconds) after which an entry's temporary file is left over from a killed write
+#: (a live write renames it within milliseconds).
+STALE_TEMP_S = 3600.0
 
 
 def default_dir() -> Path:
@@ -198,6 +204,8 @@ def max_bytes() -> int | None:
 
 #: The file name of an entry: its key, 64 hexadecimal digits (:meth:`PairCache.key`).
 _ENTRY = re.compile(r"[0-9a-f]{64}\.pkl")
+#: The temporary file of an entry being written (:func:`~ndbg_cli.report.write_atomic`).
+_TEMP = re.compile(r"\.([0-9a-f]{64})\.pkl\.[A-Za-z0-9_]+\.tmp")
 
 
 def _entries(root: Path) -> list[tuple[float, int, str, Path]]:
@@ -220,6 +228,25 @@ def _entries(root: Path) -> list[tuple[float, int, str, Path]]:
     return out
 
 
+def _stale_temps(root: Path, now: float) -> list[tuple[int, Path]]:
+    """``(bytes, path)`` of the entries' temporary files under ``root`` older than
+    :data:`STALE_TEMP_S` (only the names :func:`~ndbg_cli.report.write_atomic` gives an
+    entry's, in the entry's own folder)."""
+    out = []
+    for stage in sorted(STAGE_MODULES):
+        for path in (root / stage).glob("??/.*.tmp"):
+            m = _TEMP.fullmatch(path.name)
+            if m is None or m.group(1)[:2] != path.parent.name:
+                continue
+            try:
+                st = path.stat()
+            except OSError:
+                continue
+            if stat.S_ISREG(st.st_mode) and st.st_mtime < now - STALE_TEMP_S:
+                out.append((st.st_size, path))
+    return out
+
+
 def usage(root: str | Path) -> dict:
     """``{"entries": n, "bytes": b, "stages": {stage: {"entries": n, "bytes": b}}}`` of the
     cache directory ``root`` (zeros when it does not exist)."""
@@ -234,18 +261,27 @@ def usage(root: str | Path) -> dict:
 
 
 def trim(root: str | Path, limit: int | None) -> tuple[int, int]:
-    """Remove the least recently used entries of the cache ``root`` while it holds more than
-    ``limit`` bytes, down to :data:`TRIM_TO` of it (``None``: no limit). Returns ``(entries
-    removed, bytes freed)``; files that cannot be removed are left (never an error)."""
+    """Remove the stale temporary files of the cache ``root`` (:func:`_stale_temps`), then
+    its least recently used entries while it holds more than ``limit`` bytes, down to
+    :data:`TRIM_TO` of it (``None``: no limit). Returns ``(files removed, bytes freed)``;
+    files that cannot be removed are left (never an error)."""
+    removed = freed = 0
+    for size, path in _stale_temps(Path(root), time.time()):
+        try:
+            path.unlink()
+        except OSError:
+            continue
+        removed += 1
+        freed += size
     if limit is None:
-        return 0, 0
+        return removed, freed
     entries = _entries(Path(root))
     total = sum(e[1] for e in entries)
     if total <= limit:
-        return 0, 0
-    removed = freed = 0
+        return removed, freed
+    gone = freed  # the temporary files were not part of the total
     for _, size, _, path in sorted(entries, key=lambda e: (e[0], str(e[3]))):
-        if total - freed <= TRIM_TO * limit:
+        if total - (freed - gone) <= TRIM_TO * limit:
             break
         try:
             path.unlink()

@@ -235,8 +235,9 @@ def _trim_cache(directory: str | None) -> None:
         return
     removed, freed = trim(directory, limit)
     if removed and not STATE.quiet:
-        click.echo(f"ndbg: cache trimmed: {removed} least recently used entries "
-                   f"({freed / 2**20:.1f} MB) removed from {directory}", err=True)
+        click.echo(f"ndbg: cache trimmed: {removed} file(s) ({freed / 2**20:.1f} MB): least "
+                   f"recently used entries and leftovers of killed writes, removed from "
+                   f"{directory}", err=True)
 
 
 def _options(ctx: click.Context, config: str | None, **given) -> Options:

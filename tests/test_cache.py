@@ -230,3 +230,37 @@ def test_trim_and_clear_touch_only_ndbg_entries(tmp_path):
     finally:
         cache_mod._entries = real
     assert usage(tmp_path)["entries"] == 2
+
+
+def test_trim_removes_stale_temporary_files_only(tmp_path):
+    """The temporary file of a write killed before its rename (SIGKILL) is removed by the
+    next trim once :data:`STALE_TEMP_S` old, even with no size limit; a fresh one (a write
+    in progress in another run) and files of one's own named alike are left alone."""
+    import os
+    import time
+
+    from ndbg_cli.cache import STALE_TEMP_S, PairCache, trim, usage
+
+    c = PairCache(tmp_path)
+    key = c.key("infinite", 1)
+    c.put("infinite", key, bytes(1000))
+    folder = tmp_path / "infinite" / key[:2]
+    stale = folder / f".{key}.pkl.k3j_x9q2.tmp"
+    fresh = folder / f".{key}.pkl.a8b7c6d5.tmp"
+    other = c.key("infinite", 2)
+    misplaced = folder / f".{other}.pkl.zzzz1234.tmp" if other[:2] != key[:2] \
+        else folder / ".notes.pkl.zzzz1234.tmp"
+    mine = tmp_path / "infinite" / ".scratch.tmp"
+    old = time.time() - 2 * STALE_TEMP_S
+    for f in (stale, fresh, misplaced, mine):
+        f.write_bytes(bytes(5000))
+    for f in (stale, misplaced, mine):
+        os.utime(f, (old, old))
+    assert trim(tmp_path, None) == (1, 5000)
+    assert not stale.exists() and fresh.exists() and misplaced.exists() and mine.exists()
+    assert usage(tmp_path)["entries"] == 1  # the entry itself is untouched
+    os.utime(fresh, (old, old))
+    # with a limit too: the temporary file goes, and the entries are trimmed as before
+    size = usage(tmp_path)["bytes"]
+    assert trim(tmp_path, 1) == (2, 5000 + size)
+    assert usage(tmp_path)["entries"] == 0 and misplaced.exists() and mine.exists()
