@@ -224,6 +224,11 @@ def _over_budget(asm: Assembly, options: Any) -> str:
 
 
 def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
+    if options.motion == "infinite":  # the restriction was tried: it is every direction
+        return (f"{_over_budget(asm, options)}, and the infinitesimal NDBG frees some "
+                "subassembly in every direction (for one, when parts or groups of parts touch "
+                "nothing else), so it cannot be restricted (raise --infinite-budget to "
+                "compute it on the whole sphere)")
     return (f"{_over_budget(asm, options)} (raise it with --infinite-budget; --motion "
             "infinite computes it where the infinitesimal NDBG frees something)")
 
@@ -233,8 +238,8 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     """The infinite-translation NDBG, its section and partitionings. Above the budget (3D)
     it is skipped (``None``), unless ``--motion infinite`` asks for it: then it is computed
     only where the infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.domain`), which
-    gives the same partitionings of the whole assembly and nothing else (``None`` again with
-    more than 62 parts)."""
+    gives the same partitionings of the whole assembly and nothing else (``None`` again when
+    that is every direction)."""
     from .domain import free_domain
     from .generalized import block_threads
     from .infinite import build_infinite, triangle_pairs

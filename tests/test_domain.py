@@ -102,6 +102,20 @@ def test_analyze_over_budget_reports_the_restricted_section(tmp_path):
     assert "infinite_translation" not in rep["classes"]
 
 
+def test_analyze_over_budget_says_why_no_restriction_helps(tmp_path):
+    """The hover example's bridge touches nothing: something is free in every direction, so
+    ``--motion infinite`` over the budget skips the NDBG and says so (not "use --motion
+    infinite", which was given)."""
+    out = tmp_path / "hover.json"
+    r = run_cli("analyze", "assemblies/hover.yaml", "--motion", "infinite", "--format",
+                "json", "--out", out, "--infinite-budget", "1")
+    assert r.returncode in (0, 1), r.stderr
+    sec = json.loads(out.read_text())["ndbg"]["infinite_translation"]
+    assert sec["skipped"] is True
+    assert "frees some subassembly in every direction" in sec["why"]
+    assert "--motion infinite computes" not in sec["why"]
+
+
 def test_domain_windows_bound_the_domain_cells():
     """Each face's window is the box of its domain cells (hand-made cells, cube-edge margin
     where they reach the border); the domain's polygons lie inside their windows."""
@@ -136,3 +150,42 @@ def test_an_asymmetric_domain_is_refused():
     assert not antipodal_symmetric(bad)
     with pytest.raises(ValueError, match="symmetric"):
         blocked_sets(asm, domain=bad)
+
+
+def test_domain_beyond_64_parts_equals_the_short_chain():
+    """Any number of parts (successor sets over several 64-bit words): a chain of 70 parts,
+    each a pin in the next one's bore (contact normals all round the z axis, so only
+    translations along z free anything), has the same domain as the chain of 3, around +-z
+    only; an extra part in no contact is free everywhere (no restriction)."""
+    ring = [[np.cos(a), np.sin(a), 0.0] for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)]
+
+    def chain(n):
+        return [(k, k + 1, ring) for k in range(n - 1)]
+
+    tol = 1e-3
+    short, long_ = free_domain(3, chain(3), tol), free_domain(70, chain(70), tol)
+    assert short is not None and long_ is not None
+    assert np.array_equal(short, long_)
+    d, _ = cell_directions(RASTER, *np.nonzero(long_))
+    assert np.abs(d[:, 2]).min() > 0.999  # every kept cell is within 2.6 degrees of +-z
+    f, row, col = _cell(np.array([[0, 0, 1.0], [0, 0, -1.0], [1.0, 0, 0]]))
+    assert long_[f, row, col].tolist() == [True, True, False]
+    assert free_domain(71, chain(70), tol) is None
+
+
+def test_domain_is_everything_at_once_when_the_contact_graph_falls_apart(monkeypatch):
+    """Two groups that touch each other nowhere separate in every direction: no restriction,
+    decided before any cell is tested (an engine with loose parts spent minutes on them)."""
+    import ndbg_cli.domain as domain_mod
+
+    ring = [[np.cos(a), np.sin(a), 0.0] for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)]
+    pairs = [(k, k + 1, ring) for k in range(59)] + [(k, k + 1, ring) for k in range(60, 199)]
+    real = domain_mod._may_free
+
+    def no_cells(*args):
+        raise AssertionError("cells tested")
+
+    monkeypatch.setattr(domain_mod, "_may_free", no_cells)
+    assert free_domain(200, pairs, 1e-3) is None
+    monkeypatch.setattr(domain_mod, "_may_free", real)
+    assert free_domain(200, pairs + [(59, 60, ring)], 1e-3) is not None
