@@ -314,32 +314,3 @@ def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:
         cells.extend(Cell(0, d, face, shapely.Point(p))
                      for d, p in zip(direction_of(face, ends), ends))
     return cells
-
-
-def equator_cells(bs: BlockedSets) -> list[Cell]:
-    """For 2D assemblies: the regions on S^1 (the equator ``z = 0`` of the extruded model).
-
-    The equator crosses the four side faces along a chart line; the ``U_ij`` boundaries cut it
-    into intervals (1-dimensional regions, 0-dimensional when shorter than ``eta``).
-    """
-    cells: list[Cell] = []
-    for face in range(4):
-        e, u, v = FACES[face]
-        # Chart line of z = 0: the chart coordinate whose axis is z is zero.
-        zc = 0 if abs(u[2]) > 0 else 1
-        seg = shapely.LineString([(-1, 0), (1, 0)] if zc == 1 else [(0, -1), (0, 1)])
-        cuts = [shapely.intersection(seg, shapely.boundary(g)) for g in bs.geoms[face].values()]
-        ts = [-1.0, 1.0]
-        for c in cuts:
-            if not c.is_empty:
-                xy = shapely.get_coordinates(c)
-                ts.extend(xy[:, 1 - zc].tolist())
-        ts = np.unique(np.round(ts, 12))
-        for a, b in zip(ts[:-1], ts[1:]):
-            mid = 0.5 * (a + b)
-            pt = (mid, 0.0) if zc == 1 else (0.0, mid)
-            dim = 0 if b - a < bs.eta else 1
-            cells.append(Cell(dim, direction_of(face, np.array([pt]))[0], face,
-                              shapely.LineString([(a, 0), (b, 0)] if zc == 1
-                                                 else [(0, a), (0, b)])))
-    return cells

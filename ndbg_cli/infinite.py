@@ -34,8 +34,11 @@ ignored, and the directions through a zero-clearance slot or bore form a thin fr
 angular width about ``eps / L`` (``L`` the contact length). Regions whose width in the chart is
 below the angular tolerance ``eta = ANGULAR_FACTOR * eps / diagonal`` are reported as
 1-dimensional, those smaller than ``eta`` in every direction as 0-dimensional, with the
-representative direction inside them. *Far* pairs use the exact triangles, with closed
-polygons: a direction grazing a distant part with exactly zero clearance counts as blocked.
+representative direction inside them; for such a thin region round a bore's axis, the point
+where the contacts' circles meet, if its DBG is the region's (:func:`_snap_to_circles`: the
+direction the direct sweep test, which erodes nothing, finds free too). *Far* pairs use the
+exact triangles, with closed polygons: a direction grazing a distant part with exactly zero
+clearance counts as blocked.
 
 The arrangement is computed per cube face with shapely: the union ``U_ij`` of each pair's
 polygons, all their boundaries noded (collinear pieces merged first) and polygonized; each face
@@ -43,7 +46,8 @@ of the overlay is a region, and its DBG is read at a point inside it; each chain
 between two nodes is a 1-dimensional cell, each node a 0-dimensional one. Regions cut by the
 cube edges are counted once per cube face (the DBG is constant on each piece, so the NDBG stays
 exact; region counts are those of the arrangement refined by the 12 cube-edge arcs). 2D
-assemblies are extruded to prisms and the arrangement is read on the equator (S^1).
+assemblies are extruded to prisms and the arrangement is read on the equator (S^1) from the
+open cones themselves (:mod:`ndbg_cli.equator`).
 """
 
 from __future__ import annotations
@@ -55,7 +59,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from .arrangement import Cell, arrangement_cells, equator_cells
+from . import equator
+from .arrangement import Cell, arrangement_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
     GRID,
@@ -101,6 +106,9 @@ class BlockedSets:
     #: Per face, the chart geometry of the directions where the sets are right (``None``
     #: entries: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.domain`).
     domain: list | None = None
+    #: 2D assemblies: each ordered pair's open arcs on the equator (radians,
+    #: :func:`ndbg_cli.equator.cone_arcs`), set by :func:`build_infinite`.
+    arcs: dict | None = None
     _by_face: list = field(default_factory=lambda: [None] * 6, repr=False,
                            compare=False)
 
@@ -450,21 +458,11 @@ def _thaw(value: tuple) -> tuple[np.ndarray, np.ndarray, list]:
 EXACT_CELLS = 2000
 
 
-def build_infinite(asm: Assembly, cache: PairCache | None = None,
-                   domain: np.ndarray | None = None, workers: int = 1,
-                   progress: bool = False) -> NDBG:
-    """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
-    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
-    reuses per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map
-    cells, :func:`ndbg_cli.domain.free_domain`) only the cells of the arrangement inside it
-    are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
-    outside), not for its subassemblies'; the stats say ``restricted``. ``progress``: a bar on
-    stderr over the part pairs (:mod:`ndbg_cli.progress`: on a terminal only)."""
-    t0 = time.perf_counter()
-    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers, progress)
-    t1 = time.perf_counter()
-    cells = equator_cells(bs) if asm.dimension == 2 else arrangement_cells(bs)
-    t2 = time.perf_counter()
+def _regions_3d(bs: BlockedSets) -> tuple[list[Region], int]:
+    """The regions of S^2 (:func:`~ndbg_cli.arrangement.arrangement_cells`), each with its DBG,
+    the seam candidates kept where the open-set semantics frees something; and the number of
+    lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`)."""
+    cells = arrangement_cells(bs)
     dirs = np.array([c.direction for c in cells]) if cells else np.zeros((0, 3))
     dbgs = bs.dbgs(dirs) if len(dirs) else []
     # Seam candidates: keep those where the open-set semantics frees something.
@@ -473,7 +471,7 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     lower = dims < 2
     on_circle = np.zeros(len(cells), dtype=bool)
     if len(bs.circles) and len(dirs):
-        on_circle = (np.abs(dirs @ bs.circles.T) < 1e-7).any(axis=1)
+        on_circle = sliding_counts(bs.circles, dirs) > 0
     recheck = np.nonzero(seam | (lower & on_circle))[0]
     keep = ~seam
     skipped = 0
@@ -488,12 +486,111 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
             dbgs[k] = g
     cells = [c for c, ok in zip(cells, keep) if ok]
     dbgs = [g for g, ok in zip(dbgs, keep) if ok]
-    regions = []
-    for c, g in zip(cells, dbgs):
-        d = c.direction[:2] / np.linalg.norm(c.direction[:2]) if asm.dimension == 2 \
-            else c.direction
-        regions.append(Region(dimension=c.dimension, direction=tuple(float(x) for x in d),
-                              dbg=g))
+    dirs = np.array([c.direction for c in cells]).reshape(-1, 3)
+    sliding = sliding_counts(bs.circles, dirs)
+    lower = np.array([c.dimension < 2 for c in cells], dtype=bool)
+    dirs, sliding = _snap_to_circles(bs, dirs, sliding, dbgs, lower)
+    regions = [Region(dimension=c.dimension, direction=tuple(float(x) for x in d),
+                      dbg=g, sliding=int(k)) for c, d, g, k in zip(cells, dirs, dbgs, sliding)]
+    return regions, skipped
+
+
+#: How far (chart units, about radians, times ``eta``) from a lower-dimensional region's
+#: direction the contact circles are looked for by :func:`_snap_to_circles`.
+SNAP_ETA = 2.0
+
+
+def _snap_to_circles(bs: BlockedSets, dirs: np.ndarray, sliding: np.ndarray,
+                     dbgs: list[DBG], lower: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Move the direction of each lower-dimensional region (``lower``) to the point where the
+    contact circles near it meet, when that point lies on more circles (within
+    :data:`ON_CIRCLE`) and has the region's DBG (exact lookup).
+
+    A thin free band round a bore's axis is a few ``eps / L`` wide: its cells' directions
+    (centroids, chain midpoints) lie anywhere in it, off the axis, where the direct sweep test
+    blocks (it does not erode contacts). The bore's facets' circles all pass through the axis
+    (to the mesh's rounding): their least-squares common point, refined on the circles
+    through it, is the axis. Returns the new ``(dirs, sliding)``. Not done with a domain
+    (restricted to small caps where thousands of circles meet, the family is then used for
+    the whole assembly's partitionings only, not for plans)."""
+    dirs, sliding = dirs.copy(), sliding.copy()
+    n = bs.circles
+    if len(n) < 2 or bs.domain is not None:
+        return dirs, sliding
+    near_tol = SNAP_ETA * bs.eta
+    low = np.flatnonzero(lower)
+    cand, where = [], []
+    for s0 in range(0, len(low), 4096):
+        ks = low[s0:s0 + 4096]
+        near_all = np.abs(dirs[ks] @ n.T) < near_tol
+        for k, mask in zip(ks, near_all):
+            count = int(mask.sum())
+            if count < 2 or count <= sliding[k]:
+                continue
+            d, near = dirs[k], n[mask]
+            p = d
+            for _ in range(2):  # least squares, then again on the circles through that point
+                _, v = np.linalg.eigh(near.T @ near)
+                p = v[:, 0] * (1.0 if v[:, 0] @ d >= 0 else -1.0)
+                on = near[np.abs(near @ p) < 1e-6]
+                if len(on) < 2:
+                    break
+                near = on
+            if np.arccos(np.clip(p @ d, -1.0, 1.0)) > near_tol:
+                continue
+            if int((np.abs(n @ p) < ON_CIRCLE).sum()) > sliding[k]:
+                cand.append(p)
+                where.append(k)
+    if cand:
+        got = bs.dbgs(np.array(cand), exact=True)
+        for k, p, g in zip(where, cand, got):
+            if g.succ == dbgs[k].succ:
+                dirs[k] = p
+                sliding[k] = int((np.abs(n @ p) < ON_CIRCLE).sum())
+    return dirs, sliding
+
+
+#: ``|n . d|`` below which a direction slides along a contact of normal ``n`` (unit vectors):
+#: the test of the lower-dimensional cells on the contact circles.
+ON_CIRCLE = 1e-7
+
+
+def sliding_counts(circles: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+    """``(m,)`` the number of contact normals ``circles`` ``(c, 3)`` perpendicular to each
+    of ``dirs`` ``(m, 3)`` (within :data:`ON_CIRCLE`)."""
+    if not len(circles) or not len(dirs):
+        return np.zeros(len(dirs), dtype=np.int64)
+    return (np.abs(dirs @ circles.T) < ON_CIRCLE).sum(axis=1)
+
+
+def build_infinite(asm: Assembly, cache: PairCache | None = None,
+                   domain: np.ndarray | None = None, workers: int = 1,
+                   progress: bool = False) -> NDBG:
+    """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
+    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
+    reuses per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map
+    cells, :func:`ndbg_cli.domain.free_domain`) only the cells of the arrangement inside it
+    are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
+    outside), not for its subassemblies'; the stats say ``restricted``. ``progress``: a bar on
+    stderr over the part pairs (:mod:`ndbg_cli.progress`: on a terminal only)."""
+    t0 = time.perf_counter()
+    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers, progress)
+    t1 = time.perf_counter()
+    skipped = 0
+    if asm.dimension == 2:
+        bs.arcs = {pair: equator.cone_arcs(c, OPEN_TOL) for pair, c in sorted(bs.cones.items())}
+        regs = equator.equator_regions(bs.arcs, bs.n, bs.eta,
+                                       equator.sliding_angles(bs.circles))
+        t2 = time.perf_counter()
+        # the prisms' caps are contacts too (normal along z): every direction slides on them
+        flat = np.abs(bs.circles[:, 2]) > 0.5 if len(bs.circles) else np.zeros(0, dtype=bool)
+        dirs = np.array([[np.cos(phi), np.sin(phi), 0.0] for _, phi, _ in regs])
+        sliding = sliding_counts(bs.circles[~flat], dirs)
+        regions = [Region(dimension=dim, direction=equator.direction(phi), dbg=g,
+                          sliding=int(k)) for (dim, phi, g), k in zip(regs, sliding)]
+    else:
+        regions, skipped = _regions_3d(bs)
+        t2 = time.perf_counter()
     t3 = time.perf_counter()
     ndbg = NDBG(family=FAMILY, ids=tuple(asm.ids), regions=tuple(regions),
                 space_dimension=asm.dimension, stats={})
@@ -519,18 +616,19 @@ def lookup(ndbg: NDBG, d: np.ndarray, exact: bool = False) -> list[DBG]:
     exactly along a bore's axis; slower)."""
     bs: BlockedSets = ndbg._blocked_sets  # type: ignore[attr-defined]
     d = np.atleast_2d(np.asarray(d, dtype=float))
-    if d.shape[1] == 2:
-        d = np.concatenate([d, np.zeros((len(d), 1))], axis=1)
+    if bs.arcs is not None:  # 2D: the open arcs on S^1 (always the open-set semantics)
+        return equator.arc_dbgs(bs.arcs, bs.n, np.arctan2(d[:, 1], d[:, 0]))
     return bs.dbgs(d, exact=exact)
 
 
 def boundary_distance(ndbg: NDBG, d: np.ndarray) -> np.ndarray:
     """Chart distance ``(m,)`` from each direction to the nearest ``B_ij`` boundary on its
-    face (about the angle in radians, within a factor 3): where the lookup is robust."""
+    face (about the angle in radians, within a factor 3; 2D: the angle on S^1): where the
+    lookup is robust."""
     bs: BlockedSets = ndbg._blocked_sets  # type: ignore[attr-defined]
     d = np.atleast_2d(np.asarray(d, dtype=float))
-    if d.shape[1] == 2:
-        d = np.concatenate([d, np.zeros((len(d), 1))], axis=1)
+    if bs.arcs is not None:  # 2D: radians to the nearest arc end
+        return equator.boundary_distance(bs.arcs, np.arctan2(d[:, 1], d[:, 0]))
     f, st = face_of(d)
     out = np.full(len(d), np.inf)
     for face in range(6):

@@ -31,13 +31,17 @@ class Region:
 
     ``direction`` is a unit vector (length 2 or 3) for translations, ``None`` otherwise;
     ``motion`` describes a generalized motion (``{"type": "rotation"|"screw", "axis": ...,
-    "point": ..., "pitch": ...}``) and is ``None`` for translations.
+    "point": ..., "pitch": ...}``) and is ``None`` for translations. ``sliding``: the number
+    of distinct contact normals perpendicular to ``direction`` (infinite translations: the
+    contacts it slides along exactly; not reported), which ranks the lower-dimensional regions
+    of a move (:func:`ndbg_cli.planning.pick_region`).
     """
 
     dimension: int
     direction: tuple[float, ...] | None
     dbg: DBG
     motion: dict | None = None
+    sliding: int = 0
 
 
 @dataclass(frozen=True)

@@ -112,9 +112,23 @@ class Plan:
 
 
 def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
-    """The region reported for an instruction free in several: highest dimension (open cells are
-    the most robust), then lowest index."""
-    return min(regions, key=lambda r: (-ndbg.regions[r].dimension, r))
+    """The region reported for an instruction free in several: an open one (full dimension:
+    the most robust) first; then the lower-dimensional region sliding along the most contacts
+    exactly (:attr:`Region.sliding`), then the highest dimension, then the lowest index.
+
+    A thin free band round a bore's axis holds many lower-dimensional cells a few ``eps / L``
+    wide (the eroded contacts, :mod:`ndbg_cli.infinite`); only the axis itself, on every
+    contact circle of the bore, is free for the direct sweep test (``ndbg query``) and for a
+    designer. Families without contact counts rank by dimension and index alone."""
+    full = ndbg.space_dimension - 1
+
+    def key(r: int) -> tuple[int, int, int, int]:
+        reg = ndbg.regions[r]
+        if reg.dimension == full:  # any point of an open region is as good
+            return (0, 0, 0, r)
+        return (1, -reg.sliding, -reg.dimension, r)
+
+    return min(regions, key=key)
 
 
 def orient(ndbg: NDBG, h: Hyperarc, allowed: set[int] | None = None) -> Step:

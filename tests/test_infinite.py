@@ -260,6 +260,60 @@ def test_2d_peg_in_slot():
     assert (1, 0) in dbg_at(asm, np.array([0.1, 1.0])).arcs()
 
 
+def stack_2d(n: int = 4) -> Assembly:
+    from ndbg_cli.validate import make_polygon_part
+
+    parts = tuple(make_polygon_part(f"b{k}", [(0, 10 * k), (10, 10 * k), (10, 10 * k + 10),
+                                              (0, 10 * k + 10)])[0] for k in range(n))
+    return Assembly("stack2d", parts, dimension=2)
+
+
+def test_2d_stack_slides_apart_sideways_exactly():
+    """Four unit boxes stacked along y (hand answer): along exactly +-x every box slides on its
+    neighbours and nothing blocks; just above +x each box is blocked by the one above, and
+    straight up by every box above it. The closed chart polygons of the prisms' cap terms
+    (which only touch the plane z = 0) once blocked all of (0, 45 deg]: no +-x region."""
+    asm = stack_2d()
+    nd = build_infinite(asm)
+    flat = [r for r in nd.regions if not r.dbg.arcs()]
+    assert sorted(r.direction for r in flat) == [(-1.0, 0.0), (1.0, 0.0)]
+    assert all(r.dimension == 0 for r in flat)
+    assert lookup(nd, np.array([[1.0, 0.0]]))[0].arcs() == []
+    up = lookup(nd, np.array([[1.0, 0.5]]))[0].arcs()  # 27 degrees up: only the box above
+    assert up == [(0, 1), (1, 2), (2, 3)]
+    assert sorted(lookup(nd, np.array([[0.0, 1.0]]))[0].arcs()) == \
+        [(i, j) for i in range(4) for j in range(i + 1, 4)]
+    # every region's DBG is the direct sweep test's at its direction
+    sc = SweepChecker(asm)
+    for r in nd.regions:
+        assert sc.dbg(np.array(r.direction)).succ == r.dbg.succ, r
+
+
+@pytest.mark.parametrize("name", ["stack", "peg-blind", "peg-37", "fig11-nonlinear",
+                                  "fig2-sandwich-5", "fig3-2d", "slot-37"])
+def test_plan_steps_pass_the_direct_sweep_test(name):
+    """Each step of an infinite-translation plan moves its set along a direction where the
+    direct sweep test (``ndbg query``, no erosion) finds it free: among the thin regions of a
+    bore's or a slot's free band the one on its contacts' circles is chosen, and its
+    direction is where those circles meet (the axis), not a cell's centroid mrad off it."""
+    from ndbg_cli.analysis import Options, analyze
+
+    asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+    rep = analyze(asm, Options(motion="all"))
+    plan = rep["plan"]
+    assert plan["family"] == "infinite_translation" and plan["sequence"]
+    sc = SweepChecker(asm)
+    idx = {p: k for k, p in enumerate(asm.ids)}
+    for step in plan["sequence"]:
+        moved = sum(1 << idx[p] for p in step["moved"])
+        mask = sum(1 << idx[p] for p in step["produces"])
+        assert sc.dbg(np.array(step["removal_direction"])).is_free(moved, mask), step
+    if name == "peg-blind":  # the hole's axis, from the manifest's hand-worked answer
+        a = np.radians(37.0)
+        d = plan["sequence"][0]["removal_direction"]
+        assert np.allclose(d, [np.sin(a), 0.0, np.cos(a)], atol=1e-6)
+
+
 # -- burrs (external data) ---------------------------------------------------------------------
 
 @pytest.mark.external

@@ -1,0 +1,167 @@
+"""The infinite-translation NDBG of a 2D assembly on S^1, exactly, from the open cones.
+
+2D parts are extruded to prisms (:func:`ndbg_cli.blocking_cones.part_triangles`) and their
+blocked sets ``B_ij`` computed as for 3D parts: unions of open cones. The directions of the
+plane are the equator ``z = 0``. A cone meets it in an open arc: each facet normal ``m`` gives
+the open half-circle ``m . (cos phi, sin phi, 0) > 0``, i.e. ``|phi - atan2(m_y, m_x)| <
+pi / 2``, and a facet normal along ``z`` (the prisms' caps) none: such a cone only *touches*
+the equator, which its open set does not contain. (Reading the equator off the cones' closed
+chart polygons instead took those touching cones for blocking: the cap terms of the two sides
+``z > 0`` and ``z < 0`` meet along it.)
+
+So ``B_ij`` on S^1 is a union of open arcs (:func:`cone_arcs`), each shrunk by
+:data:`~ndbg_cli.infinite.OPEN_TOL` radians at both ends, as the 3D exact test does with a
+cone's facets. The arcs' endpoints cut the circle into points and open intervals, each with
+one DBG (a direction is blocked by a pair when strictly inside one of its arcs); neighbouring
+pieces with the same DBG are one region (:func:`equator_regions`). A region shorter than the
+angular tolerance ``eta`` is 0-dimensional; its direction is then the sliding direction of a
+contact (perpendicular to a contact normal) inside it when there is one, the one nearest its
+middle, else its middle: the eroded contacts make the free band round a sliding direction a
+few ``eps / L`` wide, and the sliding direction itself is the one a designer means (and the
+one the direct sweep test finds free). Longer regions are 1-dimensional, with their middle.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from .dbg import DBG
+
+#: Endpoints closer than this (radians) are one (floating-point noise of the cones' normals).
+MERGE_TOL = 1e-12
+#: A facet normal whose component in the plane is below this fraction of its length is along
+#: ``z``: its open half-space misses the equator.
+FLAT_TOL = 1e-12
+
+TWO_PI = 2.0 * np.pi
+
+
+def cone_arcs(cones: np.ndarray, shrink: float) -> np.ndarray:
+    """The open arcs ``(q, 2)`` (``lo`` in ``[0, 2 pi)``, ``lo < hi <= lo + 2 pi``, radians)
+    in which the open cones ``(p, k, 3)`` (zero rows: no constraint) meet the equator, each
+    shrunk by ``shrink`` at both ends; the cones that miss it, or whose arc is shorter than
+    ``2 shrink``, give none."""
+    if not len(cones):
+        return np.zeros((0, 2))
+    m = np.asarray(cones, dtype=float)
+    length = np.linalg.norm(m, axis=2)
+    real = length > 0
+    h = np.linalg.norm(m[:, :, :2], axis=2)
+    flat = real & (h <= FLAT_TOL * length)
+    ok = ~flat.any(axis=1)
+    alpha = np.arctan2(m[:, :, 1], m[:, :, 0])
+    # each half-circle relative to the cone's first one, in (-pi, pi]
+    first = np.argmax(real, axis=1)
+    a0 = alpha[np.arange(len(m)), first]
+    delta = np.mod(alpha - a0[:, None] + np.pi, TWO_PI) - np.pi
+    lo = np.where(real, delta - np.pi / 2, -np.inf).max(axis=1)
+    hi = np.where(real, delta + np.pi / 2, np.inf).min(axis=1)
+    whole = ~real.any(axis=1)  # no facet: every direction
+    lo = np.where(whole, -np.pi, lo) + shrink
+    hi = np.where(whole, np.pi, hi) - shrink
+    keep = ok & (hi > lo)
+    start = np.mod((a0 + lo)[keep], TWO_PI)
+    return np.column_stack([start, start + (hi - lo)[keep]])
+
+
+def inside(arcs: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """``(m,)`` whether each angle of ``phi`` lies strictly inside one of the open ``arcs``."""
+    phi = np.mod(np.asarray(phi, dtype=float), TWO_PI)
+    out = np.zeros(len(phi), dtype=bool)
+    step = max(1, 4_000_000 // max(len(phi), 1))
+    for s in range(0, len(arcs), step):
+        a = arcs[s:s + step]
+        t = np.mod(phi[None, :] - a[:, :1], TWO_PI)
+        out |= ((t > 0) & (t < a[:, 1:] - a[:, :1])).any(axis=0)
+    return out
+
+
+def arc_dbgs(arcs: Mapping[tuple[int, int], np.ndarray], n: int, phi: np.ndarray
+             ) -> list[DBG]:
+    """The DBG at each angle of ``phi`` (radians): arc ``i -> j`` where ``phi`` is strictly
+    inside one of ``arcs[(i, j)]``."""
+    succ = [[0] * n for _ in range(len(phi))]
+    for (i, j), a in sorted(arcs.items()):
+        for k in np.flatnonzero(inside(a, phi)):
+            succ[k][i] |= 1 << j
+    return [DBG(tuple(s)) for s in succ]
+
+
+def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: float,
+                    sliding: np.ndarray) -> list[tuple[int, float, DBG]]:
+    """The regions of S^1: ``(dimension, angle, DBG)``, by increasing start angle.
+
+    ``arcs``: each ordered pair's open arcs (:func:`cone_arcs`); ``eta``: the angular
+    tolerance (radians; shorter regions are 0-dimensional); ``sliding``: angles of the
+    contacts' sliding directions (a thin region's direction, see the module docstring)."""
+    ends = np.concatenate([a.reshape(-1) for a in arcs.values()] + [np.zeros(0)])
+    ends = np.sort(np.mod(ends, TWO_PI))
+    if len(ends):
+        gap = np.diff(np.r_[ends, ends[0] + TWO_PI])
+        ends = ends[gap > MERGE_TOL]
+    if not len(ends):
+        g = arc_dbgs(arcs, n, np.zeros(1))[0]
+        return [(1, 0.0, g)]
+    # pieces around the circle: endpoint k, then the open interval to endpoint k + 1
+    nxt = np.r_[ends[1:], ends[0] + TWO_PI]
+    starts = np.column_stack([ends, ends]).reshape(-1)
+    stops = np.column_stack([ends, nxt]).reshape(-1)
+    probe = np.column_stack([ends, 0.5 * (ends + nxt)]).reshape(-1)
+    dbgs = arc_dbgs(arcs, n, probe)
+    keys = [g.succ for g in dbgs]
+    # merge runs of equal DBGs, starting after a change so that no run wraps round
+    m = len(keys)
+    change = [k for k in range(m) if keys[k] != keys[k - 1]]
+    if not change:
+        return [(1, 0.0, dbgs[0])]
+    out = []
+    runs = [(c, change[(q + 1) % len(change)]) for q, c in enumerate(change)]
+    for a, b in runs:
+        b_idx = b if b > a else b + m  # the run is pieces a .. b - 1 (mod m)
+        lo = starts[a]
+        hi = stops[(b_idx - 1) % m] + (TWO_PI if b_idx - 1 >= m else 0.0)
+        if hi < lo:
+            hi += TWO_PI
+        length = hi - lo
+        if length < eta:
+            mid = 0.5 * (lo + hi)
+            t = np.mod(sliding - lo, TWO_PI)
+            within = sliding[(t >= 0) & (t <= length)] if len(sliding) else sliding
+            if len(within):
+                off = np.mod(within - mid + np.pi, TWO_PI) - np.pi
+                mid = float(within[np.argmin(np.abs(off))])
+            out.append((0, float(np.mod(mid, TWO_PI)), dbgs[a]))
+        else:
+            out.append((1, float(np.mod(0.5 * (lo + hi), TWO_PI)), dbgs[a]))
+    return sorted(out, key=lambda r: r[1])
+
+
+def sliding_angles(normals: np.ndarray) -> np.ndarray:
+    """Angles (radians, ``[0, 2 pi)``) of the directions of the plane perpendicular to the
+    contact normals ``(c, 3)`` (both senses; normals along ``z`` give none)."""
+    nm = np.asarray(normals, dtype=float).reshape(-1, 3)
+    h = np.linalg.norm(nm[:, :2], axis=1)
+    nm = nm[h > FLAT_TOL * np.maximum(np.linalg.norm(nm, axis=1), 1e-300)]
+    a = np.arctan2(nm[:, 1], nm[:, 0])
+    return np.unique(np.mod(np.concatenate([a + np.pi / 2, a - np.pi / 2]), TWO_PI))
+
+
+def direction(phi: float) -> tuple[float, float]:
+    """The unit vector of angle ``phi``, components below 1e-15 set to zero (an axis comes
+    out exact)."""
+    c, s = np.cos(phi), np.sin(phi)
+    return (float(c) if abs(c) > 1e-15 else 0.0, float(s) if abs(s) > 1e-15 else 0.0)
+
+
+def boundary_distance(arcs: Mapping[tuple[int, int], np.ndarray], phi: np.ndarray
+                      ) -> np.ndarray:
+    """Angle ``(m,)`` (radians) from each of ``phi`` to the nearest arc endpoint: where the
+    lookup is robust (``inf`` without arcs)."""
+    ends = np.concatenate([a.reshape(-1) for a in arcs.values()] + [np.zeros(0)])
+    out = np.full(len(phi), np.inf)
+    for e in np.mod(ends, TWO_PI):
+        off = np.abs(np.mod(np.asarray(phi) - e + np.pi, TWO_PI) - np.pi)
+        out = np.minimum(out, off)
+    return out
