@@ -19,6 +19,18 @@ is computed per motion family from that family's NDBG:
 * ``interlocked`` and ``grasp`` when their inputs are supplied (see :mod:`interlock` and
   :mod:`grasp`).
 
+Every measure also says what its value is worth (:func:`label`): ``holds_for`` names the
+motions of its family (:data:`HOLDS_FOR`) and ``evidence`` is
+
+* ``"proven"``: true of the product for those motions (a yes of the infinite translations is a
+  real algorithm, so it holds without restriction; a no holds only for those motions, e.g.
+  "no 1-handed monotone algorithm with single translations" says nothing of two translations);
+* ``"candidate"``: a necessary condition only (infinitesimal families): a yes means candidate
+  algorithms exist, and a minimum over candidates is only a lower bound for real algorithms
+  with those motions;
+* ``"bound"``: ``lower_bound <= optimum <= upper_bound`` for real algorithms with those motions
+  (a search cut by its budget, a greedy grasp).
+
 Also here: :func:`min_depth_search` (exact minimum depth by iterative deepening, no full graph),
 :func:`andor_section` (the report's AND/OR section) and :func:`sink_decompose` (the polynomial
 decomposition behind the exact yes/no classes).
@@ -47,6 +59,85 @@ from .ndbg import NDBG, ConnectivityTest
 
 #: AND/OR graph budget when none is given (the CLI's --max-nodes / --time-limit defaults).
 DEFAULT_BUDGET = Budget(max_nodes=2_000, time_limit=2.0)
+
+INFINITESIMAL = "infinitesimal_translation"
+INFINITE = "infinite_translation"
+GENERALIZED = "generalized"
+
+#: The motions a family's verdicts are about (every measure's ``holds_for``): one translation
+#: to infinity per moved set (paper 5.3), any translations (4-5.1: a candidate of the
+#: infinitesimal NDBG is necessary for every sequence of translations), translations plus the
+#: suggested rotations and screws (5.2, 6).
+HOLDS_FOR = {INFINITE: "single translations", INFINITESIMAL: "translations",
+             GENERALIZED: "translations and suggested motions"}
+
+#: Families whose candidates are only a necessary condition (paper 7.2): their yes and their
+#: minima over candidates prove nothing about real algorithms beyond a lower bound.
+NECESSARY_ONLY = (INFINITESIMAL, GENERALIZED)
+
+#: Measures that are minima over algorithms (lower/upper bounds apply).
+MINIMA = ("min_depth", "min_nonlinear", "min_directions")
+
+
+def evidence(family: str, key: str, entry: dict) -> str:
+    """What ``entry`` (measure ``key`` of ``family``) proves, see the module docstring:
+    ``"proven"``, ``"candidate"``, ``"bound"`` or ``"undecided"`` (no value, nothing shown).
+
+    A yes (or a minimum) of a necessary-only family is a candidate; a no of any family is
+    proven, but only for that family's motions (``holds_for``). Interlocking is decided by
+    its LP whatever the value; a greedy grasp is an upper bound."""
+    v = entry.get("value")
+    if key == "interlocked":
+        return "undecided" if v is None else "proven"
+    if key == "grasp":
+        return "bound" if v is not None else "undecided"
+    if key in MINIMA:
+        if v is None:
+            # no candidate at all is a proof (no algorithm with these motions); a cut search
+            # that found nothing proves nothing
+            return "proven" if entry.get("exact", False) else "undecided"
+        if family in NECESSARY_ONLY:
+            return "candidate"
+        return "proven" if entry.get("exact", True) else "bound"
+    if v is None:
+        return "undecided"
+    if v is True and family in NECESSARY_ONLY:
+        return "candidate"
+    return "proven"
+
+
+def label(family: str, key: str, entry: dict) -> dict:
+    """``entry`` with its ``holds_for`` (:data:`HOLDS_FOR`) and ``evidence`` added."""
+    return {**entry, "holds_for": HOLDS_FOR.get(family, family),
+            "evidence": evidence(family, key, entry)}
+
+
+def verdict(key: str, entry: dict) -> str:
+    """The value of a labelled measure as the text report shows it, limited to what its
+    evidence shows: ``no (with single translations)``, ``yes (candidate only)``, ``3 (lower
+    bound: minimum over candidates)``, ``5 (upper bound)``."""
+    v = entry.get("value")
+    ev = entry.get("evidence")
+    scope = entry.get("holds_for")
+    if isinstance(v, bool):
+        vs = "yes" if v else "no"
+        if ev == "candidate":
+            return vs + " (candidate only: a necessary condition)"
+        # a no of a class the paper defines for every motion is limited to these motions
+        if not v and scope and key in ("one_handed_monotone", "linearizable"):
+            return f"no (with {scope})"
+        return vs
+    if v is None:
+        if ev == "proven" and key in MINIMA:
+            return f"none (no algorithm with {scope})"
+        return "undecided"
+    if ev == "candidate":
+        return f"{v} (lower bound: minimum over candidates with {scope})"
+    if ev == "bound" or not entry.get("exact", True):
+        return f"{v} (upper bound)"
+    if scope and key in MINIMA:
+        return f"{v} (with {scope})"
+    return str(v)
 
 # ------------------------------------------------------------- exact min depth, no full graph
 @dataclass
@@ -418,7 +509,8 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
     choice, stuck = sink_decompose(ndbg, full, base=base)
     ohm = stuck is None
     if ohm:
-        why = f"candidate tree {tree_string(ndbg, choice, full)}"
+        # only the infinite translations' trees are real algorithms
+        why = ("tree " if fam == INFINITE else "candidate tree ") + tree_string(ndbg, choice, full)
     else:
         why = (f"subassembly {_names(ndbg, stuck)}: every one of the "
                f"{len(_dominant_regions(ndbg, stuck))} non-dominated distinct DBGs induced on it "
@@ -484,24 +576,80 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
                                              f"{r.expanded} subassemblies (AND/OR graph "
                                              "truncated)")}
 
-    acyclic = [] if fam == "generalized" else \
-        [k for k, r in enumerate(ndbg.regions) if r.dbg.is_acyclic(full)]
-    if fam == "generalized":
-        out["stack_product"] = {"value": None, "why": "stack products are defined for "
-                                "translations"}
-    elif acyclic:
-        k = min(acyclic, key=lambda r: (-ndbg.regions[r].dimension, r))
-        note = "" if fam == "infinite_translation" else " (candidate: infinitesimal only)"
-        out["stack_product"] = {"value": True, "region": k,
-                                "direction": _regions_named(ndbg, [k])[0].get("direction"),
-                                "why": f"the DBG of region {k} is acyclic: every subassembly "
-                                "comes apart along that one direction" + note}
-    else:
-        out["stack_product"] = {"value": False, "why": f"all {len(ndbg.regions)} DBGs on the "
-                                "whole product contain a cycle"}
+    out["stack_product"] = stack_product(ndbg, base=base)
     md = min_directions(ndbg, base=base, budget=budget)
     out["min_directions"] = {k: v for k, v in md.items() if k != "stuck"}
     return out
+
+
+def stack_regions(ndbg: NDBG, *, base: int | None = None) -> list[int]:
+    """Regions whose DBG alone yields a candidate algorithm: every instruction moves the side
+    without the base along that region's direction (paper 7.1: all instructions along the same
+    direction; 7.2: the algorithm is extracted from a single DBG).
+
+    Convention, the same as :func:`min_directions`: a direction is that of the moved side, the
+    one without the base, relative to the other; moving ``S`` along ``d`` and the rest along
+    ``-d`` are different directions. Without a base either side may move, and the test is the
+    paper's "the DBG is acyclic" (every subassembly of an acyclic graph has a sink part to
+    move). With a base it is stricter: the base may not be the only sink, e.g. a stack of boxes
+    on a middle base needs up for the boxes above it and down for those below (two
+    directions, no stack product). Tested by :func:`sink_decompose` on that one region."""
+    full = (1 << ndbg.n) - 1
+    return [k for k in range(len(ndbg.regions))
+            if sink_decompose(ndbg, full, [k], base=base)[1] is None]
+
+
+def stack_product(ndbg: NDBG, *, base: int | None = None) -> dict:
+    """The ``stack_product`` measure of one family (see :func:`stack_regions`); ``None`` for
+    generalized motions, where the paper does not define it."""
+    fam = ndbg.family
+    if fam == GENERALIZED:
+        return {"value": None, "why": "stack products are defined for translations"}
+    found = stack_regions(ndbg, base=base)
+    moved = "the side without the base" if base is not None else "one side"
+    if not found:
+        return {"value": False, "why": f"none of the {len(ndbg.regions)} DBGs alone "
+                f"decomposes the product (moving {moved} along its direction)"}
+    k = min(found, key=lambda r: (-ndbg.regions[r].dimension, r))
+    note = "" if fam == INFINITE else " (candidate: infinitesimal only)"
+    return {"value": True, "region": k, "direction": _regions_named(ndbg, [k])[0].get("direction"),
+            "why": f"the DBG of region {k} decomposes every subassembly: {moved} always "
+            "comes apart along that one direction" + note}
+
+
+def interlock_hands(lock: dict, ndbgs: dict[str, NDBG]) -> dict:
+    """``lock`` (an :func:`interlock.interlock` result) with the fewest moved sets (hands) an
+    infinitesimal translation of the whole product needs to separate or slide something:
+    ``hands`` (``None`` unless exact), ``hands_lower_bound``, ``hands_exact``.
+
+    The LP's motion uses ``moved_set_count`` sets, only an upper bound (it maximises the total
+    separation, which moves many sets). One set suffices iff some DBG has a proper free subset
+    of the whole product (:func:`sink_split`, no base: a relative motion, either side may be the
+    fixed one); only the infinitesimal NDBG can refute that (an infinite-translation
+    partitioning still proves it). Not a bound on the product's hands: later steps may need
+    more, and other motions fewer."""
+    out = dict(lock)
+    k = lock.get("moved_set_count")
+    if lock.get("value") is not False or not k:
+        return {**out, "hands": None, "hands_lower_bound": None, "hands_exact": False}
+    one, src = None, None
+    for fam in (INFINITESIMAL, INFINITE):
+        nd = ndbgs.get(fam)
+        if nd is not None and nd.n >= 2 and one is None:
+            one, src = sink_split(nd, (1 << nd.n) - 1), nd
+    refuted = one is None and INFINITESIMAL in ndbgs
+    low = 2 if refuted else 1
+    exact = one is not None or (refuted and k == 2)
+    if one is not None and src is not None:
+        note = (f"; one moved set suffices: {_names(src, one[0])} is free in region {one[1]} "
+                f"of the {src.family} NDBG")
+    elif refuted:
+        note = ("; no single subassembly is free in any direction, so at least 2 moved sets"
+                + (" (exactly 2)" if exact else f", at most {k}"))
+    else:
+        note = ""
+    return {**out, "why": out.get("why", "") + note, "hands": (1 if one is not None else k)
+            if exact else None, "hands_lower_bound": low, "hands_exact": exact}
 
 
 def _depth_from_contained(contained: Sequence[tuple[str, dict]], full: int
@@ -569,10 +717,13 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
     for fam in sorted(done):  # the section lists the families alphabetically
         out[fam] = done[fam]
     if interlock is not None:
-        out.setdefault("infinitesimal_translation", {})["interlocked"] = interlock
+        nds = {nd.family: nd for nd in items}
+        out.setdefault(INFINITESIMAL, {})["interlocked"] = interlock_hands(interlock, nds)
     for fam, g in (grasps or {}).items():
         out.setdefault(fam, {})["grasp"] = g
-    return out
+    # every value says which motions it holds for and what it proves (see evidence())
+    return {fam: {k: label(fam, k, m) if isinstance(m, dict) and "value" in m else m
+                  for k, m in measures.items()} for fam, measures in out.items()}
 
 
 def classes_text(section: dict) -> list[str]:
@@ -585,16 +736,20 @@ def classes_text(section: dict) -> list[str]:
               "grasp": "form-closure grasp fingers"}
     for fam in sorted(section):
         lines.append(f"{fam.replace('_', ' ')}:")
-        for key, label in labels.items():
+        for key, name in labels.items():
             m = section[fam].get(key)
             if m is None:
                 continue
-            v = m.get("value")
-            if isinstance(v, bool):
-                vs = "yes" if v else "no"
-            elif v is None:
-                vs = "undecided"
-            else:
-                vs = str(v) + ("" if m.get("exact", True) else " (upper bound)")
-            lines.append(f"  {label}: {vs} - {m.get('why', '')}")
+            vs = verdict(key, m) if "evidence" in m else _plain(m)
+            lines.append(f"  {name}: {vs} - {m.get('why', '')}")
     return lines
+
+
+def _plain(m: dict) -> str:
+    """The value of a measure without ``evidence`` (a report written before it existed)."""
+    v = m.get("value")
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if v is None:
+        return "undecided"
+    return str(v) + ("" if m.get("exact", True) else " (upper bound)")

@@ -11,7 +11,11 @@ via ``scipy.optimize.linprog``); an optimum > tol gives a separating motion; (2)
 admissible motion keeps all contacts sliding, so the admissible set is the linear subspace
 ``{n . (v_b - v_a) = 0, v_fixed = 0}``: its null-space basis (SVD) gives a sliding motion when
 nonempty (e.g. a peg sliding out of a through-hole). The moved sets are the parts grouped by
-equal velocity; their number minus one is the number of hands the motion uses.
+equal velocity besides the fixed part's group; their number (``moved_set_count``) is the
+number of hands *this* motion uses. It is not a minimum: maximising the total separation
+spreads the parts over many velocities (a stack of boxes comes apart in several sets at once
+although lifting the top box alone would do); :func:`classes.interlock_hands` adds the fewest
+moved sets when the NDBG decides it.
 """
 
 from __future__ import annotations
@@ -59,16 +63,18 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
 
     Returns ``{"value": interlocked, "why", "kind": "separating"|"sliding"|None,
     "separation": LP optimum, "velocities": [[...]] per part, "moved_sets": [[parts]...],
-    "fixed_set": [parts], "hands": len(moved_sets), "fixed"}`` (part indices; with ``ids``
-    the ``why`` text names the parts and ``moved_ids`` lists them): parts are grouped by equal
-    velocity; ``fixed_set`` is the fixed part's group, ``moved_sets`` the others (so the motion
-    is an instruction with ``hands + 1`` moved sets in the paper's terms).
+    "fixed_set": [parts], "moved_set_count": len(moved_sets), "fixed"}`` (part indices; with
+    ``ids`` the ``why`` text names the parts and ``moved_ids`` lists them): parts are grouped
+    by equal velocity; ``fixed_set`` is the fixed part's group, ``moved_sets`` the others (so
+    the motion is an instruction with ``moved_set_count + 1`` moved sets in the paper's
+    terms). That count is the LP motion's, not the fewest any motion needs (see the module
+    docstring).
     """
     fixed = 0 if fixed is None else fixed
     if n < 2:
         return {"value": False, "why": "fewer than two parts: nothing to separate",
                 "kind": None, "separation": 0.0, "velocities": [], "moved_sets": [],
-                "fixed_set": list(range(n)), "hands": 0, "fixed": fixed,
+                "fixed_set": list(range(n)), "moved_set_count": 0, "fixed": fixed,
                 "moved_ids": None if ids is None else []}
     a_rows = _rows(n, pair_normals, dim)
     nv = n * dim
@@ -116,10 +122,11 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
                f"anything relative to part {label([fixed])}")
     else:
         how = f"LP separation {sep:.6g}" if kind == "separating" else "all contacts slide"
-        why = (f"{kind} motion with {len(moved)} moved set(s) ({how})"
-               f": {', '.join(label(g) for g in moved)} move relative to {label(fixed_group)}"
-               + ("; needs more than one hand" if len(moved) > 1 else ""))
+        # the LP's motion, not a minimum: it shows that these sets can move, not that fewer
+        # sets cannot
+        why = (f"the LP found a {kind} motion with {len(moved)} moved set(s) ({how})"
+               f": {', '.join(label(g) for g in moved)} move relative to {label(fixed_group)}")
     return {"value": kind is None, "why": why, "kind": kind, "separation": sep,
             "velocities": [[float(x) for x in row] for row in vel], "moved_sets": moved,
-            "fixed_set": fixed_group, "hands": len(moved), "fixed": fixed,
+            "fixed_set": fixed_group, "moved_set_count": len(moved), "fixed": fixed,
             "moved_ids": None if ids is None else [[ids[i] for i in g] for g in moved]}

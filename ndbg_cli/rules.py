@@ -13,13 +13,31 @@ A rules file is YAML::
         max_directions: 1
 
 Rule keys (:data:`RULES`): booleans state the required value of a class, ``max_*`` an upper
-bound on a measure. A bound is met when the analysis proves it (an exact value, or an upper
-bound from a tree actually found, at most the limit) and violated when the analysis proves the
-opposite (a lower bound above the limit); otherwise the measure is *undecided* (budget
-exhausted, family skipped) and counts as ``undecided`` says. ``family: auto`` reads the
-infinite-translation classes when that NDBG was computed (guaranteed answers) and the
-infinitesimal ones otherwise (necessary conditions); ``prismatic`` always reads the infinite
-family and ``interlocked`` the infinitesimal one, where the paper defines them.
+bound on a measure. A rule is met or violated only when the analysis *proves* it; otherwise it
+is *undecided* (the line says so) and counts as ``undecided`` says. What counts as proof
+(each class measure carries ``holds_for`` and ``evidence``, see :mod:`classes`):
+
+* a yes, or an upper bound, needs a real algorithm: the infinite-translation family's (its
+  trees are 1-handed monotone 1-prismatic algorithms). A yes or a minimum of the
+  infinitesimal or generalized families is a *candidate* (a necessary condition) and proves
+  nothing; their minimum is a lower bound;
+* a no, or a lower bound, of a class the paper defines for every motion (1-handed monotone,
+  linearizable, depth, nonlinear steps) needs a family holding every motion analysed: the
+  generalized one when computed, else the infinitesimal translations (the reason then says
+  "with translations"). The infinite translations' no only says "not with single
+  translations": the L-shaped channel whose part leaves by +x then +y is 1-handed monotone;
+* ``prismatic``, ``stack_product`` and ``max_directions`` are defined by single translations
+  (paper 7.1), so either translation family refutes them and the infinite one decides them;
+  ``interlocked`` is the infinitesimal LP's, decided either way;
+* ``max_hands``: at least 1 (two parts or more); at most 1 when a 1-handed monotone algorithm
+  is proven, else ``n - 1`` (any admissible n-part product, paper 7.1) unless the product is
+  infinitesimally interlocked. No analysis here proves that 2 hands are needed;
+* ``plan_found``: a search cut by its budget (the plan's ``exact: false``) that found nothing
+  is undecided, not false.
+
+``family: auto`` reads the evidence of every family computed; naming a family reads only that
+one (``prismatic`` always reads the translation families and ``interlocked`` the
+infinitesimal one, where the paper defines them).
 
 :func:`evaluate` is pure: a report dict and the rules in, a list of :class:`Outcome` out.
 """
@@ -31,12 +49,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .classes import GENERALIZED, INFINITE, INFINITESIMAL, label, verdict
 from .errors import InputError
 from .report import identity
 
-INFINITESIMAL = "infinitesimal_translation"
-INFINITE = "infinite_translation"
-GENERALIZED = "generalized"
 FAMILIES = ("auto", INFINITESIMAL, INFINITE, GENERALIZED)
 
 #: Rule name -> (kind, description). ``bool`` rules compare a class value; ``max`` rules bound
@@ -44,12 +60,12 @@ FAMILIES = ("auto", INFINITESIMAL, INFINITE, GENERALIZED)
 RULES: dict[str, tuple[str, str]] = {
     "no_interference": ("bool", "no interpenetrating parts"),
     "plan_found": ("bool", "an assembly tree was found"),
-    "one_handed_monotone": ("bool", "a 1-handed monotone (candidate) algorithm exists"),
+    "one_handed_monotone": ("bool", "a 1-handed monotone algorithm exists"),
     "prismatic": ("bool", "1-handed monotone 1-prismatic (infinite translations)"),
     "linearizable": ("bool", "parts can be added one at a time"),
     "stack_product": ("bool", "one direction takes every subassembly apart"),
     "interlocked": ("bool", "infinitesimally interlocked (any number of hands)"),
-    "max_hands": ("max", "hands needed (1 when 1-handed monotone)"),
+    "max_hands": ("max", "hands needed (1 when proven 1-handed monotone, at most n - 1)"),
     "max_depth": ("max", "minimum assembly tree depth"),
     "max_directions": ("max", "minimum number of translation directions"),
     "max_nonlinear": ("max", "minimum number of nonlinear instructions"),
@@ -179,14 +195,44 @@ def load_rules(path: str | Path) -> RuleSet:
 
 
 # ------------------------------------------------------------------------- measuring
-def _family(report: dict, wanted: str) -> str:
+#: Classes and measures the paper defines for every motion (7.1): a family's "no" (or lower
+#: bound) refutes them only when that family holds every motion analysed (:func:`_widest`).
+UNRESTRICTED = ("one_handed_monotone", "linearizable", "min_depth", "min_nonlinear")
+
+#: What a rule reads from the classes section (``max_*`` rules read a measure).
+_KEYS = {"max_depth": "min_depth", "max_directions": "min_directions",
+         "max_nonlinear": "min_nonlinear", "max_fingers": "grasp"}
+
+
+def _families(report: dict, wanted: str) -> list[str]:
+    """The families whose evidence a rule reads: the one named, or with ``auto`` every family
+    computed (a skipped one has no classes worth reading)."""
     classes = report.get("classes") or {}
     if wanted != "auto":
-        return wanted
-    inf = (report.get("ndbg") or {}).get(INFINITE) or {}
-    if INFINITE in classes and not inf.get("skipped"):
-        return INFINITE
-    return INFINITESIMAL if INFINITESIMAL in classes else next(iter(sorted(classes)), wanted)
+        return [wanted]
+    nd = report.get("ndbg") or {}
+    return [f for f in sorted(classes) if not (nd.get(f) or {}).get("skipped")]
+
+
+def _widest(fams: list[str]) -> str | None:
+    """The family among ``fams`` whose candidates hold every algorithm with any motion analysed
+    (the generalized hybrid holds the infinitesimal translations, which hold every sequence of
+    translations); ``None`` when only single translations were read, which refute nothing
+    about other motions."""
+    return next((f for f in (GENERALIZED, INFINITESIMAL) if f in fams), None)
+
+
+def _refuters(key: str, fams: list[str]) -> list[str]:
+    """Families whose proven "no" (or lower bound) decides ``key``: the widest for the
+    unrestricted classes; any translational family for the classes defined by single
+    translations (prismatic, stack product, number of directions: a single translation is a
+    translation, so the infinitesimal NDBG refutes them too); the LP's for interlocking."""
+    if key in UNRESTRICTED:
+        w = _widest(fams)
+        return [] if w is None else [w]
+    if key == "interlocked":
+        return [INFINITESIMAL]
+    return [f for f in fams if f in (INFINITE, INFINITESIMAL)]
 
 
 def _entry(report: dict, family: str, key: str) -> dict | None:
@@ -194,52 +240,160 @@ def _entry(report: dict, family: str, key: str) -> dict | None:
     return got if isinstance(got, dict) else None
 
 
+def _labelled(report: dict, family: str, key: str) -> dict | None:
+    """A measure with its ``holds_for`` and ``evidence`` (added here for reports written
+    before the classes carried them)."""
+    e = _entry(report, family, key)
+    if e is None or "evidence" in e:
+        return e
+    return label(family, key, e)
+
+
+def _parts(report: dict) -> int | None:
+    parts = (report.get("assembly") or {}).get("parts")
+    return len(parts) if isinstance(parts, list) else None
+
+
+def _first_line(e: dict) -> str:
+    return (str(e.get("why") or "").splitlines() or [""])[0][:160]
+
+
+def _bool_class(report: dict, key: str, fams: list[str]) -> tuple[Any, Any, Any, str]:
+    """A class decided only by proof: yes by a proven yes (a real algorithm), no by a proven
+    no of a family that covers the class (:func:`_refuters`); else undecided, the note listing
+    what each family shows."""
+    refuters = _refuters(key, fams)
+    yes = no = None
+    seen = []
+    for fam in fams:
+        e = _labelled(report, fam, key)
+        if e is None:
+            continue
+        seen.append((fam, e))
+        if e["evidence"] == "proven" and e.get("value") is True and yes is None:
+            yes = (fam, e)
+        if e["evidence"] == "proven" and e.get("value") is False and fam in refuters \
+                and no is None:
+            no = (fam, e)
+    if not seen:
+        return None, None, None, f"{'/'.join(fams) or 'no family'}: not computed"
+    if (yes is None) != (no is None):
+        fam, e = yes or no
+        v = yes is not None
+        return v, v, v, f"{fam}: {verdict(key, e)}: {_first_line(e)}"
+    head = "contradicting proofs" if yes else "nothing proves it either way"
+    return None, None, None, head + ": " + "; ".join(f"{f}: {verdict(key, e)}" for f, e in seen)
+
+
+def _minimum(report: dict, key: str, fams: list[str]) -> tuple[Any, Any, Any, str]:
+    """Bounds on a minimum proven by the families read: an upper bound from a real algorithm
+    (single translations: exact or best found), a lower bound from the candidates' minimum of a
+    refuting family (:func:`_refuters`) and ``ceil(log2 n)`` for the depth of any binary
+    tree."""
+    refuters = _refuters(key, fams)
+    n = _parts(report)
+    lower = (n - 1).bit_length() if key == "min_depth" and n else None
+    upper = None
+    notes = []
+    for fam in fams:
+        e = _labelled(report, fam, key)
+        if e is None:
+            continue
+        notes.append(f"{fam}: {verdict(key, e)}")
+        v = e.get("value")
+        if v is None:
+            continue
+        if e["evidence"] in ("proven", "bound"):
+            hi = e.get("upper_bound", v)
+            upper = hi if upper is None or (hi is not None and hi < upper) else upper
+        if fam in refuters:
+            exact = e.get("exact", True)
+            lo = e.get("lower_bound", v if exact else None)
+            lower = lo if lower is None or (lo is not None and lo > lower) else lower
+    if not notes:
+        skipped = [f for f in fams if ((report.get("ndbg") or {}).get(f) or {}).get("skipped")]
+        return None, None, None, f"{'/'.join(fams) or 'no family'} " + \
+            ("skipped" if skipped else "not computed")
+    value = lower if lower is not None and lower == upper else None
+    return value, lower, upper, "; ".join(notes)
+
+
+def _hands(report: dict, fams: list[str]) -> tuple[Any, Any, Any, str]:
+    """Hands: at least 1 for two parts or more; at most 1 when a real 1-handed monotone
+    algorithm is proven, else ``n - 1`` (paper 7.1: any admissible n-part product is
+    (n-1)-handed monotone), unless infinitesimal interlocking puts admissibility in doubt.
+    Nothing here proves 2 hands: a family's "not 1-handed monotone" is limited to its motions
+    and to monotone algorithms, and the interlocking LP's moved sets are not a minimum."""
+    n = _parts(report)
+    lower = None if n is None else min(n - 1, 1)
+    upper, why = None, ""
+    for fam in fams:
+        e = _labelled(report, fam, "one_handed_monotone")
+        if e is not None and e.get("value") is True and e["evidence"] == "proven":
+            upper, why = 1, f"{fam}: 1-handed monotone (proven by {e['holds_for']})"
+            break
+    lock = _labelled(report, INFINITESIMAL, "interlocked")
+    locked = lock is not None and lock.get("value") is True
+    if upper is None and n is not None and not locked:
+        upper, why = n - 1, (f"any admissible {n}-part product is {n - 1}-handed monotone "
+                             "(paper 7.1)")
+    if upper is None:
+        why = ("infinitesimally interlocked: no translation frees a part" if locked else
+               "no 1-handed monotone algorithm proven")
+    value = lower if lower is not None and lower == upper else None
+    return value, lower, upper, why + ("" if lower is None else f"; at least {lower}")
+
+
 def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
-    """``(value, lower, upper, note)`` of a rule's measure in ``report`` for ``family``.
-    Booleans have ``lower = upper = value``; ``None`` means undecided or not computed."""
+    """``(value, lower, upper, note)`` of a rule's measure in ``report``, from what the
+    ``family`` setting reads (``auto``: every computed family). Only proven facts count:
+    ``value`` is ``None`` unless proven (booleans then have ``lower = upper = value``), and the
+    bounds are those proven; the note says what each family shows and for which motions."""
     if rule == "no_interference":
         n = len(report.get("interferences") or [])
         return n == 0, n == 0, n == 0, f"{n} interference(s)"
     if rule == "plan_found":
-        p = report.get("plan") or {}
-        v = bool(p.get("found"))
-        return v, v, v, f"plan of the {p.get('family') or 'no'} family"
+        return _plan_found(report.get("plan") or {})
     if rule == "max_warnings":
         n = len(report.get("warnings") or [])
         return n, n, n, f"{n} warning(s)"
-    fam = INFINITE if rule == "prismatic" else INFINITESIMAL if rule == "interlocked" else family
+    fams = _families(report, family)
+    if rule == "prismatic":
+        fams = [INFINITE, INFINITESIMAL]   # defined by single translations, refuted by any
+    elif rule == "interlocked":
+        fams = [INFINITESIMAL]             # the LP on infinitesimal translations
     if rule == "max_hands":
-        ohm = _entry(report, fam, "one_handed_monotone")
-        lock = _entry(report, INFINITESIMAL, "interlocked")
-        if ohm is None:
-            return None, None, None, f"{fam} not computed"
-        if ohm.get("value") is True:
-            return 1, 1, 1, f"{fam}: 1-handed monotone"
-        if lock is not None and lock.get("value") is True:
-            return None, None, None, "infinitesimally interlocked: no translation frees a part"
-        return None, 2, None, f"{fam}: not 1-handed monotone, so at least 2 hands"
-    key = {"max_depth": "min_depth", "max_directions": "min_directions",
-           "max_nonlinear": "min_nonlinear", "max_fingers": "grasp"}.get(rule, rule)
-    e = _entry(report, fam, key)
-    if e is None:
-        skipped = ((report.get("ndbg") or {}).get(fam) or {}).get("skipped")
-        return None, None, None, f"{fam} " + ("skipped" if skipped else "not computed")
-    v = e.get("value")
-    why = (str(e.get("why") or "").splitlines() or [""])[0][:160]
-    note = f"{fam}: {why}" if why else fam
-    if RULES[rule][0] == "bool":
-        return v, v, v, note
+        return _hands(report, fams)
+    key = _KEYS.get(rule, rule)
     if rule == "max_fingers":
+        # the old auto preference: the infinite family's grasp when computed
+        fam = next((f for f in (INFINITE, INFINITESIMAL, GENERALIZED)
+                    if f in fams and _entry(report, f, key)), fams[0] if fams else family)
+        e = _entry(report, fam, key)
+        if e is None:
+            skipped = ((report.get("ndbg") or {}).get(fam) or {}).get("skipped")
+            return None, None, None, f"{fam} " + ("skipped" if skipped else "not computed")
+        v = e.get("value")
+        note = f"{fam}: {_first_line(e)}" if _first_line(e) else fam
         # a greedy placement: a grasp with that many fingers exists, fewer may do
         if not e.get("complete", True) or v is None:
             return None, None, None, note
         return None, None, v, note + " (greedy: an upper bound)"
-    exact = e.get("exact", v is not None)
-    lower = e.get("lower_bound", v if exact else None)
-    upper = e.get("upper_bound", v)
-    if not exact:
-        v = None
-    return v, lower, upper, note
+    if RULES[rule][0] == "bool":
+        return _bool_class(report, key, fams)
+    return _minimum(report, key, fams)
+
+
+def _plan_found(p: dict) -> tuple[Any, Any, Any, str]:
+    """A plan found is a fact; none found is one only when the search was complete (a search
+    cut by its budget, ``exact: false``, proves nothing)."""
+    fam = f"plan of the {p.get('family') or 'no'} family"
+    if p.get("found"):
+        return True, True, True, fam
+    if p.get("exact", True) is False:
+        notes = "; ".join(p.get("notes") or []) or "search budget exhausted"
+        return None, None, None, f"{fam}: none found, but {notes}"
+    return False, False, False, fam
 
 
 def evaluate(report: dict, rules: RuleSet) -> list[Outcome]:
@@ -250,7 +404,7 @@ def evaluate(report: dict, rules: RuleSet) -> list[Outcome]:
         err = report["error"]
         return [Outcome(name, source, "analysis", "a report", None, False, False,
                         str(err.get("message", "analysis failed")))]
-    family = _family(report, rules.family)
+    family = rules.family
     out = []
     for rule, expected in rules.rules_for(name, source).items():
         value, lower, upper, note = measure(report, rule, family)

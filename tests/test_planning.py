@@ -136,7 +136,7 @@ def test_latch_not_interlocked_but_needs_two_hands():
         assert interlock(2, {k: np.array(v) for k, v in merged.items()})["value"] is True
     r = interlock(3, normals, fixed=0)
     assert r["value"] is False and r["kind"] == "separating"
-    assert r["hands"] == 2 and r["fixed_set"] == [0] and r["moved_sets"] == [[1], [2]]
+    assert r["moved_set_count"] == 2 and r["fixed_set"] == [0] and r["moved_sets"] == [[1], [2]]
     v = np.array(r["velocities"])
     for (a, b), ns in normals.items():
         assert np.all(ns @ (v[b] - v[a]) >= -1e-9)
