@@ -358,20 +358,26 @@ def _batch_doc(reports: list[dict]) -> dict:
 
 
 def _report_name(r: dict, names: set[str]) -> str:
-    """A file stem for a report, unique within the batch (``bell``, ``bell-2``, ...)."""
+    """A file stem for a report, unique within the batch (``bell``, ``bell-2``, ...) and never
+    ``index`` (``index-2``: ``index.json`` is the batch's index)."""
     stem = identity(r)[0]
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "assembly"
     name, k = stem, 1
-    while name in names:
+    # ``index`` is the batch's index.json; compared case-folded since ``Bell.json`` and
+    # ``bell.json`` are one file on case-insensitive file systems
+    while name.casefold() in names or name.casefold() == "index":
         k += 1
         name = f"{stem}-{k}"
-    names.add(name)
+    names.add(name.casefold())
     return name
 
 
 def _index_entry(r: dict) -> dict:
-    """What ``index.json`` keeps of a report: identity and error, not the analysis."""
+    """What ``index.json`` keeps of a report: identity and error, not the analysis. Every
+    entry has the top-level ``source`` the batch schema requires (an error record has its
+    own; a report's is its assembly's)."""
     out = {k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
+    out["source"] = identity(r)[1]
     if "assembly" in r:
         out["assembly"] = {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}
     return out

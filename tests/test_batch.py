@@ -73,6 +73,33 @@ def test_out_dir_reports_and_index(tmp_path):
     assert index["summary"] == {"assemblies": len(stems), "ok": len(stems) - 2, "errors": 2}
 
 
+
+def test_out_dir_index_follows_the_schema_and_index_is_not_a_report_name(tmp_path):
+    """index.json validates against the shipped schema (each entry has its top-level
+    ``source``), and an assembly named ``index`` does not overwrite it."""
+    from ndbg_cli.report import validate_report
+
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    shutil.copy(EX / "hover.yaml", src / "hover.yaml")
+    (src / "index.yaml").write_text((EX / "stack.yaml").read_text()
+                                    .replace("name: stack", "name: index"))
+    (src / "zz-broken.yaml").write_text("name: x\nparts: [\n")
+    out = tmp_path / "out"
+    r = run_cli("analyze", src, "--out-dir", out, "--motion", "translation", "--no-cache",
+                "-q")
+    assert r.returncode == 2, r.stderr
+    index = json.loads((out / "index.json").read_text())
+    validate_report(index)
+    assert index["schema"] == "ndbg.batch/1"
+    assert [Path(e["source"]).name for e in index["reports"]] == \
+        ["hover.yaml", "index.yaml", "zz-broken.yaml"]
+    assert sorted(p.name for p in out.glob("*.json")) == \
+        ["hover.json", "index-2.json", "index.json", "zz-broken.json"]
+    assert json.loads((out / "index-2.json").read_text())["assembly"]["name"] == "index"
+
+
 @pytest.mark.slow
 def test_sigterm_leaves_only_complete_reports(tmp_path):
     src = tmp_path / "src"
