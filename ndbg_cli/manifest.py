@@ -110,8 +110,44 @@ def read_manifest(path: Path) -> _Located:
     lines: dict[tuple, int] = {}
     _line_map(node, (), lines, file)
     located = _Located(data, lines, file)
+    _check_finite(located)
     _validate_schema(located)
     return located
+
+
+#: Top-level keys whose numbers are not read as geometry (free-form hand-worked answers).
+FREE_FORM = ("expect",)
+
+
+def _check_finite(doc: _Located) -> None:
+    """Every number the analysis reads is finite: YAML's ``.nan``, ``.inf`` (and literals
+    beyond the float range, such as ``1e400``) would otherwise fail far from their cause
+    (a singular matrix, a "degenerate mesh"). Checked before the schema, whose range
+    tests NaN passes or fails with a confusing message. The error names the key (the
+    list's line), as ``parts[2].translation: not a finite number``."""
+    bad = _first_non_finite(doc.data, ())
+    if bad is None:
+        return
+    while bad and isinstance(bad[-1], int):  # the key, not the position inside its list
+        bad = bad[:-1]
+    raise doc.error(bad, "not a finite number")
+
+
+def _first_non_finite(value: Any, path: tuple) -> tuple | None:
+    """The path of the first NaN or infinite float in ``value`` (document order), or None."""
+    if isinstance(value, float):
+        return None if np.isfinite(value) else path
+    if isinstance(value, dict):
+        items = ((k, v) for k, v in value.items() if not (path == () and k in FREE_FORM))
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for k, v in items:
+        found = _first_non_finite(v, path + (k,))
+        if found is not None:
+            return found
+    return None
 
 
 def _validate_schema(doc: _Located) -> None:
