@@ -19,7 +19,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .analysis import MOTIONS, STRATEGIES, Options, read_config
+from .analysis import MOTIONS, STRATEGIES, Options, read_config, setting_problem
 from .batch import Interrupted, default_jobs, run_batch, run_batch_dask
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
@@ -333,8 +333,14 @@ def _options(ctx: click.Context, config: str | None, **given) -> Options:
     settings = read_config(config) if config else {}
     for name, value in given.items():
         source = ctx.get_parameter_source(name)
-        if source is not None and source.name != "DEFAULT" or name not in settings:
+        flagged = source is not None and source.name != "DEFAULT"
+        if flagged or name not in settings:
             settings[name] = value
+        # the click types let NaN and infinity through their ranges (a tolerance is checked
+        # by the loader, against the assembly's size)
+        problem = setting_problem(name, value) if flagged and name != "tolerance" else None
+        if problem:
+            raise InputError(f"--{name.replace('_', '-')}: {problem}")
     chosen = ctx.meta.get("ndbg_cache")  # "" is --no-cache
     if chosen is not None:
         settings["cache"] = chosen or None

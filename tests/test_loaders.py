@@ -275,6 +275,46 @@ def test_config_file_sets_defaults_and_flags_win(tmp_path):
     assert r.returncode == 2 and "unknown setting 'tolerence'" in r.stderr
 
 
+@pytest.mark.parametrize("text, problem", [
+    ("max_partitions: abc", "max_partitions: expected an integer >= 1, got 'abc'"),
+    ("cache: 5", "cache: expected a non-empty string or null, got 5"),
+    ("max_nodes: -5", "max_nodes: expected an integer >= 1, got -5"),
+    ("max_nodes: 2.5", "max_nodes: expected an integer >= 1, got 2.5"),
+    ("time_limit: .nan", "time_limit: expected a finite number > 0, got nan"),
+    ("time_limit: 0", "time_limit: expected a finite number > 0, got 0"),
+    ("infinite_budget: -1", "infinite_budget: expected an integer >= 0, got -1"),
+    ("timings: maybe", "timings: expected true or false, got 'maybe'"),
+    ("motion: teleport", "motion: expected one of all, translation, infinite, generalized"),
+    ("units: parsec", "unknown unit 'parsec'"),
+])
+def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem):
+    from ndbg_cli.analysis import read_config
+    from ndbg_cli.errors import InputError
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text + "\n")
+    with pytest.raises(InputError) as info:
+        read_config(cfg)
+    assert info.value.message.startswith(f"{cfg}: ") and problem in info.value.message
+
+
+def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
+    from ndbg_cli.analysis import read_config
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("region_limit: null\ntolerance: null\ntimings: true\nunits: inch\n")
+    assert read_config(cfg) == {"region_limit": None, "tolerance": None, "timings": True,
+                                "units": "in"}
+    path = write_two_boxes(tmp_path)
+    cfg.write_text("cache: 5\n")  # was an internal error, printed twice
+    r = run_cli("analyze", path, "--config", cfg)
+    assert r.returncode == 2
+    assert r.stderr == f"ndbg: error: {cfg}: cache: expected a non-empty string or null, got 5\n"
+    r = run_cli("analyze", path, "--time-limit", "nan")  # click's FloatRange lets NaN in
+    assert r.returncode == 2
+    assert r.stderr == "ndbg: error: --time-limit: expected a finite number > 0, got nan\n"
+
+
 def _gltf_two_primitive_mesh(path):
     """A glTF whose node "17" holds one mesh of two primitives (unit cubes at x = 0 and x =
     2): trimesh makes each primitive a child node named "17_<random hex>"."""
