@@ -130,6 +130,17 @@ CASES = {
     "mesh-in-2d": (manifest("dimension: 2\nparts:\n" + part()), [], "a 2D part needs 'polygon'"),
     "negative-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "-1"],
                            "tolerance must be positive"),
+    "infinite-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "inf"],
+                           "tolerance must be positive and finite, got inf"),
+    "nan-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "nan"],
+                      "tolerance must be positive and finite, got nan"),
+    "huge-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "1e300"],
+                       "tolerance 1e+300 mm is not smaller than the assembly's size "
+                       "(bounding-box diagonal 1.73205 mm)"),
+    "manifest-huge-tolerance": (manifest("tolerance: 2.0\nparts:\n" + part()), [],
+                                "tolerance 2 mm is not smaller than the assembly's size"),
+    "manifest-infinite-tolerance": (manifest("tolerance: .inf\nparts:\n" + part()), [],
+                                    "bad.yaml:1: tolerance: not a finite number"),
     "cli-unknown-unit": (manifest("parts:\n" + part()), ["--units", "parsec"],
                          "unknown unit 'parsec'"),
     # NaN and infinity: named where they are, not as a singular matrix or a degenerate mesh
