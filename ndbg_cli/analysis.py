@@ -95,9 +95,10 @@ def read_config(path: str | Path) -> dict:
     import yaml
 
     from .errors import InputError
+    from .manifest import YamlLoader
 
     try:
-        data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+        data = yaml.load(Path(path).read_text(encoding="utf-8"), Loader=YamlLoader) or {}
     except (OSError, yaml.YAMLError) as exc:
         raise InputError(f"cannot read config: {exc}".splitlines()[0], file=str(path)) from None
     if not isinstance(data, dict):

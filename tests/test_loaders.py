@@ -275,6 +275,28 @@ def test_config_file_sets_defaults_and_flags_win(tmp_path):
     assert r.returncode == 2 and "unknown setting 'tolerence'" in r.stderr
 
 
+def test_scientific_notation_is_a_number(tmp_path):
+    """YAML 1.2 floats (``1e-3``, ``1.0e1``: no dot or no exponent sign) in manifests and
+    config files; PyYAML's YAML 1.1 rules read them as strings. Other scalars are as before."""
+    from ndbg_cli.analysis import read_config
+    from ndbg_cli.manifest import read_manifest
+
+    path = write_two_boxes(tmp_path).parent / "sci.yaml"
+    path.write_text(write_two_boxes(tmp_path).read_text()
+                    .replace("units: mm\n", "units: mm\ntolerance: 1e-3\n")
+                    .replace("[0, 0, 10]", "[0, 0, 1.0e1]"))
+    asm = ndbg_cli.load(path)
+    assert asm.tolerance == 0.001
+    np.testing.assert_allclose(asm.part("b").bounds, [[0, 0, 10], [10, 10, 20]])
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("time_limit: 5E-1\ntolerance: 2.5e+0\n")
+    assert read_config(cfg) == {"time_limit": 0.5, "tolerance": 2.5}
+    path.write_text("name: 1e5x\nexpect: {a: 12, b: 0x1f, c: yes, d: 1_000, e: '1e3'}\nparts:\n"
+                    "  - id: a\n    mesh: meshes/a.stl\n")
+    assert read_manifest(path).data["expect"] == {"a": 12, "b": 31, "c": True, "d": 1000,
+                                                  "e": "1e3"}
+
+
 @pytest.mark.parametrize("text, problem", [
     ("max_partitions: abc", "max_partitions: expected an integer >= 1, got 'abc'"),
     ("cache: 5", "cache: expected a non-empty string or null, got 5"),
