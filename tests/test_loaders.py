@@ -275,6 +275,22 @@ def test_config_file_sets_defaults_and_flags_win(tmp_path):
     assert r.returncode == 2 and "unknown setting 'tolerence'" in r.stderr
 
 
+def test_text_meshes_in_latin_1(tmp_path):
+    """An OBJ comment and an ASCII STL solid name in Latin-1 (not UTF-8): trimesh decodes
+    them with charset_normalizer, a dependency since it failed with ModuleNotFoundError."""
+    cube = box((0, 0, 0), (1, 1, 1))
+    obj = trimesh.exchange.obj.export_obj(cube, include_normals=False)
+    (tmp_path / "cube.obj").write_bytes("# pièce usinée\n".encode("latin-1") + obj.encode())
+    stl = trimesh.exchange.stl.export_stl_ascii(cube).replace("solid ", "solid pièce ", 1)
+    (tmp_path / "cube.stl").write_bytes(stl.encode("latin-1"))
+    for name in ("cube.obj", "cube.stl"):
+        with pytest.raises(UnicodeDecodeError):
+            (tmp_path / name).read_bytes().decode("utf-8")
+        asm = ndbg_cli.load(tmp_path / name)
+        assert len(asm.parts) == 1 and asm.parts[0].check.triangles == 12, name
+        assert asm.parts[0].check.volume == pytest.approx(1.0), name
+
+
 def test_scientific_notation_is_a_number(tmp_path):
     """YAML 1.2 floats (``1e-3``, ``1.0e1``: no dot or no exponent sign) in manifests and
     config files; PyYAML's YAML 1.1 rules read them as strings. Other scalars are as before."""
