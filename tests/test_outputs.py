@@ -87,3 +87,38 @@ def test_unwritable_output_is_an_input_error(hover, tmp_path, name):
     assert reason in r.stderr and "internal error" not in r.stderr
     assert ".tmp" not in r.stderr  # names the user's path, not a temporary file
     assert hover.read_bytes() == before
+
+
+def _mode(path: Path) -> int:
+    return path.stat().st_mode & 0o777
+
+
+def test_reports_get_the_permissions_of_a_plain_open(hover, tmp_path):
+    """0o666 less the umask (the temporary file write_atomic renames is 0600), or an existing
+    file's own; for --out, --out-dir's reports and index.json, and cache entries."""
+    import os
+
+    from ndbg_cli.report import write_atomic
+
+    old = os.umask(0o027)
+    try:
+        write_atomic(tmp_path / "w.json", "{}\n")
+        with open(tmp_path / "plain.json", "w") as fh:
+            fh.write("{}\n")
+        assert _mode(tmp_path / "w.json") == _mode(tmp_path / "plain.json") == 0o640
+        os.chmod(tmp_path / "w.json", 0o604)
+        write_atomic(tmp_path / "w.json", "{}\n")
+        assert _mode(tmp_path / "w.json") == 0o604
+        os.umask(0o002)  # inherited by the CLI
+        r = run_cli("analyze", hover, "--out", tmp_path / "one.json", "--motion", "translation",
+                    "--cache", tmp_path / "cache", "-q")
+        assert r.returncode == 0, r.stderr
+        r = run_cli("analyze", hover, "--out-dir", tmp_path / "out", *FAST)
+        assert r.returncode == 0, r.stderr
+    finally:
+        os.umask(old)
+    written = [tmp_path / "one.json", tmp_path / "out" / "hover.json",
+               tmp_path / "out" / "index.json"]
+    entries = [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]
+    assert entries
+    assert {p: _mode(p) for p in written + entries} == {p: 0o664 for p in written + entries}
