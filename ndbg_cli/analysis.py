@@ -19,6 +19,7 @@ from .report import REPORT_SCHEMA
 
 MOTIONS = ("all", "translation", "infinite", "generalized")
 STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
+INTERFERENCE = ("error", "warn", "ignore")
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,48 @@ class Options:
     progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
 
 
+#: What each setting of a config file must be, with the types and ranges of the CLI's options:
+#: ``(kind, low, low_excluded)``, kind ``bool``, ``int``, ``float`` (finite), ``str`` or a
+#: tuple of choices, ``low`` the smallest value allowed. A field typed ``... | None`` may also
+#: be ``null``.
+SETTINGS: dict[str, tuple] = {
+    "motion": (MOTIONS,), "interference": (INTERFERENCE,), "strategy": (STRATEGIES,),
+    "units": (str,), "cache": (str,), "tolerance": (float, 0, True),
+    "time_limit": (float, 0, True), "max_partitions": (int, 1), "region_limit": (int, 1),
+    "max_nodes": (int, 1), "infinite_budget": (int, 0), "allow_outside_paths": (bool,),
+    "timings": (bool,), "threads_as_cylinders": (bool,), "connected": (bool,),
+}
+
+
+def setting_problem(name: str, value: object) -> str | None:
+    """Why ``value`` cannot be the setting ``name`` (``expected ..., got ...``), or ``None``
+    if it can. YAML types are taken as they are: ``'5'`` is not an integer, ``maybe`` is not
+    a boolean, ``.nan`` is not a number."""
+    import dataclasses
+    import math
+
+    kind, low, excluded = (SETTINGS[name] + (None, False))[:3]
+    nullable = "None" in str({f.name: f.type for f in dataclasses.fields(Options)}[name])
+    if value is None and nullable:
+        return None
+    if isinstance(kind, tuple):
+        ok, what = value in kind, "one of " + ", ".join(kind)
+    elif kind is bool:
+        ok, what = isinstance(value, bool), "true or false"
+    elif kind is str:
+        ok, what = isinstance(value, str) and value != "", "a non-empty string"
+    else:
+        number = (int,) if kind is int else (int, float)
+        what = "an integer" if kind is int else "a finite number"
+        ok = isinstance(value, number) and not isinstance(value, bool) and math.isfinite(value)
+        if low is not None:
+            what += f" {'>' if excluded else '>='} {low}"
+            ok = ok and (value > low if excluded else value >= low)
+    if nullable:
+        what += " or null"
+    return None if ok else f"expected {what}, got {value!r}"
+
+
 def read_config(path: str | Path) -> dict:
     """Settings from a YAML config file (see ``configs/default.yaml``): a mapping whose keys
     are :class:`Options` fields. Unknown keys and bad values are input errors."""
@@ -52,9 +95,10 @@ def read_config(path: str | Path) -> dict:
     import yaml
 
     from .errors import InputError
+    from .manifest import YamlLoader
 
     try:
-        data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+        data = yaml.load(Path(path).read_text(encoding="utf-8"), Loader=YamlLoader) or {}
     except (OSError, yaml.YAMLError) as exc:
         raise InputError(f"cannot read config: {exc}".splitlines()[0], file=str(path)) from None
     if not isinstance(data, dict):
@@ -66,12 +110,14 @@ def read_config(path: str | Path) -> dict:
     if unknown:
         raise InputError(f"unknown setting '{unknown[0]}' (known: {', '.join(sorted(fields))})",
                          file=str(path))
-    if data.get("motion", "all") not in MOTIONS:
-        raise InputError(f"motion must be one of {', '.join(MOTIONS)}", file=str(path))
-    if data.get("interference", "warn") not in ("error", "warn", "ignore"):
-        raise InputError("interference must be error, warn or ignore", file=str(path))
-    if data.get("strategy", "shortest") not in STRATEGIES:
-        raise InputError(f"strategy must be one of {', '.join(STRATEGIES)}", file=str(path))
+    for name, value in data.items():
+        problem = setting_problem(name, value)
+        if problem:
+            raise InputError(f"{name}: {problem}", file=str(path))
+    if data.get("units") is not None:
+        from .units import canonical_unit
+
+        data["units"] = canonical_unit(data["units"], file=str(path))
     return data
 
 

@@ -6,6 +6,8 @@ or a folder of reports is the same for ``--jobs 1`` and ``--jobs 8``. Each assem
 analysed independently by the same pure function, so the reports are byte-identical too.
 
 An internal error in one assembly becomes its error record (exit code 3); the others go on.
+So does a worker process that dies under an assembly (out of memory, a segfault): the pool is
+started again for the assemblies not yet done.
 SIGTERM stops the batch: pending work is cancelled, the workers are ended, and since reports
 are written atomically (:func:`ndbg_cli.report.write_atomic`) only complete files remain.
 
@@ -19,11 +21,13 @@ from __future__ import annotations
 
 import asyncio
 import dataclasses
+import multiprocessing
 import os
 import signal
 import traceback
 from collections.abc import Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from .analysis import Options, analyze_path, error_record
@@ -64,17 +68,62 @@ def _raise_interrupted(signum, frame) -> None:
     raise Interrupted()
 
 
-def _worker_init() -> None:
-    """Workers die quietly on SIGTERM (the parent ends them) and leave Ctrl-C to it."""
+#: Pool restarts in a row that may end no assembly (a worker dying before it takes any, or
+#: dying idle) before the remaining assemblies are given up as error records.
+MAX_FRUITLESS_RESTARTS = 2
+
+#: In a worker: the batch's shared array of the pid that took each target (0: not taken).
+_TAKEN: list = []
+
+
+def _worker_init(taken) -> None:
+    """Workers die quietly on SIGTERM (the parent ends them) and leave Ctrl-C to it; they
+    record in ``taken`` (shared, one slot per target) which target each of them takes."""
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _TAKEN[:] = [taken]
+
+
+def _analyze_taken(k: int, target: Path, options: Options, debug: bool) -> dict:
+    """In a worker: :func:`analyze_one`, after recording that this process took target ``k``
+    (so that if it dies, the parent knows which assembly was under way in it)."""
+    _TAKEN[0][k] = os.getpid()
+    return analyze_one(target, options, debug)
+
+
+def _worker_died(target: Path, exitcode: int | None) -> dict:
+    """The error record (exit code 3) of an assembly whose worker process died under it."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            how = f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            how = f"killed by signal {-exitcode}"
+        if exitcode == -signal.SIGKILL:
+            how += ", out of memory?"
+    else:
+        how = f"exit code {exitcode}"
+    err = NdbgError(f"internal error: the worker process analysing it died ({how}); the other "
+                    "assemblies were analysed (run it alone, with --debug)", file=str(target))
+    return error_record(target, err)
+
+
+def _exitcodes(procs: dict | None) -> dict[int, int | None] | None:
+    """``pid -> exit code`` of a pool's (ended) workers, or ``None`` if they are not known."""
+    if procs is None:
+        return None
+    return {pid: p.exitcode for pid, p in list(procs.items())}
 
 
 def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
               debug: bool = False) -> Iterator[dict]:
     """Yield one report or error record per target, in the order of ``targets``. A single
     target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
-    (``Options.workers``; same report)."""
+    (``Options.workers``; same report).
+
+    A worker process that dies (SIGKILL from the out-of-memory killer, a segfault in a
+    native library) breaks its pool: the assembly it was analysing gets an error record
+    (exit code 3), a new pool is started, and the assemblies the old one had not finished
+    (including those under way in the workers it ended) are analysed again there."""
     # one target: its pairs in ``jobs`` processes; several: one process each (never nested),
     # and the batch's own progress bar only
     one = len(targets) == 1
@@ -85,24 +134,83 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
             yield analyze_one(t, options, debug)
         return
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
-    pool = ProcessPoolExecutor(max_workers=min(jobs, len(targets)), initializer=_worker_init)
-    done = False
     try:
-        futures: list[Future] = [pool.submit(analyze_one, t, options, debug) for t in targets]
-        for f in futures:
-            yield f.result()
-        done = True
-    finally:
+        yield from _pooled(targets, options, min(jobs, len(targets)), debug)
+    finally:  # a SIGTERM during the shutdown still leaves the caller's handler back
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _pooled(targets: list[Path], options: Options, jobs: int, debug: bool) -> Iterator[dict]:
+    """:func:`run_batch` with worker processes, restarting the pool when a worker dies."""
+    taken = multiprocessing.RawArray("q", len(targets))  # pid that took target k, 0: none
+    ready: dict[int, dict] = {}  # results known before their turn to be yielded
+    k = 0  # the next target to yield
+    fruitless = 0
+    while k < len(targets):
+        todo = [j for j in range(k, len(targets)) if j not in ready]
+        if not todo:
+            yield ready.pop(k)
+            k += 1
+            continue
+        pool = ProcessPoolExecutor(max_workers=min(jobs, len(todo)), initializer=_worker_init,
+                                   initargs=(taken,))
+        # the dict of the pool's workers, kept (the pool drops it at shutdown) to read
+        # their exit codes once a broken pool is ended; private, hence checked for
+        procs = getattr(pool, "_processes", None)
+        futures: dict[int, Future] = {}
+        broken = False
         try:
-            if done:
+            try:
+                for j in todo:
+                    taken[j] = 0
+                    futures[j] = pool.submit(_analyze_taken, j, targets[j], options, debug)
+            except BrokenProcessPool:
+                broken = True
+            while not broken and k < len(targets):
+                if k not in ready:
+                    try:
+                        ready[k] = futures[k].result()
+                    except BrokenProcessPool:
+                        broken = True
+                        break
+                yield ready.pop(k)
+                k += 1
+        finally:
+            if broken or k < len(targets):
+                # a dead worker, an interruption, or the consumer stopping early: end the
+                # workers now (so that the exit codes below are final)
+                end_pool(pool)
+            else:
                 # every worker is idle: a waiting shutdown is quick, and it lets the pool's
                 # manager thread finish before the interpreter's exit (ending the workers
                 # under it once printed an OSError traceback from that thread at exit)
                 pool.shutdown(wait=True)
-            else:  # interrupted, or the consumer stopped early: end the workers now
-                end_pool(pool)
-        finally:  # a SIGTERM during the shutdown still leaves the caller's handler back
-            signal.signal(signal.SIGTERM, previous)
+        before = len(ready)
+        _collect(futures, ready, taken, _exitcodes(procs), targets)
+        fruitless = 0 if len(ready) > before else fruitless + 1
+        if fruitless > MAX_FRUITLESS_RESTARTS:  # workers die before doing anything
+            for j in range(k, len(targets)):
+                ready.setdefault(j, _worker_died(targets[j], None))
+
+
+def _collect(futures: dict[int, Future], ready: dict[int, dict], taken,
+             exitcodes: dict[int, int | None] | None, targets: list[Path]) -> None:
+    """After a broken pool was ended: into ``ready``, the results it completed, and an error
+    record for each target that was under way in a worker that died by itself (not ended
+    by SIGTERM from the pool or :func:`~ndbg_cli.pools.end_pool`). The other targets are
+    left to the next pool. Without the workers' exit codes, every target under way is
+    taken to be the culprit (each restart then ends at least one)."""
+    ended = (0, -signal.SIGTERM, None)
+    for j, f in futures.items():
+        if f.done() and not f.cancelled() and f.exception() is None:
+            ready[j] = f.result()
+            continue
+        pid = taken[j]
+        if pid == 0:
+            continue  # not started: the next pool takes it
+        code = exitcodes.get(pid) if exitcodes is not None else None
+        if exitcodes is None or code not in ended:
+            ready[j] = _worker_died(targets[j], code)
 
 
 DASK_MISSING = "--scheduler needs dask.distributed: pip install 'ndbg-cli[dask]'"

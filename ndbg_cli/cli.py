@@ -9,15 +9,17 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import re
 import sys
+import tempfile
 import traceback
 from pathlib import Path
 
 import click
 
 from . import __version__
-from .analysis import MOTIONS, STRATEGIES, Options, read_config
+from .analysis import MOTIONS, STRATEGIES, Options, read_config, setting_problem
 from .batch import Interrupted, default_jobs, run_batch, run_batch_dask
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
@@ -118,7 +120,8 @@ def _common_load_options(f):
               show_default=True, help="Report format on stdout; jsonl: one compact report per "
               "line, streamed in input order.")
 @click.option("--out", type=click.Path(), help="Write reports here instead of stdout: a file "
-              "for one assembly, a directory (one NAME.json each) for several.")
+              "for one assembly, a directory (one NAME.json each, as --out-dir) for several "
+              "or when it ends with a slash or names an existing directory.")
 @click.option("--out-dir", type=click.Path(file_okay=False), help="Write one NAME.json per "
               "assembly (atomically, as each completes) plus index.json into this folder.")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
@@ -183,7 +186,10 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
             fail(f"{p}: no such file or directory", EXIT_INPUT)
         targets.extend(discover(p))
     batch = len(targets) > 1 or any(Path(p).is_dir() and discover(p) != [Path(p)] for p in paths)
-    out_dir = Path(out_dir) if out_dir else (Path(out) if out and batch else None)
+    out_dir, out_file, where = _outputs(out, out_dir, batch)
+    inputs = _input_files(targets)
+    if out_file is not None:
+        _refuse_input(where, out_file, inputs)
     jobs = jobs or default_jobs()
     reports: list[dict] = []
     names: set[str] = set()
@@ -198,20 +204,27 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
             if "error" in r:
                 click.echo(f"ndbg: error: {r['error']['message']}", err=True)
             if out_dir is not None:
-                write_atomic(out_dir / f"{_report_name(r, names)}.json", dumps(r))
+                path = out_dir / f"{_report_name(r, names)}.json"
+                _refuse_input(where, path, inputs | _part_files(r))
+                _write(where, path, dumps(r))
                 reports.append(_index_entry(r))
-            elif fmt == "jsonl":
-                click.echo(json.dumps(clean(r), sort_keys=True, separators=(",", ":"),
-                                      ensure_ascii=False))
+            elif fmt == "jsonl" and out_file is None:
+                click.echo(_jsonl_line(r), nl=False)
             else:
                 reports.append(r)
     except Interrupted:
         click.echo("ndbg: terminated; reports written so far are complete", err=True)
         sys.exit(143)
+    finally:  # an error writing a report: the workers are ended now, not at exit
+        stream.close()
     if out_dir is not None:
-        write_atomic(out_dir / "index.json", dumps(_batch_doc(reports)))
-    elif out:
-        write_atomic(Path(out), dumps(reports[0]) if fmt != "text" else render(reports[0]))
+        _refuse_input(where, out_dir / "index.json", inputs)
+        _write(where, out_dir / "index.json", dumps(_batch_doc(reports)))
+    elif out_file is not None:
+        r = reports[0]
+        _refuse_input(where, out_file, _part_files(r))
+        text = {"json": dumps, "jsonl": _jsonl_line, "text": render}[fmt](r)
+        _write(where, out_file, text)
     elif fmt == "json":
         doc = _batch_doc(reports) if batch else reports[0]
         click.echo(dumps(doc), nl=False)
@@ -219,6 +232,79 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         click.echo("\n".join(render(r) for r in reports), nl=False)
     _trim_cache(options.cache)
     sys.exit(code)
+
+
+def _jsonl_line(report: dict) -> str:
+    """One compact JSON line (with its newline) of a report, for ``--format jsonl``."""
+    return json.dumps(clean(report), sort_keys=True, separators=(",", ":"),
+                      ensure_ascii=False) + "\n"
+
+
+def _outputs(out: str | None, out_dir: str | None, batch: bool
+             ) -> tuple[Path | None, Path | None, str]:
+    """Where ``analyze`` writes: ``(folder, file, the path as given)``, at most one of the
+    first two. A folder for ``--out-dir``, and for ``--out`` with several assemblies, naming
+    an existing folder, or ending with a slash; else ``--out`` is a file. The place is
+    checked before any analysis: one that cannot be written is an input error (exit 2)."""
+    if out_dir or (out and (batch or out.endswith(("/", os.sep)) or Path(out).is_dir())):
+        where = out_dir or out
+        folder = Path(where)
+        _check_writable(where, folder)
+        return folder, None, where
+    if out:
+        _check_writable(out, Path(out).parent)
+        return None, Path(out), out
+    return None, None, ""
+
+
+def _cannot_write(where: str, exc: OSError) -> InputError:
+    """The one-line input error for an output path ``where`` (as the user gave it)."""
+    if isinstance(exc, FileExistsError):  # mkdir over a file
+        reason = f"{exc.filename} is not a directory"
+    else:
+        reason = exc.strerror or str(exc)
+    return InputError(f"cannot write {where}: {reason}")
+
+
+def _check_writable(where: str, folder: Path) -> None:
+    """``folder`` made if missing, and a file created and removed in it; else the
+    :func:`_cannot_write` error naming ``where``."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".ndbg-probe-", suffix=".tmp"):
+            pass
+    except OSError as exc:
+        raise _cannot_write(where, exc) from None
+
+
+def _write(where: str, path: Path, text: str) -> None:
+    """:func:`write_atomic` of ``text`` to ``path``; an error names ``where`` (exit 2)."""
+    try:
+        write_atomic(path, text)
+    except OSError as exc:
+        raise _cannot_write(where, exc) from None
+
+
+def _input_files(targets: list[Path]) -> set[Path]:
+    """The resolved input files (a folder target: the files in it), that no output may
+    replace."""
+    files = set()
+    for t in targets:
+        for f in (t.rglob("*") if t.is_dir() else [t]):
+            files.add(f.resolve())
+    return files
+
+
+def _part_files(report: dict) -> set[Path]:
+    """The resolved files a report's parts were read from (mesh files of a manifest)."""
+    parts = (report.get("assembly") or {}).get("parts") or []
+    return {Path(p["source"]).resolve() for p in parts if "#" not in str(p.get("source"))}
+
+
+def _refuse_input(where: str, path: Path, inputs: set[Path]) -> None:
+    """An input error if writing ``path`` would replace one of the ``inputs``."""
+    if path.resolve() in inputs:
+        raise InputError(f"cannot write {where}: {path} is an input of this run")
 
 
 def _trim_cache(directory: str | None) -> None:
@@ -247,8 +333,14 @@ def _options(ctx: click.Context, config: str | None, **given) -> Options:
     settings = read_config(config) if config else {}
     for name, value in given.items():
         source = ctx.get_parameter_source(name)
-        if source is not None and source.name != "DEFAULT" or name not in settings:
+        flagged = source is not None and source.name != "DEFAULT"
+        if flagged or name not in settings:
             settings[name] = value
+        # the click types let NaN and infinity through their ranges (a tolerance is checked
+        # by the loader, against the assembly's size)
+        problem = setting_problem(name, value) if flagged and name != "tolerance" else None
+        if problem:
+            raise InputError(f"--{name.replace('_', '-')}: {problem}")
     chosen = ctx.meta.get("ndbg_cache")  # "" is --no-cache
     if chosen is not None:
         settings["cache"] = chosen or None
@@ -272,20 +364,26 @@ def _batch_doc(reports: list[dict]) -> dict:
 
 
 def _report_name(r: dict, names: set[str]) -> str:
-    """A file stem for a report, unique within the batch (``bell``, ``bell-2``, ...)."""
+    """A file stem for a report, unique within the batch (``bell``, ``bell-2``, ...) and never
+    ``index`` (``index-2``: ``index.json`` is the batch's index)."""
     stem = identity(r)[0]
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", stem) or "assembly"
     name, k = stem, 1
-    while name in names:
+    # ``index`` is the batch's index.json; compared case-folded since ``Bell.json`` and
+    # ``bell.json`` are one file on case-insensitive file systems
+    while name.casefold() in names or name.casefold() == "index":
         k += 1
         name = f"{stem}-{k}"
-    names.add(name)
+    names.add(name.casefold())
     return name
 
 
 def _index_entry(r: dict) -> dict:
-    """What ``index.json`` keeps of a report: identity and error, not the analysis."""
+    """What ``index.json`` keeps of a report: identity and error, not the analysis. Every
+    entry has the top-level ``source`` the batch schema requires (an error record has its
+    own; a report's is its assembly's)."""
     out = {k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
+    out["source"] = identity(r)[1]
     if "assembly" in r:
         out["assembly"] = {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}
     return out
@@ -348,7 +446,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     for pattern in ruleset.unmatched(reports):
         click.echo(f"ndbg check: warning: rules for '{pattern}' matched no assembly", err=True)
     if junit:
-        write_atomic(Path(junit), junit_xml(outcomes))
+        _write(junit, Path(junit), junit_xml(outcomes))
     failed = [o for oc in outcomes for o in oc if not o.passed]
     if fmt == "json":
         doc = {"schema": "ndbg.check/1", "rules": rules_file,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
 import os
 import re
 import sys
@@ -50,8 +51,9 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     p = Path(path)
     if not p.exists():
         raise InputError("no such file or directory", file=str(path))
-    if tolerance is not None and not tolerance > 0:
-        raise InputError(f"tolerance must be positive, got {tolerance}", file=str(path))
+    if tolerance is not None and not 0 < tolerance < math.inf:  # NaN fails both
+        raise InputError(f"tolerance must be positive and finite, got {tolerance}",
+                         file=str(path))
     if p.is_dir():
         manifests = sorted(q for q in p.iterdir() if q.suffix.lower() in MANIFEST_SUFFIXES)
         if manifests:
@@ -67,7 +69,19 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
         raise InputError(f"unknown file type '{p.suffix}' (known: {known})", file=str(path))
     if tolerance is not None:
         asm = asm.replace(tolerance=float(tolerance))
+    _check_tolerance(asm, str(path))
     return asm
+
+
+def _check_tolerance(asm: Assembly, file: str) -> None:
+    """An explicit tolerance (manifest, config or --tolerance) must be smaller than the
+    assembly's bounding-box diagonal: lengths below it count as zero, so one that large
+    makes every gap a contact and every part a point (a unit slip, such as mm for m)."""
+    t = asm.tolerance
+    if t is not None and not t < asm.diagonal:
+        raise InputError(f"tolerance {t:g} {asm.units} is not smaller than the assembly's "
+                         f"size (bounding-box diagonal {asm.diagonal:.6g} {asm.units})",
+                         file=file)
 
 
 def discover(path: str | Path) -> list[Path]:

@@ -19,12 +19,14 @@ A manifest describes one assembly (see ``README.md`` and ``schemas/manifest.sche
 
 A placement maps the part's file coordinates (after unit scaling) into the assembly frame:
 ``x' = R x + t``. ``matrix`` (4x4; 3x3 in 2D) is an alternative to ``translation`` and
-``rotation``. YAML is read with the safe loader; duplicate keys are errors.
+``rotation``. YAML is read with the safe loader (plus YAML 1.2's ``1e-3`` floats, see
+:class:`YamlLoader`); duplicate keys are errors.
 """
 
 from __future__ import annotations
 
 import json
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -35,6 +37,19 @@ import yaml
 from .errors import InputError
 
 _SCHEMA: dict | None = None
+
+
+class YamlLoader(yaml.SafeLoader):
+    """The safe loader, reading ``1e-3``, ``2E6`` and ``1.0e12`` as floats, as YAML 1.2
+    does (PyYAML follows YAML 1.1, whose floats need a dot and a signed exponent, and reads
+    those as strings). Only numbers with an exponent are added; every other tag is YAML
+    1.1's, as before."""
+
+
+YamlLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+    list("-+.0123456789"))
 
 
 def manifest_schema() -> dict:
@@ -98,8 +113,8 @@ def read_manifest(path: Path) -> _Located:
         raise InputError(f"cannot read manifest: {exc.__class__.__name__}: {exc}",
                          file=file) from None
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        node = yaml.compose(text, Loader=YamlLoader)
+        data = yaml.load(text, Loader=YamlLoader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         problem = getattr(exc, "problem", None) or str(exc)
@@ -110,8 +125,44 @@ def read_manifest(path: Path) -> _Located:
     lines: dict[tuple, int] = {}
     _line_map(node, (), lines, file)
     located = _Located(data, lines, file)
+    _check_finite(located)
     _validate_schema(located)
     return located
+
+
+#: Top-level keys whose numbers are not read as geometry (free-form hand-worked answers).
+FREE_FORM = ("expect",)
+
+
+def _check_finite(doc: _Located) -> None:
+    """Every number the analysis reads is finite: YAML's ``.nan``, ``.inf`` (and literals
+    beyond the float range, such as ``1e400``) would otherwise fail far from their cause
+    (a singular matrix, a "degenerate mesh"). Checked before the schema, whose range
+    tests NaN passes or fails with a confusing message. The error names the key (the
+    list's line), as ``parts[2].translation: not a finite number``."""
+    bad = _first_non_finite(doc.data, ())
+    if bad is None:
+        return
+    while bad and isinstance(bad[-1], int):  # the key, not the position inside its list
+        bad = bad[:-1]
+    raise doc.error(bad, "not a finite number")
+
+
+def _first_non_finite(value: Any, path: tuple) -> tuple | None:
+    """The path of the first NaN or infinite float in ``value`` (document order), or None."""
+    if isinstance(value, float):
+        return None if np.isfinite(value) else path
+    if isinstance(value, dict):
+        items = ((k, v) for k, v in value.items() if not (path == () and k in FREE_FORM))
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for k, v in items:
+        found = _first_non_finite(v, path + (k,))
+        if found is not None:
+            return found
+    return None
 
 
 def _validate_schema(doc: _Located) -> None:

@@ -14,6 +14,7 @@ import json
 import math
 import os
 import signal
+import stat
 import tempfile
 import threading
 from collections.abc import Iterator
@@ -109,10 +110,18 @@ def identity(report: dict) -> tuple[str, str]:
 def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -> None:
     """Write ``data`` (text as UTF-8, or bytes) to ``path`` atomically: a temporary file in the
     same folder, renamed over the target, so a reader never sees a half-written file.
-    ``durable`` fsyncs before the rename (reports); a cache entry can skip it."""
+    ``durable`` fsyncs before the rename (reports); a cache entry can skip it.
+
+    The file gets the permissions a plain ``open(path, "w")`` would give it (the temporary
+    file's are 0600): an existing file's, else ``0o666`` less the umask. Cache entries too,
+    so that a cache shared through ``$NDBG_CACHE_DIR`` is readable as its folder says."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     raw = data.encode("utf-8") if isinstance(data, str) else data
+    try:
+        mode = stat.S_IMODE(path.stat().st_mode)
+    except OSError:  # a new file (or one we cannot stat: the rename will say)
+        mode = 0o666 & ~_umask()
     # A SIGTERM handler that raises (a batch being stopped) could otherwise fire between
     # mkstemp and the try below, or inside the cleanup, and leave the temporary file behind:
     # hold the signal until the file is either in place or gone.
@@ -120,6 +129,7 @@ def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         try:
             with os.fdopen(fd, "wb") as fh:
+                os.fchmod(fh.fileno(), mode)
                 fh.write(raw)
                 if durable:
                     fh.flush()
@@ -131,6 +141,21 @@ def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -
             except OSError:
                 pass
             raise
+
+
+def _umask() -> int:
+    """The process's umask: from /proc (Linux), else by setting it and back (a moment in
+    which another thread's new file would get 022)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 @contextlib.contextmanager

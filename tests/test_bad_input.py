@@ -130,8 +130,49 @@ CASES = {
     "mesh-in-2d": (manifest("dimension: 2\nparts:\n" + part()), [], "a 2D part needs 'polygon'"),
     "negative-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "-1"],
                            "tolerance must be positive"),
+    "infinite-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "inf"],
+                           "tolerance must be positive and finite, got inf"),
+    "nan-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "nan"],
+                      "tolerance must be positive and finite, got nan"),
+    "huge-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "1e300"],
+                       "tolerance 1e+300 mm is not smaller than the assembly's size "
+                       "(bounding-box diagonal 1.73205 mm)"),
+    "manifest-huge-tolerance": (manifest("tolerance: 2.0\nparts:\n" + part()), [],
+                                "tolerance 2 mm is not smaller than the assembly's size"),
+    "manifest-infinite-tolerance": (manifest("tolerance: .inf\nparts:\n" + part()), [],
+                                    "bad.yaml:1: tolerance: not a finite number"),
     "cli-unknown-unit": (manifest("parts:\n" + part()), ["--units", "parsec"],
                          "unknown unit 'parsec'"),
+    # NaN and infinity: named where they are, not as a singular matrix or a degenerate mesh
+    "nan-translation": (manifest("parts:\n" + part() + part("    translation: [0, .nan, 0]\n",
+                                                           pid="b")),
+                        [], "bad.yaml:6: parts[1].translation: not a finite number"),
+    "inf-euler": (manifest("parts:\n" + part("    rotation: {euler: [0, -.inf, 0], order: xyz}"
+                                            "\n")), [], "parts[0].rotation.euler: not a finite"),
+    "nan-quaternion": (manifest("parts:\n" + part("    rotation: {quaternion: [1, .NaN, 0, 0]}"
+                                                 "\n")),
+                       [], "bad.yaml:4: parts[0].rotation.quaternion: not a finite number"),
+    "inf-angle": (manifest("parts:\n" + part("    rotation: {axis: [0, 0, 1], angle: .inf}\n")),
+                  [], "parts[0].rotation.angle: not a finite number"),
+    "nan-joint-axis": (manifest("parts:\n" + part() + part(pid="b") + "joints:\n  - {type: "
+                                "screw, parts: [a, b], axis: [.nan, 0, 1], pitch: 1}\n"), [],
+                       "bad.yaml:7: joints[0].axis: not a finite number"),
+    "inf-joint-point": (manifest("parts:\n" + part() + part(pid="b") + "joints:\n  - type: "
+                                 "screw\n    parts: [a, b]\n    axis: [0, 0, 1]\n    point: "
+                                 "[0, .inf, 0]\n    pitch: 1\n"), [],
+                        "bad.yaml:10: joints[0].point: not a finite number"),
+    "nan-joint-pitch": (manifest("parts:\n" + part() + part(pid="b") + "joints:\n  - {type: "
+                                 "screw, parts: [a, b], axis: [0, 0, 1], pitch: .nan}\n"), [],
+                        "joints[0].pitch: not a finite number"),
+    "nan-2d-rotation": (manifest("dimension: 2\nparts:\n  - id: sq\n    polygon: "
+                                 "[[0,0],[1,0],[1,1],[0,1]]\n    rotation: .nan\n"), [],
+                        "bad.yaml:5: parts[0].rotation: not a finite number"),
+    "inf-2d-translation": (manifest("dimension: 2\nparts:\n  - id: sq\n    polygon: "
+                                    "[[0,0],[1,0],[1,1],[0,1]]\n    translation: [.inf, 0]\n"),
+                           [], "parts[0].translation: not a finite number"),
+    "nan-polygon": (manifest("dimension: 2\nparts:\n  - id: sq\n    polygon: "
+                             "[[0,0],[1,.nan],[1,1],[0,1]]\n"), [],
+                    "parts[0].polygon: not a finite number"),
 }
 
 

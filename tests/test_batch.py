@@ -73,6 +73,33 @@ def test_out_dir_reports_and_index(tmp_path):
     assert index["summary"] == {"assemblies": len(stems), "ok": len(stems) - 2, "errors": 2}
 
 
+
+def test_out_dir_index_follows_the_schema_and_index_is_not_a_report_name(tmp_path):
+    """index.json validates against the shipped schema (each entry has its top-level
+    ``source``), and an assembly named ``index`` does not overwrite it."""
+    from ndbg_cli.report import validate_report
+
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    shutil.copy(EX / "hover.yaml", src / "hover.yaml")
+    (src / "index.yaml").write_text((EX / "stack.yaml").read_text()
+                                    .replace("name: stack", "name: index"))
+    (src / "zz-broken.yaml").write_text("name: x\nparts: [\n")
+    out = tmp_path / "out"
+    r = run_cli("analyze", src, "--out-dir", out, "--motion", "translation", "--no-cache",
+                "-q")
+    assert r.returncode == 2, r.stderr
+    index = json.loads((out / "index.json").read_text())
+    validate_report(index)
+    assert index["schema"] == "ndbg.batch/1"
+    assert [Path(e["source"]).name for e in index["reports"]] == \
+        ["hover.yaml", "index.yaml", "zz-broken.yaml"]
+    assert sorted(p.name for p in out.glob("*.json")) == \
+        ["hover.json", "index-2.json", "index.json", "zz-broken.json"]
+    assert json.loads((out / "index-2.json").read_text())["assembly"]["name"] == "index"
+
+
 @pytest.mark.slow
 def test_sigterm_leaves_only_complete_reports(tmp_path):
     src = tmp_path / "src"
@@ -129,3 +156,65 @@ def test_sigterm_inside_write_atomic_leaves_no_temporary_file(tmp_path, monkeypa
     assert signal.getsignal(signal.SIGTERM) is previous
     assert [p.name for p in tmp_path.iterdir()] == ["r.json"]
     assert json.loads((tmp_path / "r.json").read_text()) == {"a": 1}
+
+
+def _children(pid: int) -> dict[int, str]:
+    """``child pid -> state letter`` (R running, S sleeping, ...) of a process, from /proc."""
+    out = {}
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:  # gone meanwhile
+            continue
+        if int(fields[1]) == pid:
+            out[int(d.name)] = fields[0]
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_sigkilled_worker_costs_only_its_assembly(tmp_path):
+    """A worker killed with SIGKILL (as by the out-of-memory killer) while it analyses one of
+    two slow assemblies: that one gets an error record (exit code 3), the other one (under
+    way in the worker the broken pool ended) is analysed again, the rest is kept."""
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    fast = ["hover", "fig5-rotation", "peg-37"]
+    for name in fast:
+        shutil.copy(EX / f"{name}.yaml", src / f"a-{name}.yaml")
+    for stem in ("y-stack", "z-stack"):  # about 4 s each
+        (src / f"{stem}.yaml").write_text((EX / "stack.yaml").read_text()
+                                          .replace("name: stack", f"name: {stem}"))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "ndbg_cli", "analyze", str(src), "--out-dir",
+                             str(out), "--jobs", "2", "--no-cache", "-q"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        victim = None
+        # reports are written in input order: once the fast ones are there, both workers
+        # are on the stacks; kill one that is running
+        while victim is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+            if {f"{n}.json" for n in fast} <= {p.name for p in out.glob("*.json")}:
+                victim = next((pid for pid, st in _children(proc.pid).items() if st == "R"),
+                              None)
+        assert victim is not None, "no busy worker seen"
+        os.kill(victim, signal.SIGKILL)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 3, err
+    assert "Traceback" not in err and "BrokenProcessPool" not in err
+    index = json.loads((out / "index.json").read_text())
+    assert index["summary"] == {"assemblies": 5, "ok": 4, "errors": 1}
+    errors = [r for r in index["reports"] if "error" in r]
+    assert Path(errors[0]["source"]).stem in ("y-stack", "z-stack")
+    assert errors[0]["error"]["code"] == 3 and "SIGKILL" in errors[0]["error"]["message"]
+    assert len(err.strip().splitlines()) == 1 and "SIGKILL" in err
+    ok = {json.loads(p.read_text())["assembly"]["name"] for p in out.glob("*.json")
+          if p.name != "index.json" and "error" not in json.loads(p.read_text())}
+    assert ok == set(fast) | {"y-stack", "z-stack"} - {Path(errors[0]["source"]).stem}

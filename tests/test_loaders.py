@@ -275,6 +275,84 @@ def test_config_file_sets_defaults_and_flags_win(tmp_path):
     assert r.returncode == 2 and "unknown setting 'tolerence'" in r.stderr
 
 
+def test_text_meshes_in_latin_1(tmp_path):
+    """An OBJ comment and an ASCII STL solid name in Latin-1 (not UTF-8): trimesh decodes
+    them with charset_normalizer, a dependency since it failed with ModuleNotFoundError."""
+    cube = box((0, 0, 0), (1, 1, 1))
+    obj = trimesh.exchange.obj.export_obj(cube, include_normals=False)
+    (tmp_path / "cube.obj").write_bytes("# pièce usinée\n".encode("latin-1") + obj.encode())
+    stl = trimesh.exchange.stl.export_stl_ascii(cube).replace("solid ", "solid pièce ", 1)
+    (tmp_path / "cube.stl").write_bytes(stl.encode("latin-1"))
+    for name in ("cube.obj", "cube.stl"):
+        with pytest.raises(UnicodeDecodeError):
+            (tmp_path / name).read_bytes().decode("utf-8")
+        asm = ndbg_cli.load(tmp_path / name)
+        assert len(asm.parts) == 1 and asm.parts[0].check.triangles == 12, name
+        assert asm.parts[0].check.volume == pytest.approx(1.0), name
+
+
+def test_scientific_notation_is_a_number(tmp_path):
+    """YAML 1.2 floats (``1e-3``, ``1.0e1``: no dot or no exponent sign) in manifests and
+    config files; PyYAML's YAML 1.1 rules read them as strings. Other scalars are as before."""
+    from ndbg_cli.analysis import read_config
+    from ndbg_cli.manifest import read_manifest
+
+    path = write_two_boxes(tmp_path).parent / "sci.yaml"
+    path.write_text(write_two_boxes(tmp_path).read_text()
+                    .replace("units: mm\n", "units: mm\ntolerance: 1e-3\n")
+                    .replace("[0, 0, 10]", "[0, 0, 1.0e1]"))
+    asm = ndbg_cli.load(path)
+    assert asm.tolerance == 0.001
+    np.testing.assert_allclose(asm.part("b").bounds, [[0, 0, 10], [10, 10, 20]])
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("time_limit: 5E-1\ntolerance: 2.5e+0\n")
+    assert read_config(cfg) == {"time_limit": 0.5, "tolerance": 2.5}
+    path.write_text("name: 1e5x\nexpect: {a: 12, b: 0x1f, c: yes, d: 1_000, e: '1e3'}\nparts:\n"
+                    "  - id: a\n    mesh: meshes/a.stl\n")
+    assert read_manifest(path).data["expect"] == {"a": 12, "b": 31, "c": True, "d": 1000,
+                                                  "e": "1e3"}
+
+
+@pytest.mark.parametrize("text, problem", [
+    ("max_partitions: abc", "max_partitions: expected an integer >= 1, got 'abc'"),
+    ("cache: 5", "cache: expected a non-empty string or null, got 5"),
+    ("max_nodes: -5", "max_nodes: expected an integer >= 1, got -5"),
+    ("max_nodes: 2.5", "max_nodes: expected an integer >= 1, got 2.5"),
+    ("time_limit: .nan", "time_limit: expected a finite number > 0, got nan"),
+    ("time_limit: 0", "time_limit: expected a finite number > 0, got 0"),
+    ("infinite_budget: -1", "infinite_budget: expected an integer >= 0, got -1"),
+    ("timings: maybe", "timings: expected true or false, got 'maybe'"),
+    ("motion: teleport", "motion: expected one of all, translation, infinite, generalized"),
+    ("units: parsec", "unknown unit 'parsec'"),
+])
+def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem):
+    from ndbg_cli.analysis import read_config
+    from ndbg_cli.errors import InputError
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(text + "\n")
+    with pytest.raises(InputError) as info:
+        read_config(cfg)
+    assert info.value.message.startswith(f"{cfg}: ") and problem in info.value.message
+
+
+def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
+    from ndbg_cli.analysis import read_config
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("region_limit: null\ntolerance: null\ntimings: true\nunits: inch\n")
+    assert read_config(cfg) == {"region_limit": None, "tolerance": None, "timings": True,
+                                "units": "in"}
+    path = write_two_boxes(tmp_path)
+    cfg.write_text("cache: 5\n")  # was an internal error, printed twice
+    r = run_cli("analyze", path, "--config", cfg)
+    assert r.returncode == 2
+    assert r.stderr == f"ndbg: error: {cfg}: cache: expected a non-empty string or null, got 5\n"
+    r = run_cli("analyze", path, "--time-limit", "nan")  # click's FloatRange lets NaN in
+    assert r.returncode == 2
+    assert r.stderr == "ndbg: error: --time-limit: expected a finite number > 0, got nan\n"
+
+
 def _gltf_two_primitive_mesh(path):
     """A glTF whose node "17" holds one mesh of two primitives (unit cubes at x = 0 and x =
     2): trimesh makes each primitive a child node named "17_<random hex>"."""
