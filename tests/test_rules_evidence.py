@@ -247,14 +247,35 @@ def test_a_base_in_the_middle_of_a_stack_needs_two_directions():
     assert min_directions(nd, base=0)["value"] == 1
 
 
+def _keyed_stack() -> str:
+    """STACK4 with a tongue on each box's top in a groove of the box above (x 4..6, 2 deep):
+    the boxes no longer slide apart sideways (plain aligned boxes do, along exactly +-x)."""
+    out = ["name: stack4", "units: mm", "dimension: 2", "{base}parts:"]
+    for k, pid in enumerate("ABCD"):
+        y0, y1 = 10 * k, 10 * k + 10
+        pts = [(0, y0)]
+        if k:
+            pts += [(4, y0), (4, y0 + 2), (6, y0 + 2), (6, y0)]
+        pts += [(10, y0), (10, y1)]
+        if k < 3:
+            pts += [(6, y1), (6, y1 + 2), (4, y1 + 2), (4, y1)]
+        pts += [(0, y1)]
+        out += [f"- id: {pid}", f"  polygon: {[list(p) for p in pts]}"]
+    return "\n".join(out) + "\n"
+
+
 def test_stack4_with_base_b_agrees_with_its_direction_count(tmp_path):
-    based = _analyze(tmp_path, "stack4b", STACK4.format(base="base: B\n"))
+    based = _analyze(tmp_path, "stack4b", _keyed_stack().format(base="base: B\n"))
     inf = based["classes"]["infinite_translation"]
     # B is second from the bottom: D and C leave upwards, A downwards
     assert inf["stack_product"]["value"] is False and inf["min_directions"]["value"] == 2
     assert _one(based, "stack_product", False).ok is True
-    free = _analyze(tmp_path, "stack4", STACK4.format(base=""))
+    free = _analyze(tmp_path, "stack4", _keyed_stack().format(base=""))
     inf = free["classes"]["infinite_translation"]
+    assert inf["stack_product"]["value"] is True and inf["min_directions"]["value"] == 1
+    # plain aligned boxes slide apart along exactly +-x: one direction, with the base too
+    plain = _analyze(tmp_path, "stack4p", STACK4.format(base="base: B\n"))
+    inf = plain["classes"]["infinite_translation"]
     assert inf["stack_product"]["value"] is True and inf["min_directions"]["value"] == 1
 
 
