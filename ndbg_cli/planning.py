@@ -25,7 +25,10 @@ With ``base`` (a part index) the base is never moved: it always stays on the ``r
 from __future__ import annotations
 
 import heapq
+from collections.abc import Callable
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from .andor import (
     AndOrGraph,
@@ -120,15 +123,54 @@ def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
     wide (the eroded contacts, :mod:`ndbg_cli.infinite`); only the axis itself, on every
     contact circle of the bore, is free for the direct sweep test (``ndbg query``) and for a
     designer. Families without contact counts rank by dimension and index alone."""
-    full = ndbg.space_dimension - 1
+    return min(regions, key=lambda r: _rank(ndbg, r))
 
-    def key(r: int) -> tuple[int, int, int, int]:
-        reg = ndbg.regions[r]
-        if reg.dimension == full:  # any point of an open region is as good
-            return (0, 0, 0, r)
-        return (1, -reg.sliding, -reg.dimension, r)
 
-    return min(regions, key=key)
+#: Regions tried per step by :func:`verify` (the step's own first, then the other regions
+#: where its split is a candidate, in :func:`pick_region`'s order).
+VERIFY_REGIONS = 8
+
+
+def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> dict:
+    """Check a translation plan's steps with an independent test: ``frees(moved, rest, d)``
+    says whether ``moved`` comes out of ``rest`` by one translation to infinity along ``d``
+    (:meth:`ndbg_cli.sweep.SweepChecker.frees`). A step whose direction fails is moved to
+    another region where its split is a candidate, if one passes (at most
+    :data:`VERIFY_REGIONS` tried). Every step passing makes the candidate tree a real
+    1-handed monotone 1-prismatic assembly algorithm (paper 7.1), whatever its family.
+
+    Returns ``{"value", "steps", "why"}`` (``value``: all steps free; the first failing step
+    named in ``why``) and updates ``p``'s steps in place."""
+    nd = p.ndbg
+    seq = p.sequence()
+    for k, s in enumerate(seq, start=1):
+        regs = [r for r, reg in enumerate(nd.regions)
+                if reg.direction is not None and reg.dbg.is_free(s.moved, s.mask)]
+        order = [s.region] + sorted((r for r in regs if r != s.region),
+                                    key=lambda r: _rank(nd, r))
+        good = None
+        for r in order[:VERIFY_REGIONS]:
+            d = nd.regions[r].direction
+            if d is not None and frees(s.moved, s.rest, np.asarray(d, dtype=float)):
+                good = r
+                break
+        if good is None:
+            return {"value": False, "steps": len(seq),
+                    "why": f"step {k} ({', '.join(nd.names(s.moved))}) is blocked further "
+                           f"away along every direction tried: a candidate only"}
+        if good != s.region:
+            p.steps[s.mask] = Step(mask=s.mask, moved=s.moved, rest=s.rest, region=good)
+    return {"value": True, "steps": len(seq),
+            "why": "every step comes out by one translation to infinity along its direction "
+                   "(direct sweep test): a 1-handed monotone 1-prismatic algorithm"}
+
+
+def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
+    """:func:`pick_region`'s order key of region ``r``."""
+    reg = ndbg.regions[r]
+    if reg.dimension == ndbg.space_dimension - 1:  # any point of an open region is as good
+        return (0, 0, 0, r)
+    return (1, -reg.sliding, -reg.dimension, r)
 
 
 def orient(ndbg: NDBG, h: Hyperarc, allowed: set[int] | None = None) -> Step:

@@ -47,12 +47,24 @@ class SweepChecker:
         tn = part_triangles(asm)
         self.tris: list[np.ndarray] = [t for t, _ in tn]
         self.normals: list[np.ndarray] = [n for _, n in tn]
+        # each part's bounding-box corners (8, 3): a quick miss in projection
+        self._corners = []
+        for t in self.tris:
+            lo, hi = t.reshape(-1, 3).min(axis=0), t.reshape(-1, 3).max(axis=0)
+            self._corners.append(np.array([[(lo, hi)[a][0], (lo, hi)[b][1], (lo, hi)[c][2]]
+                                           for a in (0, 1) for b in (0, 1) for c in (0, 1)]))
 
     def blocked(self, i: int, j: int, d: np.ndarray) -> bool:
         """Whether part ``j`` blocks the infinite translation of part ``i`` along ``d``."""
         frame = _frame(np.asarray(d, dtype=float)[:3] if len(d) == 3 else
                        np.array([d[0], d[1], 0.0]))
         dd = frame[2]
+        # the parts' boxes seen along d: apart (or j wholly behind i), no ray meets both
+        ci, cj = self._corners[i] @ frame.T, self._corners[j] @ frame.T
+        if np.any(ci[:, :2].min(axis=0) >= cj[:, :2].max(axis=0)) \
+                or np.any(cj[:, :2].min(axis=0) >= ci[:, :2].max(axis=0)) \
+                or cj[:, 2].max() <= ci[:, 2].min() - self.eps:
+            return False
         ti, tj = self.tris[i], self.tris[j]
         fi = ti[self.normals[i] @ dd > FACING_TOL]
         bj = tj[self.normals[j] @ dd < -FACING_TOL]
@@ -103,6 +115,13 @@ class SweepChecker:
             if _clipped_area(coords[sel], f[sel] + tau) > self.eps ** 2:
                 return True
         return False
+
+    def frees(self, moved: int, rest: int, d: np.ndarray) -> bool:
+        """Whether the parts of bitmask ``moved`` translate to infinity along ``d`` without
+        meeting the interior of any part of bitmask ``rest``."""
+        ms = [k for k in range(len(self.tris)) if (moved >> k) & 1]
+        rs = [k for k in range(len(self.tris)) if (rest >> k) & 1]
+        return not any(self.blocked(i, j, d) for i in ms for j in rs)
 
     def dbg(self, d: np.ndarray) -> DBG:
         """The DBG for infinite translation along ``d``: arc ``i -> j`` iff ``j`` blocks ``i``."""

@@ -121,6 +121,9 @@ def plan_lines(report: dict) -> list[str]:
             how = f"(region {s.get('region')})"
         lines.append(f"  {s['step']:>3}. insert {{{', '.join(s['moved'])}}} into "
                      f"{{{', '.join(s['onto'])}}} {how}")
+    v = p.get("verified")
+    if v is not None:
+        lines.append(f"  verified: {'yes' if v['value'] else 'no'} - {v['why']}")
     return lines
 
 
