@@ -174,8 +174,9 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     grouped by identical induced DBG. With ``base`` (a part index) in ``mask``, only
     orientations whose moved side leaves the base (and every part of ``avoid``) out are kept;
     with ``connected`` both sides must pass the test. At most ``limit`` distinct moved sets
-    are collected; a cut list always holds every part's minimal free set (its closure) in
-    every DBG, so the greedy and deepening searches keep the linear moves. Returns
+    are collected; the parts' minimal free sets (their closures in each DBG) are collected
+    first, so a cut list holds them as far as ``limit`` allows (all of them unless there are
+    more than ``limit``), and the greedy and deepening searches keep the linear moves. Returns
     ``(hyperarcs sorted by (balance, left), truncated)``."""
     if mask.bit_count() < 2:
         return [], False
@@ -192,8 +193,8 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     live = [(succ, regs) for succ, regs in groups if not strongly_connected(succ, mask)]
     closures: list[dict[int, int] | None] = [None] * len(live)
     if limit is not None:
-        # A cut enumeration keeps at least every part's minimal free set (its closure) in
-        # every DBG, so the greedy and deepening searches always have the linear moves.
+        # A cut enumeration takes every part's minimal free set (its closure) in every DBG
+        # first (up to ``limit``), so the greedy and deepening searches keep the linear moves.
         for k, (succ, regs) in enumerate(live):
             closures[k] = closure = closure_table(succ, mask)
             for i in bits(mask & ~base_bit):
