@@ -128,15 +128,16 @@ def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
 
 #: Regions tried per step by :func:`verify` (the step's own first, then the other regions
 #: where its split is a candidate, in :func:`pick_region`'s order).
-VERIFY_REGIONS = 8
+VERIFY_REGIONS = 4
 
 
-def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> dict:
+def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool],
+           tries: int = VERIFY_REGIONS) -> dict:
     """Check a translation plan's steps with an independent test: ``frees(moved, rest, d)``
     says whether ``moved`` comes out of ``rest`` by one translation to infinity along ``d``
     (:meth:`ndbg_cli.sweep.SweepChecker.frees`). A step whose direction fails is moved to
-    another region where its split is a candidate, if one passes (at most
-    :data:`VERIFY_REGIONS` tried). Every step passing makes the candidate tree a real
+    another region where its split is a candidate, if one passes (at most ``tries`` regions
+    tried, the step's own first). Every step passing makes the candidate tree a real
     1-handed monotone 1-prismatic assembly algorithm (paper 7.1), whatever its family.
 
     Returns ``{"value", "steps", "why"}`` (``value``: all steps free; the first failing step
@@ -149,7 +150,7 @@ def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> dict:
         order = [s.region] + sorted((r for r in regs if r != s.region),
                                     key=lambda r: _rank(nd, r))
         good = None
-        for r in order[:VERIFY_REGIONS]:
+        for r in order[:tries]:
             d = nd.regions[r].direction
             if d is not None and frees(s.moved, s.rest, np.asarray(d, dtype=float)):
                 good = r
