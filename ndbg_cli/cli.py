@@ -448,10 +448,14 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     if junit:
         _write(junit, Path(junit), junit_xml(outcomes))
     failed = [o for oc in outcomes for o in oc if not o.passed]
+    # a failed rule is a violation when the analysis proves it, else undecided (it fails
+    # only through the rules file's ``undecided: fail``)
+    undecided = sum(1 for o in failed if o.ok is None)
     if fmt == "json":
         doc = {"schema": "ndbg.check/1", "rules": rules_file,
                "summary": {"assemblies": len(outcomes), "rules_checked": sum(map(len, outcomes)),
-                           "violations": len(failed),
+                           "violations": len(failed) - undecided,
+                           "undecided_failed": undecided,
                            "failed_assemblies": len({o.assembly for o in failed})},
                "outcomes": [[{"assembly": o.assembly, "source": o.source, "rule": o.rule,
                               "expected": o.expected, "measured": o.measured, "ok": o.ok,
@@ -463,9 +467,10 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
             click.echo(o.line())
         n = len(outcomes)
         bad = len({o.assembly for o in failed})
+        tail = f", {undecided} undecided (undecided: fail)" if undecided else ""
         click.echo(f"ndbg check: {n - bad} of {n} assemblies pass "
-                   f"({sum(map(len, outcomes))} rules checked, {len(failed)} violation(s))",
-                   err=bool(failed))
+                   f"({sum(map(len, outcomes))} rules checked, "
+                   f"{len(failed) - undecided} violation(s){tail})", err=bool(failed))
     _trim_cache(options.cache)
     errors = [_exit_code(r) for r in reports if "error" in r]
     if errors:

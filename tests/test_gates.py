@@ -73,6 +73,8 @@ def test_check_fails_a_tightened_rule_with_one_line_each(bell_report, tmp_path):
     assert any(line.startswith("bell: max_depth: measured between 5 and 6, expected <= 4")
                for line in lines)
     assert any(line.startswith("bell: max_fingers:") for line in lines)
+    # the depth is proven too deep, the grasp only undecided: told apart in the summary
+    assert "1 violation(s), 1 undecided (undecided: fail)" in r.stderr
     # the bell's linear tree passes the sweep test: linearizable is proven (no line)
     assert not [line for line in lines if "linearizable" in line]
     root = ET.parse(junit).getroot()
@@ -88,7 +90,7 @@ def test_check_json_and_saved_reports(bell_report, tmp_path):
     assert r.returncode == 0, r.stderr
     doc = json.loads(r.stdout)
     assert doc["summary"] == {"assemblies": 1, "rules_checked": 9, "violations": 0,
-                              "failed_assemblies": 0}
+                              "undecided_failed": 0, "failed_assemblies": 0}
 
 
 def test_check_reports_a_broken_assembly_and_goes_on(tmp_path):
