@@ -24,6 +24,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+import shapely
+import trimesh
 
 from .assembly import Assembly, Diagnostic
 from .ndbg import NDBG, ConnectivityTest
@@ -387,27 +389,75 @@ def _interlock_and_grasp(asm: Assembly, ca, ndbgs: dict[str, NDBG]) -> tuple[dic
 def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
     """Candidate finger placements for the form-closure grasp: for every part, each distinct
     outward face normal (3D: triangle normals rounded to ``digits``; 2D: edge normals) with a
-    point on a face of that orientation (the largest one's centroid)."""
-    out = []
+    point on a face of that orientation that no other part covers: the centroid of the
+    largest such triangle (2D: the midpoint of the longest such edge) whose point just
+    outside, ``2 eps`` along the normal, lies neither inside another part nor within ``2 eps``
+    of one (:func:`_covered`; at most :data:`FINGER_TRIES` faces tried per orientation, and
+    none kept if all are covered: a finger cannot touch a face another part lies on)."""
+    gap = 2.0 * asm.length_tolerance
+    # (part, normal key, point, outward unit normal), each orientation's faces largest first
+    groups: list[list[tuple[int, list[float], list[float], np.ndarray]]] = []
     for k, part in enumerate(asm.parts):
         if asm.dimension == 2:
             poly = part.polygon
             xy = np.asarray(poly.exterior.coords)[:-1]
             ccw = poly.exterior.is_ccw
+            edges: dict[tuple[float, ...], list[tuple[float, list[float]]]] = {}
             for a, b in zip(xy, np.roll(xy, -1, axis=0)):
                 e = b - a
                 nrm = np.array([e[1], -e[0]]) if ccw else np.array([-e[1], e[0]])
                 length = np.linalg.norm(nrm)
                 if length > 0:
-                    out.append((k, (nrm / length).tolist(), ((a + b) / 2).tolist()))
+                    key = tuple(np.round(nrm / length, digits).tolist())
+                    edges.setdefault(key, []).append((float(length), ((a + b) / 2).tolist()))
+            for key, cands in edges.items():
+                groups.append([(k, list(key), mid, np.asarray(key)) for _, mid in
+                               sorted(cands, key=lambda c: -c[0])[:FINGER_TRIES]])
             continue
         mesh = part.mesh
-        normals = np.round(np.asarray(mesh.face_normals), digits)
+        unit = np.asarray(mesh.face_normals)
         areas = np.asarray(mesh.area_faces)
-        keys, inverse = np.unique(normals, axis=0, return_inverse=True)
+        centers = np.asarray(mesh.triangles_center)
+        keys, inverse = np.unique(np.round(unit, digits), axis=0, return_inverse=True)
         inverse = inverse.reshape(-1)
         for q, key in enumerate(keys):
             sel = np.flatnonzero(inverse == q)
-            f = sel[np.argmax(areas[sel])]
-            out.append((k, key.tolist(), np.asarray(mesh.triangles_center[f]).tolist()))
+            best = sel[np.argsort(-areas[sel], kind="stable")][:FINGER_TRIES]
+            groups.append([(k, key.tolist(), centers[f].tolist(), unit[f]) for f in best])
+    flat = [c for g in groups for c in g]
+    if not flat:
+        return []
+    owner = np.array([c[0] for c in flat])
+    probe = np.array([np.asarray(c[2]) + gap * c[3] for c in flat])
+    covered = _covered(asm, owner, probe, gap)
+    out, at = [], 0
+    for g in groups:
+        free = [c for c, cov in zip(g, covered[at:at + len(g)]) if not cov]
+        at += len(g)
+        if free:
+            out.append(free[0][:3])
+    return out
+
+
+#: Faces of one orientation tried per part by :func:`exterior_faces` (largest first).
+FINGER_TRIES = 8
+
+
+def _covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.ndarray:
+    """``(m,)`` whether each point ``q[i]`` (just outside part ``owner[i]``) lies inside
+    another part or within ``gap`` of one (a part resting on that face); one query per part,
+    for the points in its box."""
+    out = np.zeros(len(q), dtype=bool)
+    for j, other in enumerate(asm.parts):
+        if asm.dimension == 2:
+            near = owner != j
+            if near.any():
+                pts = shapely.points(q[near])
+                out[near] |= shapely.distance(other.polygon, pts) <= gap
+            continue
+        lo, hi = other.mesh.bounds
+        near = (owner != j) & ~out & np.all((q >= lo - gap) & (q <= hi + gap), axis=1)
+        if near.any():
+            # trimesh's sign: positive inside, negative outside
+            out[near] |= trimesh.proximity.signed_distance(other.mesh, q[near]) > -gap
     return out

@@ -934,3 +934,38 @@ def test_a_list_that_fits_its_limit_is_not_called_cut():
     for limit, cut in ((2, True), (3, False), (4, False), (None, False)):
         arcs, truncated = node_splits(nd, 0b1111, base=0, limit=limit)
         assert truncated is cut and len(arcs) == (2 if cut else 3)
+
+
+def test_grasp_fingers_only_touch_exposed_faces():
+    """Fingers go on faces no other part covers (review finding: fig3-2d had fingers on P3's
+    tongue sides inside P4's groove and on P1's tongue top inside P2's groove; stack.yaml one
+    on the wall of the base's blind hole). 2D, checked independently: every finger point lies
+    on the boundary of the union of all parts (the assembly's outside). 3D: every finger point
+    is farther than the tolerance from every other part."""
+    import shapely
+    import trimesh
+
+    import ndbg_cli
+    from ndbg_cli.analysis import Options, analyze
+
+    asm = ndbg_cli.load("assemblies/fig3-2d.yaml")
+    outside = shapely.union_all([p.polygon for p in asm.parts]).boundary
+    rep = analyze(asm, Options(motion="all"))
+    fingers = [f for fam in rep["classes"].values() if "grasp" in fam
+               for f in fam["grasp"]["fingers"]]
+    assert fingers
+    for f in fingers:
+        assert outside.distance(shapely.Point(f["point"])) < 1e-9, f
+    assert not any(f["point"] in ([50, 30], [70, 30], [70, 90]) for f in fingers)
+
+    asm = ndbg_cli.load("assemblies/stack.yaml")
+    rep = analyze(asm, Options(motion="all"))
+    ids = asm.ids
+    for fam in rep["classes"].values():
+        for f in (fam.get("grasp") or {}).get("fingers", []):
+            p = np.array([f["point"]])
+            for j, other in enumerate(asm.parts):
+                if ids[j] == f["part"]:
+                    continue
+                _, dist, _ = trimesh.proximity.closest_point(other.mesh, p)
+                assert dist[0] > asm.length_tolerance, (f, ids[j])
