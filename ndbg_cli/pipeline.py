@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 import shapely
-import trimesh
 
 from .assembly import Assembly, Diagnostic
 from .ndbg import NDBG, ConnectivityTest
@@ -391,9 +390,10 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
     outward face normal (3D: triangle normals rounded to ``digits``; 2D: edge normals) with a
     point on a face of that orientation that no other part covers: the centroid of the
     largest such triangle (2D: the midpoint of the longest such edge) whose point just
-    outside, ``2 eps`` along the normal, lies neither inside another part nor within ``2 eps``
-    of one (:func:`_covered`; at most :data:`FINGER_TRIES` faces tried per orientation, and
-    none kept if all are covered: a finger cannot touch a face another part lies on)."""
+    outside, ``2 eps`` along the normal, is not next to another part (:func:`_covered`; at
+    most :data:`FINGER_TRIES` faces tried per orientation, and none kept if all are covered:
+    a finger cannot touch a face another part lies on; a part that interpenetrates the face
+    deeply is not seen, interferences are reported apart)."""
     gap = 2.0 * asm.length_tolerance
     # (part, normal key, point, outward unit normal), each orientation's faces largest first
     groups: list[list[tuple[int, list[float], list[float], np.ndarray]]] = []
@@ -424,19 +424,20 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
             sel = np.flatnonzero(inverse == q)
             best = sel[np.argsort(-areas[sel], kind="stable")][:FINGER_TRIES]
             groups.append([(k, key.tolist(), centers[f].tolist(), unit[f]) for f in best])
-    flat = [c for g in groups for c in g]
-    if not flat:
-        return []
-    owner = np.array([c[0] for c in flat])
-    probe = np.array([np.asarray(c[2]) + gap * c[3] for c in flat])
-    covered = _covered(asm, owner, probe, gap)
-    out, at = [], 0
-    for g in groups:
-        free = [c for c, cov in zip(g, covered[at:at + len(g)]) if not cov]
-        at += len(g)
-        if free:
-            out.append(free[0][:3])
-    return out
+    # round r tries the r-th face of every orientation still without an exposed one
+    chosen: list[tuple | None] = [None] * len(groups)
+    todo = list(range(len(groups)))
+    for r in range(FINGER_TRIES):
+        todo = [g for g in todo if chosen[g] is None and r < len(groups[g])]
+        if not todo:
+            break
+        cands = [groups[g][r] for g in todo]
+        owner = np.array([c[0] for c in cands])
+        probe = np.array([np.asarray(c[2]) + gap * c[3] for c in cands])
+        for g, c, cov in zip(todo, cands, _covered(asm, owner, probe, gap)):
+            if not cov:
+                chosen[g] = c[:3]
+    return [c for c in chosen if c is not None]
 
 
 #: Faces of one orientation tried per part by :func:`exterior_faces` (largest first).
@@ -444,20 +445,34 @@ FINGER_TRIES = 8
 
 
 def _covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.ndarray:
-    """``(m,)`` whether each point ``q[i]`` (just outside part ``owner[i]``) lies inside
-    another part or within ``gap`` of one (a part resting on that face); one query per part,
-    for the points in its box."""
+    """``(m,)`` whether each point ``q[i]`` (``gap`` outside a face of part ``owner[i]``) is
+    within ``1.5 gap`` of another part's surface: a part resting on that face has its surface
+    there (within the tolerance), so the point is inside it at about ``gap`` from it. A ball
+    of radius ``1.5 gap`` is tested against each part whose box holds the point (2D: shapely
+    distances)."""
     out = np.zeros(len(q), dtype=bool)
+    reach = 1.5 * gap
+    if asm.dimension == 3:
+        import fcl
+
+        from .facets import fcl_object
+
+        ball = fcl.CollisionObject(fcl.Sphere(reach), fcl.Transform())
     for j, other in enumerate(asm.parts):
         if asm.dimension == 2:
             near = owner != j
             if near.any():
                 pts = shapely.points(q[near])
-                out[near] |= shapely.distance(other.polygon, pts) <= gap
+                out[near] |= shapely.distance(other.polygon, pts) <= reach
             continue
         lo, hi = other.mesh.bounds
-        near = (owner != j) & ~out & np.all((q >= lo - gap) & (q <= hi + gap), axis=1)
-        if near.any():
-            # trimesh's sign: positive inside, negative outside
-            out[near] |= trimesh.proximity.signed_distance(other.mesh, q[near]) > -gap
+        near = np.flatnonzero((owner != j) & ~out
+                              & np.all((q >= lo - reach) & (q <= hi + reach), axis=1))
+        if len(near):
+            # a ball of radius ``reach`` against the part's cached BVH (python-fcl)
+            obj = fcl_object(other)
+            for i in near:
+                ball.setTranslation(q[i])
+                if fcl.collide(ball, obj, fcl.CollisionRequest(), fcl.CollisionResult()):
+                    out[i] = True
     return out
