@@ -203,48 +203,44 @@ def max_bytes() -> int | None:
 
 
 #: The file name of an entry: its key, 64 hexadecimal digits (:meth:`PairCache.key`).
-_ENTRY = re.compile(r"[0-9a-f]{64}\.pkl")
+_ENTRY = re.compile(r"([0-9a-f]{64})\.pkl")
 #: The temporary file of an entry being written (:func:`~ndbg_cli.report.write_atomic`).
 _TEMP = re.compile(r"\.([0-9a-f]{64})\.pkl\.[A-Za-z0-9_]+\.tmp")
 
 
-def _entries(root: Path) -> list[tuple[float, int, str, Path]]:
-    """``(mtime, bytes, stage, path)`` of every entry under ``root``: only files that ndbg
-    writes, ``<stage>/<key[:2]>/<key>.pkl`` for a stage of :data:`STAGE_MODULES` (a cache
-    pointed at a folder of one's own leaves its other files alone); vanished ones skipped
-    (another run may be trimming too)."""
+def _files(root: Path, pattern: str, name: re.Pattern) -> list[tuple[str, Path, os.stat_result]]:
+    """``(stage, path, stat)`` of the regular files ``<stage>/<key[:2]>/pattern`` under
+    ``root`` whose name ``name`` matches with the key in the folder it belongs to, for a stage
+    of :data:`STAGE_MODULES` (a cache pointed at a folder of one's own leaves its other files
+    alone); vanished ones skipped (another run may be trimming too)."""
     out = []
     for stage in sorted(STAGE_MODULES):
-        for path in (root / stage).glob("??/*.pkl"):
-            if not _ENTRY.fullmatch(path.name) or path.name[:2] != path.parent.name:
-                continue
-            try:
-                st = path.stat()
-            except OSError:
-                continue
-            if not stat.S_ISREG(st.st_mode):
-                continue
-            out.append((st.st_mtime, st.st_size, stage, path))
-    return out
-
-
-def _stale_temps(root: Path, now: float) -> list[tuple[int, Path]]:
-    """``(bytes, path)`` of the entries' temporary files under ``root`` older than
-    :data:`STALE_TEMP_S` (only the names :func:`~ndbg_cli.report.write_atomic` gives an
-    entry's, in the entry's own folder)."""
-    out = []
-    for stage in sorted(STAGE_MODULES):
-        for path in (root / stage).glob("??/.*.tmp"):
-            m = _TEMP.fullmatch(path.name)
+        for path in (root / stage).glob(pattern):
+            m = name.fullmatch(path.name)
             if m is None or m.group(1)[:2] != path.parent.name:
                 continue
             try:
                 st = path.stat()
             except OSError:
                 continue
-            if stat.S_ISREG(st.st_mode) and st.st_mtime < now - STALE_TEMP_S:
-                out.append((st.st_size, path))
+            if stat.S_ISREG(st.st_mode):
+                out.append((stage, path, st))
     return out
+
+
+def _entries(root: Path) -> list[tuple[float, int, str, Path]]:
+    """``(mtime, bytes, stage, path)`` of every entry under ``root``: only files that ndbg
+    writes, ``<stage>/<key[:2]>/<key>.pkl`` (:func:`_files`)."""
+    return [(st.st_mtime, st.st_size, stage, path)
+            for stage, path, st in _files(root, "??/*.pkl", _ENTRY)]
+
+
+def _stale_temps(root: Path, now: float) -> list[tuple[int, Path]]:
+    """``(bytes, path)`` of the entries' temporary files under ``root`` older than
+    :data:`STALE_TEMP_S` (only the names :func:`~ndbg_cli.report.write_atomic` gives an
+    entry's, in the entry's own folder)."""
+    return [(st.st_size, path) for _, path, st in _files(root, "??/.*.tmp", _TEMP)
+            if st.st_mtime < now - STALE_TEMP_S]
 
 
 def usage(root: str | Path) -> dict:
