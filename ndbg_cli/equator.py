@@ -89,6 +89,12 @@ def arc_dbgs(arcs: Mapping[tuple[int, int], np.ndarray], n: int, phi: np.ndarray
     return [DBG(tuple(s)) for s in succ]
 
 
+def _ends(arcs: Mapping[tuple[int, int], np.ndarray]) -> np.ndarray:
+    """Every arc's two ends, as angles in ``[0, 2 pi)``."""
+    return np.mod(np.concatenate([a.reshape(-1) for a in arcs.values()] + [np.zeros(0)]),
+                  TWO_PI)
+
+
 def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: float,
                     sliding: np.ndarray) -> list[tuple[int, float, DBG]]:
     """The regions of S^1: ``(dimension, angle, DBG)``, by increasing start angle.
@@ -96,8 +102,7 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
     ``arcs``: each ordered pair's open arcs (:func:`cone_arcs`); ``eta``: the angular
     tolerance (radians; shorter regions are 0-dimensional); ``sliding``: angles of the
     contacts' sliding directions (a thin region's direction, see the module docstring)."""
-    ends = np.concatenate([a.reshape(-1) for a in arcs.values()] + [np.zeros(0)])
-    ends = np.sort(np.mod(ends, TWO_PI))
+    ends = np.sort(_ends(arcs))
     if len(ends):
         gap = np.diff(np.r_[ends, ends[0] + TWO_PI])
         ends = ends[gap > MERGE_TOL]
@@ -122,13 +127,11 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
         b_idx = b if b > a else b + m  # the run is pieces a .. b - 1 (mod m)
         lo = starts[a]
         hi = stops[(b_idx - 1) % m] + (TWO_PI if b_idx - 1 >= m else 0.0)
-        if hi < lo:
-            hi += TWO_PI
         length = hi - lo
         if length < eta:
             mid = 0.5 * (lo + hi)
             t = np.mod(sliding - lo, TWO_PI)
-            within = sliding[(t >= 0) & (t <= length)] if len(sliding) else sliding
+            within = sliding[(t >= 0) & (t <= length)]
             if len(within):
                 off = np.mod(within - mid + np.pi, TWO_PI) - np.pi
                 mid = float(within[np.argmin(np.abs(off))])
@@ -138,12 +141,19 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
     return sorted(out, key=lambda r: r[1])
 
 
+def in_plane(normals: np.ndarray) -> np.ndarray:
+    """``(c,)`` whether each normal ``(c, 3)`` has a component in the plane (above
+    :data:`FLAT_TOL` of its length): the others are along ``z`` (the prisms' caps)."""
+    nm = np.asarray(normals, dtype=float).reshape(-1, 3)
+    return np.linalg.norm(nm[:, :2], axis=1) > FLAT_TOL * np.maximum(
+        np.linalg.norm(nm, axis=1), 1e-300)
+
+
 def sliding_angles(normals: np.ndarray) -> np.ndarray:
     """Angles (radians, ``[0, 2 pi)``) of the directions of the plane perpendicular to the
     contact normals ``(c, 3)`` (both senses; normals along ``z`` give none)."""
     nm = np.asarray(normals, dtype=float).reshape(-1, 3)
-    h = np.linalg.norm(nm[:, :2], axis=1)
-    nm = nm[h > FLAT_TOL * np.maximum(np.linalg.norm(nm, axis=1), 1e-300)]
+    nm = nm[in_plane(nm)]
     a = np.arctan2(nm[:, 1], nm[:, 0])
     return np.unique(np.mod(np.concatenate([a + np.pi / 2, a - np.pi / 2]), TWO_PI))
 
@@ -159,9 +169,8 @@ def boundary_distance(arcs: Mapping[tuple[int, int], np.ndarray], phi: np.ndarra
                       ) -> np.ndarray:
     """Angle ``(m,)`` (radians) from each of ``phi`` to the nearest arc endpoint: where the
     lookup is robust (``inf`` without arcs)."""
-    ends = np.concatenate([a.reshape(-1) for a in arcs.values()] + [np.zeros(0)])
     out = np.full(len(phi), np.inf)
-    for e in np.mod(ends, TWO_PI):
+    for e in _ends(arcs):
         off = np.abs(np.mod(np.asarray(phi) - e + np.pi, TWO_PI) - np.pi)
         out = np.minimum(out, off)
     return out

@@ -519,7 +519,7 @@ def _snap_to_circles(bs: BlockedSets, dirs: np.ndarray, sliding: np.ndarray,
         return dirs, sliding
     near_tol = SNAP_ETA * bs.eta
     low = np.flatnonzero(lower)
-    cand, where = [], []
+    cand: list[tuple[int, np.ndarray, int]] = []
     for s0 in range(0, len(low), 4096):
         ks = low[s0:s0 + 4096]
         near_all = np.abs(dirs[ks] @ n.T) < near_tol
@@ -538,15 +538,15 @@ def _snap_to_circles(bs: BlockedSets, dirs: np.ndarray, sliding: np.ndarray,
                 near = on
             if np.arccos(np.clip(p @ d, -1.0, 1.0)) > near_tol:
                 continue
-            if int((np.abs(n @ p) < ON_CIRCLE).sum()) > sliding[k]:
-                cand.append(p)
-                where.append(k)
+            on_p = int(sliding_counts(n, p[None])[0])
+            if on_p > sliding[k]:
+                cand.append((k, p, on_p))
     if cand:
-        got = bs.dbgs(np.array(cand), exact=True)
-        for k, p, g in zip(where, cand, got):
+        got = bs.dbgs(np.array([p for _, p, _ in cand]), exact=True)
+        for (k, p, on_p), g in zip(cand, got):
             if g.succ == dbgs[k].succ:
                 dirs[k] = p
-                sliding[k] = int((np.abs(n @ p) < ON_CIRCLE).sum())
+                sliding[k] = on_p
     return dirs, sliding
 
 
@@ -583,9 +583,8 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
                                        equator.sliding_angles(bs.circles))
         t2 = time.perf_counter()
         # the prisms' caps are contacts too (normal along z): every direction slides on them
-        flat = np.abs(bs.circles[:, 2]) > 0.5 if len(bs.circles) else np.zeros(0, dtype=bool)
         dirs = np.array([[np.cos(phi), np.sin(phi), 0.0] for _, phi, _ in regs])
-        sliding = sliding_counts(bs.circles[~flat], dirs)
+        sliding = sliding_counts(bs.circles[equator.in_plane(bs.circles)], dirs)
         regions = [Region(dimension=dim, direction=equator.direction(phi), dbg=g,
                           sliding=int(k)) for (dim, phi, g), k in zip(regs, sliding)]
     else:

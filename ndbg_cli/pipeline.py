@@ -202,13 +202,20 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     verified = None
     proofs: list[dict] = []
     if chosen is not None and chosen.found and chosen.ndbg.family in (INFINITESIMAL, INFINITE):
-        verified = clock("verify_s", lambda: _verify(asm, chosen))
+        # the chosen translation plan checked step by step with the direct sweep test
+        # (planning.verify): a candidate tree that passes is a real algorithm, which the
+        # rules count as proof
+        from .planning import verify
+        from .sweep import SweepChecker
+
+        sweep = SweepChecker(asm)
+        verified = clock("verify_s", lambda: verify(chosen, sweep.frees))
         if chosen.ndbg.family == INFINITESIMAL:
             # the candidate trees behind the classes' best measures, checked the same way:
             # each that passes proves its depth, directions and nonlinear steps
             proofs = clock("verify_s", lambda: _proof_trees(
-                asm, chosen, out["classes"].get(INFINITESIMAL) or {}, options.strategy, base,
-                budget, graphs.get(INFINITESIMAL)))
+                sweep, chosen, out["classes"].get(INFINITESIMAL) or {}, options.strategy,
+                base, budget, graphs.get(INFINITESIMAL)))
     if chosen is not None:
         out["plan"] = {"family": chosen.ndbg.family, **plan_section(chosen)}
         if verified is not None:
@@ -221,46 +228,33 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     return out, warnings
 
 
-def _verify(asm: Assembly, p: Any) -> dict:
-    """The chosen translation plan checked step by step with the direct sweep test
-    (:func:`ndbg_cli.planning.verify`): a candidate tree of the infinitesimal NDBG that
-    passes is a real algorithm, which the rules then count as proof."""
-    from .planning import verify
-    from .sweep import SweepChecker
-
-    return verify(p, SweepChecker(asm).frees)
-
-
 #: Strategies whose trees :func:`_proof_trees` checks besides the reported plan's.
 PROOF_STRATEGIES = ("fewest-directions", "linear")
 
 
-def _proof_trees(asm: Assembly, chosen: Any, classes: dict, reported: str,
+def _proof_trees(sweep: Any, chosen: Any, classes: dict, reported: str,
                  base: int | None, budget: Any, graph: Any) -> list[dict]:
-    """Trees of the :data:`PROOF_STRATEGIES` that pass the direct sweep test at every step
-    (contact-connected or not, as the classes count them): ``{"strategy", "depth",
-    "nonlinear_steps", "directions"}`` each. A strategy is tried only when its tree could
-    prove more than the reported plan: fewer directions, or a linear tree, than it has,
-    when the candidates' minimum (``classes``) allows it."""
+    """Trees of the :data:`PROOF_STRATEGIES` that pass the direct sweep test (``sweep``, a
+    :class:`~ndbg_cli.sweep.SweepChecker`) at every step (contact-connected or not, as the
+    classes count them): ``{"strategy", "depth", "nonlinear_steps", "directions"}`` each. A
+    strategy is tried only when its tree could prove more than the reported plan: fewer
+    directions, or a linear tree, than it has, when the candidates' minimum (``classes``)
+    allows it."""
     from .planning import plan, verify
-    from .sweep import SweepChecker
 
     nd = chosen.ndbg
-    used = len({nd.regions[s.region].direction for s in chosen.steps.values()})
     least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
              "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
-    has = {"fewest-directions": used, "linear": chosen.nonlinear()}
-    sc = SweepChecker(asm)
+    has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
     out = []
     for strategy in PROOF_STRATEGIES:
         if strategy == reported or least[strategy] is None or has[strategy] <= least[strategy]:
             continue
         q = plan(nd, strategy, base=base, connected=None, budget=budget, graph=graph)
-        if not q.found or not verify(q, sc.frees)["value"]:
+        if not q.found or not verify(q, sweep.frees)["value"]:
             continue
-        dirs = {nd.regions[s.region].direction for s in q.steps.values()}
         out.append({"strategy": strategy, "depth": q.depth(), "nonlinear_steps": q.nonlinear(),
-                    "directions": len(dirs)})
+                    "directions": q.directions()})
     return out
 
 

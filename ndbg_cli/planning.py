@@ -93,6 +93,10 @@ class Plan:
         return sum(1 for s in self.steps.values()
                    if s.moved.bit_count() > 1 and s.rest.bit_count() > 1)
 
+    def directions(self) -> int:
+        """The number of distinct translation directions of the tree's instructions."""
+        return len({self.ndbg.regions[s.region].direction for s in self.steps.values()})
+
     def regions_used(self) -> list[int]:
         return sorted({s.region for s in self.steps.values()})
 

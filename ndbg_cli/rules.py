@@ -330,11 +330,12 @@ def _hands(report: dict, fams: list[str]) -> tuple[Any, Any, Any, str]:
     proof = _plan_proof(report)
     if proof is not None:
         upper, why = 1, "verified plan: " + proof["why"]
-    for fam in fams if upper is None else []:
-        e = _labelled(report, fam, "one_handed_monotone")
-        if e is not None and e.get("value") is True and e["evidence"] == "proven":
-            upper, why = 1, f"{fam}: 1-handed monotone (proven by {e['holds_for']})"
-            break
+    else:
+        for fam in fams:
+            e = _labelled(report, fam, "one_handed_monotone")
+            if e is not None and e.get("value") is True and e["evidence"] == "proven":
+                upper, why = 1, f"{fam}: 1-handed monotone (proven by {e['holds_for']})"
+                break
     lock = _labelled(report, INFINITESIMAL, "interlocked")
     locked = lock is not None and lock.get("value") is True
     if upper is None and n is not None and not locked:

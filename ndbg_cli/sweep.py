@@ -19,7 +19,7 @@ import numpy as np
 import shapely
 
 from .assembly import Assembly
-from .dbg import DBG
+from .dbg import DBG, bits
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
@@ -119,9 +119,8 @@ class SweepChecker:
     def frees(self, moved: int, rest: int, d: np.ndarray) -> bool:
         """Whether the parts of bitmask ``moved`` translate to infinity along ``d`` without
         meeting the interior of any part of bitmask ``rest``."""
-        ms = [k for k in range(len(self.tris)) if (moved >> k) & 1]
-        rs = [k for k in range(len(self.tris)) if (rest >> k) & 1]
-        return not any(self.blocked(i, j, d) for i in ms for j in rs)
+        rs = list(bits(rest))
+        return not any(self.blocked(i, j, d) for i in bits(moved) for j in rs)
 
     def dbg(self, d: np.ndarray) -> DBG:
         """The DBG for infinite translation along ``d``: arc ``i -> j`` iff ``j`` blocks ``i``."""
