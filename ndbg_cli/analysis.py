@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from . import __version__
+from .andor import WORK_LIMIT
 from .assembly import Assembly
 from .errors import NdbgError
 from .loaders import load
@@ -38,7 +39,8 @@ class Options:
     max_partitions: int = 1000  # partitionings listed per family (the report says truncated)
     region_limit: int | None = 2000  # regions listed per family (counts stay complete)
     max_nodes: int = 2_000  # AND/OR graph budget: subassemblies per search
-    time_limit: float = 2.0  # AND/OR graph budget: seconds per search
+    max_work: int = WORK_LIMIT  # AND/OR graph budget: work units per search (andor.WORK_LIMIT)
+    time_limit: float | None = None  # AND/OR graph budget: seconds per search (None: none)
     infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)
     workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
@@ -53,20 +55,22 @@ SETTINGS: dict[str, tuple] = {
     "motion": (MOTIONS,), "interference": (INTERFERENCE,), "strategy": (STRATEGIES,),
     "units": (str,), "cache": (str,), "tolerance": (float, 0, True),
     "time_limit": (float, 0, True), "max_partitions": (int, 1), "region_limit": (int, 1),
-    "max_nodes": (int, 1), "infinite_budget": (int, 0), "allow_outside_paths": (bool,),
+    "max_nodes": (int, 1), "max_work": (int, 1), "infinite_budget": (int, 0),
+    "allow_outside_paths": (bool,),
     "timings": (bool,), "threads_as_cylinders": (bool,), "connected": (bool,),
 }
 
 
-def setting_problem(name: str, value: object) -> str | None:
+def setting_problem(name: str, value: object, *, null: bool = True) -> str | None:
     """Why ``value`` cannot be the setting ``name`` (``expected ..., got ...``), or ``None``
     if it can. YAML types are taken as they are: ``'5'`` is not an integer, ``maybe`` is not
-    a boolean, ``.nan`` is not a number."""
+    a boolean, ``.nan`` is not a number. ``null``: whether ``None`` may be offered (a config
+    file's ``null``; a command-line flag has no such spelling)."""
     import dataclasses
     import math
 
     kind, low, excluded = (SETTINGS[name] + (None, False))[:3]
-    nullable = "None" in str({f.name: f.type for f in dataclasses.fields(Options)}[name])
+    nullable = null and "None" in str({f.name: f.type for f in dataclasses.fields(Options)}[name])
     if value is None and nullable:
         return None
     if isinstance(kind, tuple):

@@ -4,12 +4,13 @@ Nodes are the distinct subassemblies (part bitmasks) reachable from the whole pr
 candidate partitionings; the hyperarcs of a node are its candidate partitionings
 ``{S, M \\ S}``, each listed once however many regions (and whichever orientation) make it
 free. The graph is built breadth-first from the root with memoization and an explicit budget
-(``max_nodes`` subassemblies seen, ``time_limit`` seconds, ``split_limit`` partitionings per
-node; :attr:`AndOrGraph.cut_by` says which one stopped it, :meth:`AndOrGraph.cut_reason` in
-words); when the budget stops the build, ``truncated`` is set and the exact measures below are
-not available (``None``): use :func:`greedy_tree` for an anytime upper bound, or
-:func:`classes.min_depth_search` for the exact minimum depth without the whole graph (the
-report section :func:`classes.andor_section` does both).
+(``max_nodes`` subassemblies seen, ``max_work`` units of work, ``split_limit`` partitionings
+per node, and an optional ``time_limit`` in seconds; :attr:`AndOrGraph.cut_by` says which one
+stopped it, :meth:`AndOrGraph.cut_reason` in words); when the budget stops the build,
+``truncated`` is set and the exact measures below are not available (``None``): use
+:func:`greedy_tree` for an anytime upper bound, or :func:`classes.min_depth_search` for the
+exact minimum depth without the whole graph (the report section
+:func:`classes.andor_section` does both).
 
 What is counted (exact Python ints):
 
@@ -54,14 +55,57 @@ from .ndbg import NDBG, ConnectivityTest
 CONNECTED_SEARCH = 20_000
 
 
+#: Work units a search may spend by default (:attr:`Budget.max_work`). A unit is one DBG
+#: induced on a subassembly being expanded, one region listed for one of its candidate
+#: partitionings, or one node of its contact-connected set search (:func:`node_splits`): a
+#: count that does not depend on the machine, unlike the clock. Calibrated on the 115-part
+#: engine, whose 8,110 distinct DBGs make one subassembly cost up to ~10^6 units: its AND/OR
+#: build spends about 0.35 s per million units (one core of the reference machine), so a
+#: search stops within about 2 s there, as the former 2 s default time limit did; the bell's
+#: and AS1's builds spend 5,000 and 29,000 units.
+WORK_LIMIT = 5_000_000
+
+
 @dataclass(frozen=True)
 class Budget:
     """Limits of a search: nodes (for :meth:`AndOrGraph.build`, subassemblies seen; for the
-    anytime searches, subassemblies expanded), wall-clock seconds, partitionings per node."""
+    anytime searches, subassemblies expanded), work units (:data:`WORK_LIMIT`), partitionings
+    per node, and wall-clock seconds (``None`` by default: a search cut by the clock gives
+    answers that depend on the machine's speed and load, so a report would not be
+    reproducible; the node and work counts are)."""
 
     max_nodes: int = 200_000
-    time_limit: float | None = 30.0
+    time_limit: float | None = None
     split_limit: int | None = 5_000
+    max_work: int | None = WORK_LIMIT
+
+    def meter(self) -> Meter:
+        """A fresh :class:`Meter` for one search under this budget."""
+        return Meter(self)
+
+
+class Meter:
+    """The work one search has spent (:data:`WORK_LIMIT`'s units) and its deadline when the
+    budget has a time limit."""
+
+    __slots__ = ("budget", "work", "deadline")
+
+    def __init__(self, budget: Budget) -> None:
+        self.budget = budget
+        self.work = 0
+        self.deadline = (None if budget.time_limit is None
+                         else time.perf_counter() + budget.time_limit)
+
+    def charge(self, units: int) -> None:
+        self.work += units
+
+    def spent(self) -> str | None:
+        """``"work"`` or ``"time"`` when the search must stop, else ``None``."""
+        if self.budget.max_work is not None and self.work > self.budget.max_work:
+            return "work"
+        if self.deadline is not None and time.perf_counter() > self.deadline:
+            return "time"
+        return None
 
 
 class Hyperarc(NamedTuple):
@@ -168,7 +212,8 @@ def _groups_of(ndbg: NDBG) -> _Groups:
 
 def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                 connected: ConnectivityTest | None = None,
-                limit: int | None = None, avoid: int = 0) -> tuple[list[Hyperarc], bool]:
+                limit: int | None = None, avoid: int = 0, meter: Meter | None = None
+                ) -> tuple[list[Hyperarc], bool]:
     """The hyperarcs of subassembly ``mask``: candidate partitionings ``{S, mask - S}`` (``S``
     free in the DBG of some region induced on ``mask``) merged by unordered pair, regions
     grouped by identical induced DBG. With ``base`` (a part index) in ``mask``, only
@@ -176,8 +221,9 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     with ``connected`` both sides must pass the test. At most ``limit`` distinct moved sets
     are collected; the parts' minimal free sets (their closures in each DBG) are collected
     first, so a cut list holds them as far as ``limit`` allows (all of them unless there are
-    more than ``limit``), and the greedy and deepening searches keep the linear moves. Returns
-    ``(hyperarcs sorted by (balance, left), truncated)``."""
+    more than ``limit``), and the greedy and deepening searches keep the linear moves. The work
+    done is charged to ``meter`` (:data:`WORK_LIMIT`'s units). Returns ``(hyperarcs sorted by
+    (balance, left), truncated)``."""
     if mask.bit_count() < 2:
         return [], False
     groups = _groups_of(ndbg).of(mask)
@@ -209,6 +255,7 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     # (candidates.connected_free_sets, polynomial per set found, within a search budget per
     # node); the list is cut when a new set finds it full, or when that budget runs out.
     left = [CONNECTED_SEARCH if limit is not None else 1 << 62]
+    searched = left[0]
     for (succ, regs), closure in zip(live, closures):
         sets = free_sets(*condense(succ, mask), avoid=base_bit) if connected is None else \
             connected_free_sets(succ, connected.neighbours, mask, left, avoid=base_bit,
@@ -227,6 +274,9 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
             truncated = True
         if truncated:
             break
+    if meter is not None:
+        meter.charge(len(groups) + sum(map(len, found.values()))
+                     + (searched - max(left[0], 0) if connected is not None else 0))
     return _hyperarcs(mask, found), truncated
 
 
@@ -258,19 +308,22 @@ class AndOrGraph:
         self.truncated = False
         self.split_truncated = False
         self.elapsed = 0.0
+        #: work units the build spent (:data:`WORK_LIMIT`)
+        self.work = 0
         #: why :meth:`build` stopped early: ``"nodes"`` (more subassemblies than
-        #: ``max_nodes``), ``"time"`` (``time_limit``), ``"splits"`` (a node's partitionings
-        #: were cut at ``split_limit``), or ``None``
+        #: ``max_nodes``), ``"work"`` (``max_work``), ``"time"`` (``time_limit``), ``"splits"``
+        #: (a node's partitionings were cut at ``split_limit``), or ``None``
         self.cut_by: str | None = None
         self.cut_from: AndOrGraph | None = None
         self._built = False
 
-    def expand(self, mask: int) -> list[Hyperarc]:
-        """The hyperarcs of ``mask`` (memoized)."""
+    def expand(self, mask: int, meter: Meter | None = None) -> list[Hyperarc]:
+        """The hyperarcs of ``mask`` (memoized; the work of computing them is charged to
+        ``meter``, the calling search's)."""
         got = self.arcs.get(mask)
         if got is None:
             got, trunc = node_splits(self.ndbg, mask, base=self.base, connected=self.connected,
-                                     limit=self.budget.split_limit)
+                                     limit=self.budget.split_limit, meter=meter)
             self.split_truncated |= trunc
             self.truncated |= trunc
             self.arcs[mask] = got
@@ -285,7 +338,7 @@ class AndOrGraph:
         if self._built:
             return self
         start = time.perf_counter()
-        deadline = None if self.budget.time_limit is None else start + self.budget.time_limit
+        meter = self.budget.meter()
         queue = deque([self.root])
         seen = {self.root}
         while queue:
@@ -294,11 +347,12 @@ class AndOrGraph:
             if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
                 self.truncated, self.cut_by = True, "nodes"
                 break
-            if deadline is not None and time.perf_counter() > deadline:
-                self.truncated, self.cut_by = True, "time"
+            why = meter.spent()
+            if why is not None:
+                self.truncated, self.cut_by = True, why
                 break
             m = queue.popleft()
-            arcs = self.expand(m)
+            arcs = self.expand(m, meter)
             if self.split_truncated:
                 # A node's partitionings were cut: the graph cannot be complete, so the
                 # exact counts are out of reach; stop now and leave the rest to the
@@ -311,6 +365,7 @@ class AndOrGraph:
                         seen.add(child)
                         queue.append(child)
         self.elapsed = time.perf_counter() - start
+        self.work = meter.work
         self._built = True
         self._dp: dict[str, dict[int, int | None]] = {}
         return self
@@ -349,6 +404,8 @@ class AndOrGraph:
         b = self.budget
         if self.cut_by == "nodes":
             return f"AND/OR graph has over {b.max_nodes} subassemblies (--max-nodes)"
+        if self.cut_by == "work":
+            return f"AND/OR graph cut by the work budget ({b.max_work:,} units)"
         if self.cut_by == "time":
             return f"AND/OR graph cut by the time limit ({b.time_limit:g} s)"
         if self.cut_by == "supergraph":
@@ -496,23 +553,24 @@ class GreedyResult:
 def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
                 connected: ConnectivityTest | None = None, chooser: Chooser = prefer_balanced,
                 budget: Budget | None = None,
-                arcs: Callable[[int], list[Hyperarc]] | None = None) -> GreedyResult:
+                arcs: Callable[[int, Meter], list[Hyperarc]] | None = None) -> GreedyResult:
     """One candidate tree, choosing at each node the first hyperarc in ``chooser`` order whose
     children decompose (depth-first, memoizing failed subassemblies). Without ``connected`` the
     first choice always works (heredity), so this is polynomial in the number of partitionings
-    visited. ``arcs`` overrides how a node's hyperarcs are obtained (e.g. an AND/OR graph's)."""
+    visited. ``arcs(mask, meter)`` overrides how a node's hyperarcs are obtained (e.g. an
+    AND/OR graph's), charging the work to the search's ``meter``."""
     budget = budget or Budget()
     root = (1 << ndbg.n) - 1 if mask is None else mask
     res = GreedyResult(root=root)
     failed: set[int] = set()
-    deadline = None if budget.time_limit is None else time.perf_counter() + budget.time_limit
+    meter = budget.meter()
     expanded = 0
 
     def get(m: int) -> list[Hyperarc]:
         if arcs is not None:
-            return arcs(m)
+            return arcs(m, meter)
         got, trunc = node_splits(ndbg, m, base=base, connected=connected,
-                                 limit=budget.split_limit)
+                                 limit=budget.split_limit, meter=meter)
         res.truncated |= trunc and not got
         return got
 
@@ -523,8 +581,7 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
         if m in failed:
             return False
         expanded += 1
-        if expanded > budget.max_nodes or (deadline is not None
-                                           and time.perf_counter() > deadline):
+        if expanded > budget.max_nodes or meter.spent() is not None:
             res.truncated = True
             return False
         for h in chooser(get(m)):

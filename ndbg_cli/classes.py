@@ -39,7 +39,6 @@ decomposition behind the exact yes/no classes).
 from __future__ import annotations
 
 import itertools
-import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -47,6 +46,7 @@ from .andor import (
     AndOrGraph,
     Budget,
     Hyperarc,
+    Meter,
     contains,
     gc_paused,
     greedy_tree,
@@ -58,7 +58,7 @@ from .dbg import bits
 from .ndbg import NDBG, ConnectivityTest
 
 #: AND/OR graph budget when none is given (the CLI's --max-nodes / --time-limit defaults).
-DEFAULT_BUDGET = Budget(max_nodes=2_000, time_limit=2.0)
+DEFAULT_BUDGET = Budget(max_nodes=2_000)
 
 INFINITESIMAL = "infinitesimal_translation"
 INFINITE = "infinite_translation"
@@ -175,15 +175,15 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
     memo: dict[int, list[Hyperarc]] = {}
     trunc_splits = False
 
-    def get(m: int) -> list[Hyperarc]:
+    def get(m: int, meter: Meter) -> list[Hyperarc]:
         nonlocal trunc_splits
         got = memo.get(m)
         if got is None:
             if graph is not None:
-                got = graph.expand(m)
+                got = graph.expand(m, meter)
             else:
                 got, t = node_splits(ndbg, m, base=base, connected=connected,
-                                     limit=budget.split_limit)
+                                     limit=budget.split_limit, meter=meter)
                 trunc_splits |= t
             memo[m] = got
         return got
@@ -201,7 +201,7 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
     proven: dict[int, int] = {}
     refuted: dict[int, int] = {}
     choice: dict[int, Hyperarc] = {}
-    deadline = None if budget.time_limit is None else time.perf_counter() + budget.time_limit
+    meter = budget.meter()
 
     class _Stop(Exception):
         pass
@@ -213,11 +213,10 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
             return False
         if proven.get(m, 1 << 30) <= d:
             return True
-        if len(memo) > budget.max_nodes or (deadline is not None
-                                            and time.perf_counter() > deadline):
+        if len(memo) > budget.max_nodes or meter.spent() is not None:
             raise _Stop
         cap = 1 << (d - 1)
-        for h in get(m):
+        for h in get(m, meter):
             if h.left.bit_count() <= cap and h.right.bit_count() <= cap and \
                     fits(h.left, d - 1) and fits(h.right, d - 1):
                 proven[m] = d
@@ -414,7 +413,7 @@ def min_directions(ndbg: NDBG, *, base: int | None = None, budget: Budget | None
 
     Exact by search: subsets of the non-dominated distinct DBGs are tried by increasing size,
     each tested in polynomial time by :func:`sink_decompose` (heredity), until
-    ``budget.max_nodes`` tests or ``budget.time_limit``; beyond that the answer is an upper
+    ``budget.max_nodes`` tests or its work budget; beyond that the answer is an upper
     bound from a greedy cover (``exact`` False, ``lower_bound`` the largest size fully refuted).
     """
     budget = budget or Budget()
@@ -428,15 +427,16 @@ def min_directions(ndbg: NDBG, *, base: int | None = None, budget: Budget | None
                 "stuck": stuck, "why": f"no candidate algorithm: {_names(ndbg, stuck)} cannot "
                 "be partitioned in any region"}
     cands = _dominant_regions(ndbg, root)
-    deadline = None if budget.time_limit is None else time.perf_counter() + budget.time_limit
+    meter = budget.meter()
     tests = 0
     refuted = 0
     for k in range(1, len(cands) + 1):
         for combo in itertools.combinations(cands, k):
             tests += 1
-            if tests > budget.max_nodes or (deadline is not None
-                                            and time.perf_counter() > deadline):
+            if tests > budget.max_nodes or meter.spent() is not None:
                 return _greedy_directions(ndbg, root, base, cands, refuted, choice)
+            # a test decomposes at most n - 1 subassemblies, each over the k DBGs
+            meter.charge(k * root.bit_count())
             ch, st = sink_decompose(ndbg, root, list(combo), base=base)
             if st is None:
                 used = sorted({r for _, r in ch.values()})

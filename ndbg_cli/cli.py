@@ -19,7 +19,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .analysis import MOTIONS, STRATEGIES, Options, read_config, setting_problem
+from .analysis import MOTIONS, STRATEGIES, WORK_LIMIT, Options, read_config, setting_problem
 from .batch import Interrupted, default_jobs, run_batch, run_batch_dask
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
@@ -152,8 +152,13 @@ def _common_load_options(f):
 @click.option("--max-nodes", type=click.IntRange(1), default=2_000, show_default=True,
               help="AND/OR graph budget: subassemblies per search (a graph with more is "
               "cut at once; the measures then come from anytime searches).")
-@click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=2.0,
-              show_default=True, help="AND/OR graph budget: seconds per search.")
+@click.option("--max-work", type=click.IntRange(1), default=WORK_LIMIT, show_default=True,
+              help="AND/OR graph budget: work units per search (DBGs induced on the "
+              "subassemblies expanded and regions listed; counted, so reports stay "
+              "reproducible).")
+@click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=None,
+              help="AND/OR graph budget: seconds per search (off by default: a search cut "
+              "by the clock makes the report depend on the machine's speed and load).")
 @click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
               show_default=True, help="Facing triangle pairs beyond which the infinite-"
               "translation NDBG is skipped (with a warning).")
@@ -161,8 +166,8 @@ def _common_load_options(f):
 @_cache_options
 @click.pass_context
 def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
-            strategy, threads_as_cylinders, connected, max_partitions, max_nodes, time_limit,
-            infinite_budget, units, tolerance, allow_outside_paths) -> None:
+            strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
+            time_limit, infinite_budget, units, tolerance, allow_outside_paths) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
     A folder holding manifests is a batch (one report each); a folder holding only meshes is
@@ -177,7 +182,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                        allow_outside_paths=allow_outside_paths, interference=interference,
                        timings=timings, strategy=strategy,
                        threads_as_cylinders=threads_as_cylinders, connected=connected,
-                       max_partitions=max_partitions, max_nodes=max_nodes,
+                       max_partitions=max_partitions, max_nodes=max_nodes, max_work=max_work,
                        time_limit=time_limit, infinite_budget=infinite_budget)
     options = dataclasses.replace(options, progress=not STATE.quiet)
     targets: list[Path] = []
@@ -338,7 +343,8 @@ def _options(ctx: click.Context, config: str | None, **given) -> Options:
             settings[name] = value
         # the click types let NaN and infinity through their ranges (a tolerance is checked
         # by the loader, against the assembly's size)
-        problem = setting_problem(name, value) if flagged and name != "tolerance" else None
+        problem = (setting_problem(name, value, null=False) if flagged and name != "tolerance"
+                   else None)
         if problem:
             raise InputError(f"--{name.replace('_', '-')}: {problem}")
     chosen = ctx.meta.get("ndbg_cache")  # "" is --no-cache

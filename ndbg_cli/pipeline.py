@@ -165,7 +165,8 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     from .classes import classes_section
     from .planning import plan, plan_section
 
-    budget = Budget(max_nodes=options.max_nodes, time_limit=options.time_limit)
+    budget = Budget(max_nodes=options.max_nodes, max_work=options.max_work,
+                    time_limit=options.time_limit)
     base = asm.index(asm.base) if asm.base is not None else None
     extra = clock("interlock_s", lambda: _interlock_and_grasp(asm, ca, ndbgs))
     graphs: dict = {}

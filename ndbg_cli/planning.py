@@ -34,13 +34,14 @@ from .andor import (
     AndOrGraph,
     Budget,
     Hyperarc,
+    Meter,
     greedy_tree,
     lower_bound_depth,
     node_splits,
     prefer_balanced,
     prefer_linear,
 )
-from .classes import min_depth_search, min_directions
+from .classes import min_depth_search, min_directions, sink_decompose
 from .dbg import bits
 from .ndbg import NDBG, ConnectivityTest
 
@@ -206,6 +207,15 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
     budget = budget or Budget()
     root = (1 << ndbg.n) - 1 if mask is None else mask
     out = Plan(ndbg=ndbg, root=root, strategy=strategy, connected=connected is not None)
+    # Whether any candidate tree exists is polynomial (heredity, classes.sink_decompose); a
+    # contact-connected tree is one of them. When none does, no search can find one (on the
+    # 115-part engine the searches used to spend their whole budget proving it).
+    sink, stuck = sink_decompose(ndbg, root, base=base)
+    if stuck is not None:
+        out.found, out.stuck = False, stuck
+        out.notes.append("no candidate algorithm: subassembly "
+                         f"{ndbg.names(stuck)} has no candidate partitioning")
+        return out
     if strategy in ("shortest", "linear"):
         g = graph or AndOrGraph(ndbg, root, base=base, connected=connected, budget=budget)
         g.build()
@@ -243,10 +253,11 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
         out.notes.append(f"{g.cut_reason()}; greedy tree "
                          "(an upper bound on the optimum)")
         chooser = prefer_balanced if strategy == "shortest" else prefer_linear
-        return _from_greedy(out, ndbg, root, base, connected, chooser, budget, None)
+        return _from_greedy(out, ndbg, root, base, connected, chooser, budget, None, sink)
     if strategy == "balanced":
         out.exact = False
-        return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None)
+        return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None,
+                            sink)
     # fewest-directions
     md = min_directions(ndbg, base=base, budget=budget)
     if md["regions"] is None:
@@ -263,7 +274,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
     # the direction count ignores the connectivity filter: fall back to all regions
     out = Plan(ndbg=ndbg, root=root, strategy=strategy, exact=False, connected=True,
                notes=["no connected tree within the minimum direction set; all regions used"])
-    return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None)
+    return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None, sink)
 
 
 def _fail(out: Plan, g: AndOrGraph, ndbg: NDBG) -> None:
@@ -277,15 +288,27 @@ def _fail(out: Plan, g: AndOrGraph, ndbg: NDBG) -> None:
 
 def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
                  connected: ConnectivityTest | None, chooser, budget: Budget,
-                 allowed: set[int] | None) -> Plan:
+                 allowed: set[int] | None,
+                 sink: dict[int, tuple[int, int]] | None = None) -> Plan:
+    """The greedy tree of ``chooser`` (regions limited to ``allowed``); when the budget cuts
+    the search before it finds one, the tree of the polynomial sink decomposition ``sink``
+    (``classes.sink_decompose``'s choice, any candidate partitionings: used only without a
+    ``connected`` filter)."""
     arcs = None
     if allowed is not None:
-        def arcs(m: int) -> list[Hyperarc]:
+        def arcs(m: int, meter: Meter) -> list[Hyperarc]:
             got, _ = node_splits(ndbg, m, base=base, connected=connected,
-                                 limit=budget.split_limit)
+                                 limit=budget.split_limit, meter=meter)
             return [r for r in (_restrict(h, allowed) for h in got) if r is not None]
     res = greedy_tree(ndbg, root, base=base, connected=connected, chooser=chooser,
                       budget=budget, arcs=arcs)
+    if not res.found and res.truncated and sink is not None and connected is None:
+        out.exact = False
+        out.notes.append("search budget exhausted before a tree was found; the sink "
+                         "decomposition's tree is given (an upper bound on the optimum)")
+        out.steps = {m: Step(mask=m, moved=moved, rest=m & ~moved, region=region)
+                     for m, (moved, region) in sink.items()}
+        return out
     if not res.found:
         out.found = False
         out.stuck = res.stuck

@@ -122,3 +122,25 @@ def test_reports_get_the_permissions_of_a_plain_open(hover, tmp_path):
     entries = [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]
     assert entries
     assert {p: _mode(p) for p in written + entries} == {p: 0o664 for p in written + entries}
+
+
+def test_search_budget_is_counted_work_not_the_clock(tmp_path):
+    # sandwich-5's AND/OR graph needs more than 50 work units: the cut is named in the plan's
+    # notes, and a counted budget gives the same bytes on every run (a clock would not)
+    args = ("analyze", EX / "fig2-sandwich-5.yaml", "--format", "json", "--max-work", "50",
+            *FAST)
+    first, second = run_cli(*args), run_cli(*args)
+    assert first.returncode == 0, first.stderr
+    assert first.stdout == second.stdout
+    notes = json.loads(first.stdout)["plan"]["notes"]
+    assert notes[0].startswith("AND/OR graph cut by the work budget (50 units)")
+    # the same budget from a config file; a wall-clock limit stays available, opt-in
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("max_work: 50\ntime_limit: null\n")
+    third = run_cli("analyze", EX / "fig2-sandwich-5.yaml", "--format", "json", "--config",
+                    cfg, *FAST)
+    assert third.returncode == 0, third.stderr
+    assert third.stdout == first.stdout
+    cfg.write_text("max_work: 0\n")
+    bad = run_cli("analyze", EX / "fig2-sandwich-5.yaml", "--config", cfg, *FAST)
+    assert bad.returncode == 2 and "max_work" in bad.stderr

@@ -969,3 +969,57 @@ def test_grasp_fingers_only_touch_exposed_faces():
                     continue
                 _, dist, _ = trimesh.proximity.closest_point(other.mesh, p)
                 assert dist[0] > asm.length_tolerance, (f, ids[j])
+
+
+# ------------------------------------------------------------------- deterministic budgets
+def test_budget_has_no_clock_by_default_and_cuts_by_counted_work():
+    # the default budget is counts only, so a report does not depend on the machine's speed
+    assert Budget().time_limit is None and Budget().max_work is not None
+    # 6 free parts: 203 subassemblies; each expansion charges its induced DBG (1) and the
+    # regions of its moved sets (one per set), so a small work budget cuts the build, always
+    # after the same nodes
+    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])
+    cuts = []
+    for _ in range(3):
+        g = AndOrGraph(nd, budget=Budget(max_work=100)).build()
+        assert g.truncated and g.cut_by == "work"
+        assert "work budget (100 units)" in g.cut_reason()
+        cuts.append((g.node_count, g.work, sorted(g.arcs)))
+    assert cuts[0] == cuts[1] == cuts[2]
+    # the root alone has 2^6 - 2 = 62 moved sets (31 hyperarcs), each free in region 0:
+    # 1 induced DBG + 62 region entries + 6 for the single parts, listed first (their
+    # closures, kept under a split limit) and again by the enumeration
+    g = AndOrGraph(nd, budget=Budget(max_work=1)).build()
+    assert list(g.arcs) == [0b111111] and g.work == 1 + 62 + 6
+    # a budget large enough leaves the graph complete, with the same answers as no budget
+    full = AndOrGraph(nd, budget=Budget(max_work=None)).build()
+    assert full.complete and AndOrGraph(nd).build().tree_count() == full.tree_count()
+
+
+def test_anytime_searches_stop_on_the_work_budget():
+    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])
+    r = min_depth_search(nd, budget=Budget(max_work=1))
+    assert not r.exact and (r.lower, r.upper) == (3, 3) or r.upper is None
+    p = plan(nd, "shortest", budget=Budget(max_work=1))
+    assert p.found and not p.exact and "work budget (1 units)" in p.notes[0]
+    # the greedy search cut before any tree: the polynomial sink decomposition's tree is a
+    # candidate tree all the same (every step's moved set free in its region)
+    for strategy in ("balanced", "linear"):
+        p = plan(nd, strategy, budget=Budget(max_nodes=1, max_work=1))
+        assert p.found and not p.exact and "sink decomposition" in p.notes[-1]
+        assert len(p.steps) == 5 and p.depth() >= 3
+        for s in p.steps.values():
+            assert s.moved and s.rest and s.moved | s.rest == s.mask
+            assert nd.regions[s.region].dbg.is_free(s.moved, s.mask)
+
+
+def test_no_candidate_tree_is_proven_without_a_search():
+    # A and B interlock in every region (a 2-cycle), C is free: {A, B} has no partitioning,
+    # whatever the budget: the plan is an exact failure naming the smallest stuck set, even
+    # with a budget too small to expand a single subassembly
+    nd = mk("ABC", [(d, both((0, 1))) for d in (UP, DOWN, PX)])
+    for budget in (Budget(max_nodes=1, max_work=1), Budget()):
+        for strategy in STRATEGIES:
+            p = plan(nd, strategy, budget=budget)
+            assert not p.found and p.exact and p.stuck == 0b011, strategy
+            assert "['A', 'B'] has no candidate partitioning" in p.notes[0]

@@ -222,9 +222,13 @@ def test_plan_not_found_within_the_budget_is_undecided(tmp_path):
     (tmp_path / "r.yaml").write_text("rules:\n  plan_found: true\n")
     r = run_cli("check", tmp_path / "u.yaml", "--rules", tmp_path / "r.yaml", "--config",
                 tmp_path / "cfg.yaml", "--jobs", "1")
-    assert r.returncode == 1  # undecided: fail
-    assert r.stdout.startswith("ustack: plan_found: undecided, measured none")
-    assert "budget" in r.stdout
+    # the searches are cut at 3 subassemblies, but a candidate tree exists, and the
+    # polynomial sink decomposition gives one (verified by the sweep test): found
+    assert r.returncode == 0, r.stdout
+    rep = _analyze(tmp_path, "u2", USTACK, "--config", str(tmp_path / "cfg.yaml"))
+    assert rep["plan"]["found"] and not rep["plan"]["exact"]
+    assert any("sink decomposition's tree" in n for n in rep["plan"]["notes"])
+    # a plan not found by a cut search (not proven impossible) is undecided
     complete = _report(2)
     complete["plan"] = {"found": False, "exact": True}
     assert _one(complete, "plan_found", True).ok is False
