@@ -261,10 +261,12 @@ def _big(value: int | None) -> dict:
     return {} if value is None or abs(value) <= 2 ** 53 else {"as_string": str(value)}
 
 
-def andor_section(graph: AndOrGraph) -> dict:
+def andor_section(graph: AndOrGraph, depth: dict | None = None) -> dict:
     """The report's ``andor`` section: graph size and exact measures (``None`` when the graph is
     truncated, except the minimum depth, which then comes from :func:`min_depth_search` when
-    its own budget suffices, else from its bounds). Counts above 2^53 are also given as decimal
+    its own budget suffices, else from its bounds; ``depth``, the family's ``min_depth``
+    measure from :func:`classify` on the same graph, spares that search). ``cut_by`` and
+    ``why`` say what cut a truncated graph. Counts above 2^53 are also given as decimal
     strings."""
     graph.build()
     out: dict = {
@@ -272,6 +274,9 @@ def andor_section(graph: AndOrGraph) -> dict:
         "hyperarcs": graph.hyperarc_count,
         "truncated": graph.truncated,
         "split_truncated": graph.split_truncated,
+        "cut_by": graph.cut_by if graph.truncated else None,
+        "why": graph.cut_reason() if graph.truncated else
+        f"complete: all {graph.node_count} subassemblies reachable by candidate partitionings",
         "min_depth": None, "trees": None, "linear_sequences": None, "min_nonlinear": None,
         "min_depth_lower_bound": lower_bound_depth(graph.root),
         "min_depth_upper_bound": None,
@@ -292,6 +297,12 @@ def andor_section(graph: AndOrGraph) -> dict:
             out["trees_str"] = str(out["trees"])
         if _big(out["linear_sequences"]):
             out["linear_sequences_str"] = str(out["linear_sequences"])
+    elif depth is not None:
+        exact = bool(depth.get("exact"))
+        out.update(min_depth=depth["value"] if exact else None,
+                   min_depth_lower_bound=depth.get("lower_bound", depth["value"]),
+                   min_depth_upper_bound=depth.get("upper_bound", depth["value"]),
+                   min_depth_exact=exact)
     else:
         r = min_depth_search(graph.ndbg, graph.root, base=graph.base, connected=graph.connected,
                              budget=graph.budget, graph=graph)

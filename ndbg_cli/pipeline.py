@@ -162,7 +162,7 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
 
     # -- planning and measures ---------------------------------------------------------
     from .andor import Budget
-    from .classes import classes_section
+    from .classes import andor_section, classes_section
     from .planning import plan, plan_section
 
     budget = Budget(max_nodes=options.max_nodes, max_work=options.max_work,
@@ -172,6 +172,9 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
     graphs: dict = {}
     out["classes"] = clock("classes_s", lambda: classes_section(
         ndbgs, base=base, budget=budget, interlock=extra[0], grasps=extra[1], graphs=graphs))
+    # the AND/OR graphs the classes built: size, and the exact counts when complete
+    out["andor"] = {fam: andor_section(g, (out["classes"].get(fam) or {}).get("min_depth"))
+                    for fam, g in sorted(graphs.items())}
     if threaded and not options.threads_as_cylinders:
         for fam in (INFINITESIMAL, INFINITE):
             if fam in out["classes"]:

@@ -72,6 +72,27 @@ def classes_lines(report: dict) -> list[str]:
     return ["", "classes (paper section 7)"] + ["  " + x for x in classes_text(report["classes"])]
 
 
+def andor_lines(report: dict) -> list[str]:
+    """One line per family's AND/OR graph: its size, and its exact counts when complete."""
+    if not report.get("andor"):
+        return []
+    lines = ["", "AND/OR graphs of the candidate assembly trees (paper section 7.2)"]
+    for fam, g in sorted(report["andor"].items()):
+        head = f"  {fam.replace('_', ' ')}: {g['nodes']} subassemblies, {g['hyperarcs']} " \
+               "partitionings"
+        if g.get("cut_by") == "supergraph":
+            lines.append(f"  {fam.replace('_', ' ')}: {g['why']}")
+            continue
+        if g["truncated"]:
+            lines.append(f"{head}; cut ({g.get('why', '')}): no exact counts")
+            continue
+        trees = g.get("trees_str", g["trees"])
+        seqs = g.get("linear_sequences_str", g["linear_sequences"])
+        lines.append(f"{head}; {trees} tree(s), {seqs} linear sequence(s), minimum depth "
+                     f"{g['min_depth']}")
+    return lines
+
+
 def ndbg_lines(report: dict) -> list[str]:
     """One summary per blocking-graph family."""
     lines: list[str] = []
@@ -128,4 +149,4 @@ def plan_lines(report: dict) -> list[str]:
 
 
 #: Renderers of the analysis stages, each ``report -> list of lines``, in report order.
-TEXT_SECTIONS: list = [contacts_lines, classes_lines, plan_lines, ndbg_lines]
+TEXT_SECTIONS: list = [contacts_lines, classes_lines, andor_lines, plan_lines, ndbg_lines]

@@ -264,3 +264,23 @@ def test_contacts_command_on_as1_lists_the_32_pairs():
     assert len(pairs) == 32 and not doc["interferences"]
     assert r.stdout == run_cli("contacts", shared("as1", "as1-oc-214.stp"),
                                "--format", "json").stdout
+
+
+def test_andor_section_counts_the_hover_trees_by_hand():
+    # base, puck, bridge (3 parts, no part touches both others' tops): at the root the puck
+    # slides out along +y, the bridge lifts off, the base drops away: 3 single-part splits;
+    # every pair then has its one split (the puck and the bridge do not touch). Nodes: the
+    # root, 3 pairs, 3 parts; hyperarcs 3 + 3; trees 3 (one per root split); linear
+    # sequences 3 x 2 (the last part added, times both orders of the first two); depth 2.
+    rep = report("hover")
+    validate_report(rep)
+    for fam in ("infinitesimal_translation", "infinite_translation", "generalized"):
+        g = rep["andor"][fam]
+        assert (g["nodes"], g["hyperarcs"], g["trees"], g["linear_sequences"],
+                g["min_depth"], g["min_nonlinear"], g["truncated"]) == (7, 6, 3, 6, 2, 0, False)
+    # a graph cut by the budget gives no counts and says why
+    bell = report("bell")
+    g = bell["andor"]["infinitesimal_translation"]
+    assert g["truncated"] and g["trees"] is None and g["cut_by"] == "splits"
+    assert "over 5000 candidate partitionings" in g["why"]
+    assert bell["andor"]["generalized"]["cut_by"] == "supergraph"
