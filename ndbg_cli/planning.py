@@ -412,6 +412,33 @@ def depth_note(exact: bool, connected: bool, strategy: str) -> str:
     return ""
 
 
+def plan_proves(p: dict) -> dict | None:
+    """What a plan section (:func:`plan_section`, with its ``verified`` and ``proofs``)
+    proves when the direct sweep test verified it (a real 1-handed monotone 1-prismatic
+    algorithm, :func:`verify`): the classes it shows, and upper bounds on the minimum depth,
+    nonlinear steps and directions from it and the verified ``proofs`` trees; ``None``
+    without a verified plan. The rules (``ndbg check``) and the text report read it."""
+    v = p.get("verified") or {}
+    if not p.get("found") or v.get("value") is not True:
+        return None
+    dirs = {tuple(s["removal_direction"]) for s in p.get("sequence") or []
+            if s.get("removal_direction") is not None}
+    trees = [{"depth": p.get("depth"), "nonlinear_steps": p.get("nonlinear_steps"),
+              "directions": len(dirs)}] + list(p.get("proofs") or [])
+
+    def best(key: str) -> int | None:
+        got = [t[key] for t in trees if t.get(key) is not None]
+        return min(got) if got else None
+
+    return {"one_handed_monotone": True, "prismatic": True,
+            "linearizable": True if best("nonlinear_steps") == 0 else None,
+            "min_depth": best("depth"), "min_nonlinear": best("nonlinear_steps"),
+            "min_directions": best("directions"),
+            "why": f"{p.get('family')} plan, {v.get('why')}"
+                   + (f" (also {', '.join(t['strategy'] for t in trees[1:])} trees)"
+                      if len(trees) > 1 else "")}
+
+
 def plan_text(p: Plan) -> list[str]:
     """Designer-readable assembly sequence as numbered steps."""
     if not p.found:

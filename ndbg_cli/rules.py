@@ -51,6 +51,7 @@ from typing import Any
 
 from .classes import GENERALIZED, INFINITE, INFINITESIMAL, label, verdict
 from .errors import InputError
+from .planning import plan_proves
 from .report import identity
 
 FAMILIES = ("auto", INFINITESIMAL, INFINITE, GENERALIZED)
@@ -327,7 +328,7 @@ def _hands(report: dict, fams: list[str]) -> tuple[Any, Any, Any, str]:
     n = _parts(report)
     lower = None if n is None else min(n - 1, 1)
     upper, why = None, ""
-    proof = _plan_proof(report)
+    proof = plan_proves(report.get("plan") or {})
     if proof is not None:
         upper, why = 1, "verified plan: " + proof["why"]
     else:
@@ -383,7 +384,7 @@ def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
         if not e.get("complete", True) or v is None:
             return None, None, None, note
         return None, None, v, note + " (greedy: an upper bound)"
-    proof = _plan_proof(report)
+    proof = plan_proves(report.get("plan") or {})
     if RULES[rule][0] == "bool":
         got = _bool_class(report, key, fams)
         if proof is not None and proof.get(key) is True:
@@ -398,32 +399,6 @@ def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
         note = f"verified plan: at most {upper}; " + note
         value = lower if lower is not None and lower == upper else None
     return value, lower, upper, note
-
-
-def _plan_proof(report: dict) -> dict | None:
-    """What a plan verified by the direct sweep test proves (a real 1-handed monotone
-    1-prismatic algorithm, :func:`ndbg_cli.planning.verify`): the classes it shows, and upper
-    bounds on the minimum depth, nonlinear steps and directions; ``None`` without one."""
-    p = report.get("plan") or {}
-    v = p.get("verified") or {}
-    if not p.get("found") or v.get("value") is not True:
-        return None
-    dirs = {tuple(s["removal_direction"]) for s in p.get("sequence") or []
-            if s.get("removal_direction") is not None}
-    trees = [{"depth": p.get("depth"), "nonlinear_steps": p.get("nonlinear_steps"),
-              "directions": len(dirs)}] + list(p.get("proofs") or [])
-
-    def best(key: str) -> int | None:
-        got = [t[key] for t in trees if t.get(key) is not None]
-        return min(got) if got else None
-
-    return {"one_handed_monotone": True, "prismatic": True,
-            "linearizable": True if best("nonlinear_steps") == 0 else None,
-            "min_depth": best("depth"), "min_nonlinear": best("nonlinear_steps"),
-            "min_directions": best("directions"),
-            "why": f"{p.get('family')} plan, {v.get('why')}"
-                   + (f" (also {', '.join(t['strategy'] for t in trees[1:])} trees)"
-                      if len(trees) > 1 else "")}
 
 
 def _plan_found(p: dict) -> tuple[Any, Any, Any, str]:

@@ -68,8 +68,20 @@ def classes_lines(report: dict) -> list[str]:
     if "classes" not in report:
         return []
     from .classes import classes_text
+    from .planning import plan_proves
 
-    return ["", "classes (paper section 7)"] + ["  " + x for x in classes_text(report["classes"])]
+    lines = ["", "classes (paper section 7)"] + ["  " + x for x in classes_text(report["classes"])]
+    proof = plan_proves(report.get("plan") or {})
+    if proof is not None:
+        # the families' verdicts above are what each NDBG shows; a plan that passed the sweep
+        # test is a real algorithm and proves more (the rules of `ndbg check` use it too)
+        lin = {True: "yes"}.get(proof["linearizable"], "undecided")
+        bounds = ", ".join(f"{name} <= {proof[k]}" for k, name in
+                           (("min_depth", "minimum depth"), ("min_nonlinear", "nonlinear steps"),
+                            ("min_directions", "directions")) if proof[k] is not None)
+        lines += ["  proven by the verified plan (sweep test):",
+                  f"    1-handed monotone: yes, 1-prismatic: yes, linearizable: {lin}; {bounds}"]
+    return lines
 
 
 def andor_lines(report: dict) -> list[str]:

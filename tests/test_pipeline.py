@@ -284,3 +284,20 @@ def test_andor_section_counts_the_hover_trees_by_hand():
     assert g["truncated"] and g["trees"] is None and g["cut_by"] == "splits"
     assert "over 5000 candidate partitionings" in g["why"]
     assert bell["andor"]["generalized"]["cut_by"] == "supergraph"
+
+
+def test_text_shows_what_the_verified_plan_proves():
+    from ndbg_cli.planning import plan_proves
+    from ndbg_cli.text import render
+
+    rep = report("bell")
+    assert rep["plan"]["verified"]["value"] is True
+    text = render(rep)
+    # the infinitesimal family's verdicts stay candidates; the verified plan proves more
+    assert "1-handed monotone: yes (candidate only: a necessary condition)" in text
+    assert "proven by the verified plan (sweep test):" in text
+    assert "1-handed monotone: yes, 1-prismatic: yes, linearizable: yes; minimum depth <= " \
+        f"{rep['plan']['depth']}" in text
+    failed = dict(rep["plan"], verified={"value": False, "steps": 21, "why": "step 3 blocked"})
+    assert plan_proves(failed) is None
+    assert "proven by the verified plan" not in render(dict(rep, plan=failed))
