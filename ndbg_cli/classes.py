@@ -31,31 +31,28 @@ motions of its family (:data:`HOLDS_FOR`) and ``evidence`` is
 * ``"bound"``: ``lower_bound <= optimum <= upper_bound`` for real algorithms with those motions
   (a search cut by its budget, a greedy grasp).
 
-Also here: :func:`min_depth_search` (exact minimum depth by iterative deepening, no full graph),
-:func:`andor_section` (the report's AND/OR section) and :func:`sink_decompose` (the polynomial
-decomposition behind the exact yes/no classes).
+Also here: :func:`andor_section` (the report's AND/OR section). The searches behind the
+measures (:func:`~ndbg_cli.decompose.sink_decompose`, ``min_directions``,
+``min_depth_search``) are in :mod:`decompose`.
 """
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass
 
-from .andor import (
-    AndOrGraph,
-    Budget,
-    Hyperarc,
-    Meter,
-    contains,
-    gc_paused,
-    greedy_tree,
-    lower_bound_depth,
-    node_splits,
+from .andor import AndOrGraph, Budget, contains, greedy_tree, lower_bound_depth
+from .decompose import (  # noqa: F401  (min_depth_search, min_directions: this module's API)
+    DepthResult,
+    dominant_regions,
+    min_depth_search,
+    min_directions,
+    regions_named,
+    set_string,
+    sink_decompose,
+    sink_split,
+    tree_string,
 )
-from .components import condense
-from .dbg import bits
-from .ndbg import NDBG, ConnectivityTest
+from .ndbg import NDBG
 
 #: AND/OR graph budget when none is given (the CLI's --max-nodes / --time-limit defaults).
 DEFAULT_BUDGET = Budget(max_nodes=2_000)
@@ -139,123 +136,6 @@ def verdict(key: str, entry: dict) -> str:
         return f"{v} (with {scope})"
     return str(v)
 
-# ------------------------------------------------------------- exact min depth, no full graph
-@dataclass
-class DepthResult:
-    """Outcome of :func:`min_depth_search`: ``depth`` is exact when ``exact``; otherwise
-    ``lower <= optimum <= upper`` (``upper`` from the best tree found). ``choice`` holds the
-    hyperarcs of an optimal (or best found) tree; ``expanded`` counts nodes whose splits were
-    enumerated."""
-
-    depth: int | None
-    exact: bool
-    lower: int
-    upper: int | None
-    choice: dict[int, Hyperarc]
-    expanded: int
-    why: str = ""
-
-
-@gc_paused()
-def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
-                     connected: ConnectivityTest | None = None, budget: Budget | None = None,
-                     graph: AndOrGraph | None = None) -> DepthResult:
-    """Exact minimum tree height by iterative deepening without building the whole graph.
-
-    ``fits(M, d)``: a tree of height ``<= d`` exists iff some hyperarc has both sides of at most
-    ``2^(d-1)`` parts that fit in ``d - 1``; memoized per subassembly as the largest refuted and
-    smallest proven height. Starts at ``ceil(log2 n)`` and stops at the greedy balanced tree's
-    height (an upper bound), so a proven optimum usually costs far fewer nodes than the full
-    AND/OR graph. Anytime: when the budget runs out, returns the bounds reached. With
-    ``graph`` (same ``base`` and ``connected``), its memoized hyperarcs are used and its cut
-    partitioning lists count as cuts of this search.
-    """
-    budget = budget or Budget()
-    root = (1 << ndbg.n) - 1 if mask is None else mask
-    memo: dict[int, list[Hyperarc]] = {}
-    trunc_splits = False
-
-    def get(m: int, meter: Meter) -> list[Hyperarc]:
-        nonlocal trunc_splits
-        got = memo.get(m)
-        if got is None:
-            if graph is not None:
-                got = graph.expand(m, meter)
-            else:
-                got, t = node_splits(ndbg, m, base=base, connected=connected,
-                                     limit=budget.split_limit, meter=meter)
-                trunc_splits |= t
-            memo[m] = got
-        return got
-
-    def cut() -> bool:
-        return trunc_splits or (graph is not None and graph.split_truncated)
-
-    greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
-    lower = lower_bound_depth(root)
-    if not greedy.found:
-        exact = not greedy.truncated and not cut()
-        return DepthResult(None, exact, lower, None, {}, len(memo))
-    upper = greedy.depth()
-    best_choice = dict(greedy.choice)
-    proven: dict[int, int] = {}
-    refuted: dict[int, int] = {}
-    choice: dict[int, Hyperarc] = {}
-    meter = budget.meter()
-
-    class _Stop(Exception):
-        pass
-
-    def fits(m: int, d: int) -> bool:
-        if m.bit_count() == 1:
-            return True
-        if d < lower_bound_depth(m) or refuted.get(m, -1) >= d:
-            return False
-        if proven.get(m, 1 << 30) <= d:
-            return True
-        if len(memo) > budget.max_nodes or meter.spent() is not None:
-            raise _Stop
-        cap = 1 << (d - 1)
-        for h in get(m, meter):
-            if h.left.bit_count() <= cap and h.right.bit_count() <= cap and \
-                    fits(h.left, d - 1) and fits(h.right, d - 1):
-                proven[m] = d
-                choice[m] = h
-                return True
-        refuted[m] = max(d, refuted.get(m, -1))
-        return False
-
-    d = lower
-    try:
-        while d < upper:
-            if fits(root, d):
-                upper = d
-                best_choice = _tree_choice(root, choice)
-                break
-            d += 1
-    except _Stop:
-        return DepthResult(None, False, lower if cut() else d, upper, best_choice, len(memo))
-    # Refutations over cut partitioning lists prove nothing: then only ceil(log2 n) bounds
-    # the optimum from below (and proves it when the tree found reaches it).
-    exact = not cut() or upper == lower
-    return DepthResult(upper if exact else None, exact, upper if exact else lower, upper,
-                       best_choice, len(memo))
-
-
-def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
-    """The hyperarcs of the tree rooted at ``root`` in ``choice``."""
-    out: dict[int, Hyperarc] = {}
-    stack = [root]
-    while stack:
-        m = stack.pop()
-        if m.bit_count() < 2:
-            continue
-        h = choice[m]
-        out[m] = h
-        stack.extend((h.left, h.right))
-    return out
-
-
 # ----------------------------------------------------------------------------- report
 def _big(value: int | None) -> dict:
     return {} if value is None or abs(value) <= 2 ** 53 else {"as_string": str(value)}
@@ -311,196 +191,6 @@ def andor_section(graph: AndOrGraph, depth: dict | None = None) -> dict:
     return out
 
 
-# ------------------------------------------------- polynomial decomposition by sink components
-def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
-               base: int | None = None, linear: bool = False) -> tuple[int, int] | None:
-    """A candidate partitioning of ``mask`` as ``(moved, region)``, or ``None`` if none exists
-    in ``regions`` (default: all).
-
-    Every nonempty free set contains a sink component of the condensation, so a proper free set
-    avoiding the base exists iff some sink component avoids it; with ``linear`` one side must
-    be a single part: a singleton sink component (moved), or a part with no incoming arc whose
-    complement moves (only if that part is the base or the base is absent).
-    """
-    if mask.bit_count() < 2:
-        return None
-    base_bit = 0 if base is None else (1 << base) & mask
-    order = range(len(ndbg.regions)) if regions is None else regions
-    seen: set[tuple[int, ...]] = set()
-    for r in order:
-        g = ndbg.regions[r].dbg
-        key = tuple(g.succ[i] & mask for i in bits(mask))
-        if key in seen:
-            continue
-        seen.add(key)
-        comps, comp_succ = condense(g.succ, mask)
-        if len(comps) < 2:
-            continue
-        for c, s in zip(comps, comp_succ):
-            if s == 0 and not c & base_bit and (not linear or c.bit_count() == 1):
-                return c, r
-        if linear:
-            incoming = 0
-            for i in bits(mask):
-                incoming |= g.succ[i] & mask & ~(1 << i)
-            for p in bits(mask & ~incoming):
-                if not base_bit or base_bit == 1 << p:
-                    return mask & ~(1 << p), r
-    return None
-
-
-def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] | None = None,
-                   *, base: int | None = None, linear: bool = False
-                   ) -> tuple[dict[int, tuple[int, int]], int | None]:
-    """Decompose ``mask`` by :func:`sink_split` at every node: ``(choice, stuck)`` with
-    ``choice[m] = (moved, region)``. By heredity this is exact: ``stuck`` (a subassembly with no
-    partitioning, hence a proof of failure) is ``None`` iff a candidate tree (a linear one with
-    ``linear``) exists using only ``regions``. Polynomial: ``O(n * regions * (n + arcs))``."""
-    root = (1 << ndbg.n) - 1 if mask is None else mask
-    choice: dict[int, tuple[int, int]] = {}
-    stack = [root]
-    while stack:
-        m = stack.pop()
-        if m.bit_count() < 2:
-            continue
-        got = sink_split(ndbg, m, regions, base=base, linear=linear)
-        if got is None:
-            return choice, m
-        choice[m] = got
-        stack.extend((m & ~got[0], got[0]))
-    return choice, None
-
-
-
-def _names(ndbg: NDBG, mask: int) -> str:
-    return "{" + ", ".join(ndbg.names(mask)) + "}"
-
-
-def tree_string(ndbg: NDBG, choice: dict[int, tuple[int, int]], mask: int) -> str:
-    """Compact nested rendering ``(moved | rest)`` of a decomposition ``choice[m] = (moved,
-    region)``."""
-    if mask.bit_count() < 2:
-        return ndbg.names(mask)[0]
-    moved, _ = choice[mask]
-    return f"({tree_string(ndbg, choice, moved)} | {tree_string(ndbg, choice, mask & ~moved)})"
-
-
-def _regions_named(ndbg: NDBG, regions) -> list[dict]:
-    out = []
-    for r in regions:
-        reg = ndbg.regions[r]
-        d: dict = {"region": r}
-        if reg.direction is not None:
-            d["direction"] = [float(x) for x in reg.direction]
-        if reg.motion is not None:
-            d["motion"] = reg.motion
-        out.append(d)
-    return out
-
-
-def _dominant_regions(ndbg: NDBG, mask: int) -> list[int]:
-    """One region per distinct DBG induced on ``mask``, dropping any whose arc set contains
-    another's (its free sets are a subset of the other's, so it is never needed)."""
-    reps: dict[tuple[int, ...], int] = {}
-    for k, r in enumerate(ndbg.regions):
-        key = tuple(r.dbg.succ[i] & mask for i in bits(mask))
-        if key not in reps:
-            reps[key] = k
-    keys = list(reps)
-    keep = []
-    for a in keys:
-        dominated = any(b != a and all(x & y == y for x, y in zip(a, b)) for b in keys)
-        if not dominated:
-            keep.append(reps[a])
-    return sorted(keep)
-
-
-def min_directions(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
-                   mask: int | None = None) -> dict:
-    """Minimum number of distinct regions (translation directions, or suggested motions) a
-    candidate algorithm needs, where each instruction may use any region in which its moved
-    side is free (moving ``S`` along ``d`` and the rest along ``-d`` count as different
-    directions).
-
-    Exact by search: subsets of the non-dominated distinct DBGs are tried by increasing size,
-    each tested in polynomial time by :func:`sink_decompose` (heredity), until
-    ``budget.max_nodes`` tests or its work budget; beyond that the answer is an upper
-    bound from a greedy cover (``exact`` False, ``lower_bound`` the largest size fully refuted).
-    """
-    budget = budget or Budget()
-    root = (1 << ndbg.n) - 1 if mask is None else mask
-    if root.bit_count() < 2:
-        return {"value": 0, "exact": True, "lower_bound": 0, "regions": [],
-                "why": "a single part needs no instruction"}
-    choice, stuck = sink_decompose(ndbg, root, base=base)
-    if stuck is not None:
-        return {"value": None, "exact": True, "lower_bound": None, "regions": None,
-                "stuck": stuck, "why": f"no candidate algorithm: {_names(ndbg, stuck)} cannot "
-                "be partitioned in any region"}
-    cands = _dominant_regions(ndbg, root)
-    meter = budget.meter()
-    tests = 0
-    refuted = 0
-    for k in range(1, len(cands) + 1):
-        for combo in itertools.combinations(cands, k):
-            tests += 1
-            if tests > budget.max_nodes or meter.spent() is not None:
-                return _greedy_directions(ndbg, root, base, cands, refuted, choice)
-            # a test decomposes at most n - 1 subassemblies, each over the k DBGs
-            meter.charge(k * root.bit_count())
-            ch, st = sink_decompose(ndbg, root, list(combo), base=base)
-            if st is None:
-                used = sorted({r for _, r in ch.values()})
-                return {"value": len(used), "exact": True, "lower_bound": len(used),
-                        "regions": used, "directions": _regions_named(ndbg, used),
-                        "why": ("exact: one region suffices" if k == 1 else
-                                f"exact: no set of {k - 1} region(s) suffices") +
-                        f"; regions {used} give the tree {tree_string(ndbg, ch, root)}"}
-        refuted = k
-    raise AssertionError("the full region set decomposes, so some subset must")
-
-
-def _greedy_directions(ndbg: NDBG, root: int, base: int | None, cands: list[int],
-                       refuted: int, choice: dict[int, tuple[int, int]]) -> dict:
-    """Upper bound: grow a region set greedily, adding the region that lets the decomposition
-    go furthest (fewest parts left in stuck subassemblies), until nothing is stuck."""
-    chosen: list[int] = []
-    while True:
-        best = None
-        for r in cands:
-            if r in chosen:
-                continue
-            ch, st = sink_decompose(ndbg, root, chosen + [r], base=base)
-            score = 0 if st is None else _stuck_weight(ndbg, root, chosen + [r], base)
-            if best is None or (score, r) < best[:2]:
-                best = (score, r, ch, st)
-        assert best is not None
-        chosen.append(best[1])
-        if best[3] is None:
-            used = sorted({r for _, r in best[2].values()})
-            return {"value": len(used), "exact": False, "lower_bound": refuted + 1,
-                    "regions": used, "directions": _regions_named(ndbg, used),
-                    "why": f"upper bound (search budget exhausted after all sets of "
-                    f"{refuted} region(s) failed): regions {used} give the tree "
-                    f"{tree_string(ndbg, best[2], root)}"}
-
-
-def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -> int:
-    """Parts inside stuck subassemblies when decomposing with ``regions`` as far as possible."""
-    total = 0
-    stack = [root]
-    while stack:
-        m = stack.pop()
-        if m.bit_count() < 2:
-            continue
-        got = sink_split(ndbg, m, regions, base=base)
-        if got is None:
-            total += m.bit_count()
-            continue
-        stack.extend((got[0], m & ~got[0]))
-    return total
-
-
 def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
              graph: AndOrGraph | None = None,
              contained: Sequence[tuple[str, dict]] = ()) -> dict:
@@ -523,8 +213,8 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
         # only the infinite translations' trees are real algorithms
         why = ("tree " if fam == INFINITE else "candidate tree ") + tree_string(ndbg, choice, full)
     else:
-        why = (f"subassembly {_names(ndbg, stuck)}: every one of the "
-               f"{len(_dominant_regions(ndbg, stuck))} non-dominated distinct DBGs induced on it "
+        why = (f"subassembly {set_string(ndbg, stuck)}: every one of the "
+               f"{len(dominant_regions(ndbg, stuck))} non-dominated distinct DBGs induced on it "
                "admits no proper free subset" + (" avoiding the base" if base is not None
                                                   else " (all strongly connected)"))
     if fam == "infinitesimal_translation":
@@ -549,7 +239,7 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
         out["linearizable"] = {"value": True, "why": "parts added one at a time: "
                                + ", ".join(order)}
     else:
-        out["linearizable"] = {"value": False, "why": f"subassembly {_names(ndbg, lin_stuck)}: "
+        out["linearizable"] = {"value": False, "why": f"subassembly {set_string(ndbg, lin_stuck)}: "
                                "no single part can be separated from the rest in any region"}
 
     if graph is None:
@@ -623,7 +313,7 @@ def stack_product(ndbg: NDBG, *, base: int | None = None) -> dict:
                 f"decomposes the product (moving {moved} along its direction)"}
     k = min(found, key=lambda r: (-ndbg.regions[r].dimension, r))
     note = "" if fam == INFINITE else " (candidate: infinitesimal only)"
-    return {"value": True, "region": k, "direction": _regions_named(ndbg, [k])[0].get("direction"),
+    return {"value": True, "region": k, "direction": regions_named(ndbg, [k])[0].get("direction"),
             "why": f"the DBG of region {k} decomposes every subassembly: {moved} always "
             "comes apart along that one direction" + note}
 
@@ -652,7 +342,7 @@ def interlock_hands(lock: dict, ndbgs: dict[str, NDBG]) -> dict:
     low = 2 if refuted else 1
     exact = one is not None or (refuted and k == 2)
     if one is not None and src is not None:
-        note = (f"; one moved set suffices: {_names(src, one[0])} is free in region {one[1]} "
+        note = (f"; one moved set suffices: {set_string(src, one[0])} is free in region {one[1]} "
                 f"of the {src.family} NDBG")
     elif refuted:
         note = ("; no single subassembly is free in any direction, so at least 2 moved sets"

@@ -41,8 +41,8 @@ from .andor import (
     prefer_balanced,
     prefer_linear,
 )
-from .classes import min_depth_search, min_directions, sink_decompose
 from .dbg import bits
+from .decompose import min_depth_search, min_directions, sink_decompose
 from .ndbg import NDBG, ConnectivityTest
 
 STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
