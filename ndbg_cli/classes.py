@@ -41,6 +41,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from .andor import AndOrGraph, Budget, contains, greedy_tree, lower_bound_depth
+from .components import condense
 from .decompose import (  # noqa: F401  (min_depth_search, min_directions: this module's API)
     DepthResult,
     dominant_regions,
@@ -294,10 +295,18 @@ def stack_regions(ndbg: NDBG, *, base: int | None = None) -> list[int]:
     paper's "the DBG is acyclic" (every subassembly of an acyclic graph has a sink part to
     move). With a base it is stricter: the base may not be the only sink, e.g. a stack of boxes
     on a middle base needs up for the boxes above it and down for those below (two
-    directions, no stack product). Tested by :func:`sink_decompose` on that one region."""
+    directions, no stack product). Tested by :func:`sink_decompose` on that one region, once
+    per distinct DBG, after the cheap necessary test: a DBG with a cycle never separates the
+    parts of the cycle (the 115-part engine's 8,110 DBGs all have one: 1.6 s -> 0.07 s)."""
     full = (1 << ndbg.n) - 1
-    return [k for k in range(len(ndbg.regions))
-            if sink_decompose(ndbg, full, [k], base=base)[1] is None]
+    out = []
+    for dbg, regions in ndbg.distinct():
+        comps, _ = condense(dbg.succ, full)
+        if any(c & (c - 1) for c in comps):
+            continue
+        if sink_decompose(ndbg, full, [regions[0]], base=base)[1] is None:
+            out += regions
+    return sorted(out)
 
 
 def stack_product(ndbg: NDBG, *, base: int | None = None) -> dict:
