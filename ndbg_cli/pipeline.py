@@ -209,11 +209,14 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         # the chosen translation plan checked step by step with the direct sweep test
         # (planning.verify): a candidate tree that passes is a real algorithm, which the
         # rules count as proof
-        from .planning import verify
+        from .planning import axis_directions, verify
         from .sweep import SweepChecker
 
         sweep = SweepChecker(asm)
         verified = clock("verify_s", lambda: verify(chosen, sweep.frees))
+        if verified["value"]:
+            # a coordinate axis where the sweep test frees a region's steps along it
+            clock("verify_s", lambda: axis_directions(chosen, sweep.frees))
         if chosen.ndbg.family == INFINITESIMAL:
             # the candidate trees behind the classes' best measures, checked the same way:
             # each that passes proves its depth, directions and nonlinear steps

@@ -5,7 +5,9 @@ node is an instruction: its ``moved`` side travels along a region's motion away 
 ``rest`` (disassembly), i.e. it is inserted along the opposite direction when assembling.
 Directions in the output: ``removal_direction`` is the region's direction ``d`` (the moved side
 is free along ``d``), ``direction`` is the assembly (insertion) direction ``-d``; generalized
-regions give their ``motion`` dict (the removal motion) instead.
+regions give their ``motion`` dict (the removal motion) instead. A verified plan
+(:func:`verify`) states a coordinate axis instead of a region's representative direction
+where the direct sweep test frees every step of that region along it (:func:`axis_directions`).
 
 Strategies (all deterministic):
 
@@ -56,6 +58,13 @@ class Step:
     moved: int
     rest: int
     region: int
+    #: a coordinate axis (removal direction) stated instead of the region's representative:
+    #: the direct sweep test frees the step along it (see :func:`axis_directions`)
+    axis: tuple[float, ...] | None = None
+
+    def removal(self, ndbg: NDBG) -> tuple[float, ...] | None:
+        """The removal direction stated for this step: its axis, else its region's."""
+        return self.axis if self.axis is not None else ndbg.regions[self.region].direction
 
 
 @dataclass
@@ -96,7 +105,7 @@ class Plan:
 
     def directions(self) -> int:
         """The number of distinct translation directions of the tree's instructions."""
-        return len({self.ndbg.regions[s.region].direction for s in self.steps.values()})
+        return len({s.removal(self.ndbg) for s in self.steps.values()})
 
     def regions_used(self) -> list[int]:
         return sorted({s.region for s in self.steps.values()})
@@ -169,6 +178,51 @@ def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool],
     return {"value": True, "steps": len(seq),
             "why": "every step comes out by one translation to infinity along its direction "
                    "(direct sweep test): a 1-handed monotone 1-prismatic algorithm"}
+
+
+#: The least cosine between a coordinate axis and a region's direction for
+#: :func:`axis_directions` to try the axis (within about 72 degrees).
+AXIS_COS = 0.3
+
+
+def _axes(k: int) -> list[tuple[float, ...]]:
+    """The ``2k`` coordinate axes of ``R^k`` (``+e_i`` then ``-e_i``, by ``i``)."""
+    eye = [tuple(float(i == j) for j in range(k)) for i in range(k)]
+    return eye + [tuple(-x + 0.0 for x in e) for e in eye]
+
+
+def axis_directions(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> int:
+    """State a coordinate axis instead of a region's representative direction where one
+    serves: per region used by ``p``'s steps, the axes within :data:`AXIS_COS` of its
+    direction are tried nearest first, and the first along which the direct sweep test
+    (``frees``, as for :func:`verify`) frees every step of that region is kept for them
+    (a designer reads "along -z" more easily than "along (-0.089, +0.02, -0.996)", and a
+    region's representative is only some point inside it). Steps of one region keep one
+    direction, so the tree's direction count does not grow. Returns the steps changed;
+    updates ``p`` in place. Only for a verified plan: the axis is then as proven as the
+    representative was."""
+    nd = p.ndbg
+    by_region: dict[int, list[Step]] = {}
+    for s in p.steps.values():
+        by_region.setdefault(s.region, []).append(s)
+    changed = 0
+    for r, steps in sorted(by_region.items()):
+        d = nd.regions[r].direction
+        if d is None:
+            continue
+        d = np.asarray(d, dtype=float)
+        near = sorted((a for a in _axes(len(d)) if float(np.dot(a, d)) > AXIS_COS),
+                      key=lambda a: -float(np.dot(a, d)))
+        for a in near:
+            if np.allclose(a, d, atol=1e-12):
+                break  # the region's direction is that axis already
+            if all(frees(s.moved, s.rest, np.asarray(a)) for s in steps):
+                for s in steps:
+                    p.steps[s.mask] = Step(mask=s.mask, moved=s.moved, rest=s.rest,
+                                           region=s.region, axis=a)
+                changed += len(steps)
+                break
+    return changed
 
 
 def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
@@ -340,8 +394,8 @@ def step_motion(ndbg: NDBG, s: Step) -> dict:
     r = ndbg.regions[s.region]
     d: dict = {"family": ndbg.family, "region": s.region}
     if r.direction is not None:
-        d["removal_direction"] = _vec(r.direction)
-        d["direction"] = [(-x if x != 0 else 0.0) for x in _vec(r.direction)]
+        d["removal_direction"] = _vec(s.removal(ndbg))
+        d["direction"] = [(-x if x != 0 else 0.0) for x in _vec(s.removal(ndbg))]
     else:
         d["direction"] = None
     if r.motion is not None:
