@@ -196,7 +196,8 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
              graph: AndOrGraph | None = None,
              contained: Sequence[tuple[str, dict]] = ()) -> dict:
     """All NDBG-based measures of one motion family (see the module docstring). The default
-    budget keeps the AND/OR graph to 2,000 nodes / 2 s (bounds are reported beyond).
+    budget keeps the AND/OR graph to 2,000 nodes and the default work units (bounds are
+    reported beyond).
 
     ``contained``: ``(family, measures)`` of families whose every DBG is a DBG of ``ndbg``
     (:func:`andor.contains`; the generalized hybrid holds the infinitesimal translations), as
