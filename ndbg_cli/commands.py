@@ -194,6 +194,7 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
     from .infinitesimal import infinitesimal_ndbg
     from .loaders import load
     from .planning import remove as remove_parts
+    from .sweep import SweepChecker
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths)
@@ -208,8 +209,10 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
     target = nd.mask(parts)
     base = asm.index(asm.base) if asm.base is not None and asm.base not in parts else None
     res = remove_parts(nd, target, base=base, budget=Budget(max_nodes=max_nodes))
+    # steps the direct sweep test frees along a nearby coordinate axis state that axis
+    sweep = SweepChecker(asm) if nd.family != "generalized" else None
     sec = {"schema": REMOVE_SCHEMA, "assembly": asm.name, "family": nd.family,
-           **res.section(nd)}
+           **res.section(nd, None if sweep is None else sweep.frees)}
     if fmt == "json":
         click.echo(dumps(sec), nl=False)
     else:

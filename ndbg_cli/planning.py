@@ -207,22 +207,38 @@ def axis_directions(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> i
         by_region.setdefault(s.region, []).append(s)
     changed = 0
     for r, steps in sorted(by_region.items()):
-        d = nd.regions[r].direction
-        if d is None:
-            continue
-        d = np.asarray(d, dtype=float)
-        near = sorted((a for a in _axes(len(d)) if float(np.dot(a, d)) > AXIS_COS),
-                      key=lambda a: -float(np.dot(a, d)))
-        for a in near:
-            if np.allclose(a, d, atol=1e-12):
-                break  # the region's direction is that axis already
-            if all(frees(s.moved, s.rest, np.asarray(a)) for s in steps):
-                for s in steps:
-                    p.steps[s.mask] = Step(mask=s.mask, moved=s.moved, rest=s.rest,
-                                           region=s.region, axis=a)
-                changed += len(steps)
-                break
+        a = _axis_for(nd, r, steps, frees)
+        if a is not None:
+            for s in steps:
+                p.steps[s.mask] = Step(mask=s.mask, moved=s.moved, rest=s.rest,
+                                       region=s.region, axis=a)
+            changed += len(steps)
     return changed
+
+
+def _axis_for(nd: NDBG, r: int, steps: list[Step],
+              frees: Callable[[int, int, np.ndarray], bool]) -> tuple[float, ...] | None:
+    """The nearest coordinate axis to region ``r``'s direction (within :data:`AXIS_COS`,
+    nearest first) along which ``frees`` frees every step of ``steps``; ``None`` when none
+    does or the direction is an axis already."""
+    d = nd.regions[r].direction
+    if d is None:
+        return None
+    d = np.asarray(d, dtype=float)
+    near = sorted((a for a in _axes(len(d)) if float(np.dot(a, d)) > AXIS_COS),
+                  key=lambda a: -float(np.dot(a, d)))
+    for a in near:
+        if np.allclose(a, d, atol=1e-12):
+            return None  # the region's direction is that axis already
+        if all(frees(s.moved, s.rest, np.asarray(a)) for s in steps):
+            return a
+    return None
+
+
+def _axis_step(nd: NDBG, s: Step, frees: Callable[[int, int, np.ndarray], bool]) -> Step:
+    a = _axis_for(nd, s.region, [s], frees)
+    return s if a is None else Step(mask=s.mask, moved=s.moved, rest=s.rest,
+                                    region=s.region, axis=a)
 
 
 def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
@@ -522,16 +538,34 @@ class Removal:
     lower_bound: int
     explored: int
 
-    def section(self, ndbg: NDBG) -> dict:
+    def instructions(self, ndbg: NDBG) -> list[Step]:
+        """The withdrawals, then the target's removal, as :class:`Step` s (``mask``: the
+        parts still in place)."""
+        out, left = [], (1 << ndbg.n) - 1
+        for w, r in self.steps:
+            out.append(Step(mask=left, moved=w, rest=left & ~w, region=r))
+            left &= ~w
+        if self.final_region is not None:
+            out.append(Step(mask=left, moved=self.target, rest=left & ~self.target,
+                            region=self.final_region))
+        return out
+
+    def section(self, ndbg: NDBG, frees: Callable[[int, int, np.ndarray], bool] | None = None
+                ) -> dict:
+        """The ``remove`` report. With ``frees`` (the direct sweep test, as for
+        :func:`verify`), a step the test frees along the coordinate axis nearest its region's
+        direction (within :data:`AXIS_COS`) states that axis, as a verified plan does."""
+        steps = self.instructions(ndbg)
+        if frees is not None:
+            steps = [_axis_step(ndbg, s, frees) for s in steps]
+        moves = [step_motion(ndbg, s) for s in steps]
         return {
             "target": ndbg.names(self.target), "found": self.found, "exact": self.exact,
             "withdrawn": ndbg.names(self.withdrawn), "count": self.withdrawn.bit_count(),
             "lower_bound": self.lower_bound, "explored_states": self.explored,
-            "steps": [{"step": k, "withdraw": ndbg.names(w),
-                       **step_motion(ndbg, Step(0, w, 0, r))}
-                      for k, (w, r) in enumerate(self.steps, start=1)],
-            "final": None if self.final_region is None else step_motion(
-                ndbg, Step(0, self.target, 0, self.final_region)),
+            "steps": [{"step": k, "withdraw": ndbg.names(w), **m}
+                      for k, ((w, _), m) in enumerate(zip(self.steps, moves), start=1)],
+            "final": None if self.final_region is None else moves[-1],
         }
 
 

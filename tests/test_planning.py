@@ -1068,3 +1068,27 @@ def test_verified_steps_state_the_nearest_axis_the_sweep_test_frees():
                 (Region(1, (0.6, 0.8), DBG.from_arcs(2, [(1, 0)])),))
     q = plan(flat, "linear")
     assert axis_directions(q, lambda m, r, d: True) == 1 and removal(q) == [[0.0, 1.0]]
+
+
+def test_removal_states_the_nearest_axis_the_sweep_test_frees():
+    # a tilted region frees A (on B on C) and then B; the stand-in sweep test frees only
+    # well-upward translations: the removal states +z for both; without the test, or for a
+    # step the test does not free along +z, the region's direction stays
+    tilt = tuple(np.array([0.3, 0.1, 0.95]) / np.linalg.norm([0.3, 0.1, 0.95]))
+    nd = NDBG("infinite_translation", ("A", "B", "C"),
+              (Region(2, tilt, DBG.from_arcs(3, [(1, 0), (2, 1), (2, 0)])),))
+    r = remove(nd, 0b010)
+    assert r.found and r.steps == [(0b001, 0)] and r.final_region == 0
+    assert [s.rest for s in r.instructions(nd)] == [0b110, 0b100]
+
+    def up(m, rest, d):
+        return d[2] > 0.5
+
+    sec = r.section(nd, up)
+    assert sec["steps"][0]["removal_direction"] == [0.0, 0.0, 1.0]
+    assert sec["final"]["removal_direction"] == [0.0, 0.0, 1.0]
+    plain = r.section(nd)
+    assert plain["final"]["removal_direction"][2] == pytest.approx(0.9487, 1e-3)
+    only_a = r.section(nd, lambda m, rest, d: m == 0b001 and d[2] > 0.5)
+    assert only_a["steps"][0]["removal_direction"] == [0.0, 0.0, 1.0]
+    assert only_a["final"] == plain["final"]
