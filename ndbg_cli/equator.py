@@ -102,13 +102,25 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
     ``arcs``: each ordered pair's open arcs (:func:`cone_arcs`); ``eta``: the angular
     tolerance (radians; shorter regions are 0-dimensional); ``sliding``: angles of the
     contacts' sliding directions (a thin region's direction, see the module docstring)."""
+    return [r[:3] for r in equator_extents(arcs, n, eta, sliding)]
+
+
+def equator_extents(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: float,
+                    sliding: np.ndarray) -> list[tuple[int, float, DBG, tuple]]:
+    """:func:`equator_regions` with each region's extent: ``(dimension, angle, DBG,
+    (lo, hi, lo_closed, hi_closed))``, the region being the angles from ``lo`` to ``hi``
+    counter-clockwise (radians, ``lo`` in ``[0, 2 pi)``, ``lo < hi <= lo + 2 pi``), each end
+    included when ``*_closed``; the whole circle is ``(0, 2 pi, True, False)``. A run of
+    pieces with one DBG starts (ends) at an arc endpoint, included when the run's first
+    (last) piece is that point rather than the open interval next to it."""
+    whole = (0.0, TWO_PI, True, False)
     ends = np.sort(_ends(arcs))
     if len(ends):
         gap = np.diff(np.r_[ends, ends[0] + TWO_PI])
         ends = ends[gap > MERGE_TOL]
     if not len(ends):
         g = arc_dbgs(arcs, n, np.zeros(1))[0]
-        return [(1, 0.0, g)]
+        return [(1, 0.0, g, whole)]
     # pieces around the circle: endpoint k, then the open interval to endpoint k + 1
     nxt = np.r_[ends[1:], ends[0] + TWO_PI]
     starts = np.column_stack([ends, ends]).reshape(-1)
@@ -120,13 +132,15 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
     m = len(keys)
     change = [k for k in range(m) if keys[k] != keys[k - 1]]
     if not change:
-        return [(1, 0.0, dbgs[0])]
+        return [(1, 0.0, dbgs[0], whole)]
     out = []
     runs = [(c, change[(q + 1) % len(change)]) for q, c in enumerate(change)]
     for a, b in runs:
         b_idx = b if b > a else b + m  # the run is pieces a .. b - 1 (mod m)
         lo = starts[a]
         hi = stops[(b_idx - 1) % m] + (TWO_PI if b_idx - 1 >= m else 0.0)
+        # even pieces are the endpoints themselves, odd ones the open intervals
+        span = (float(lo), float(hi), a % 2 == 0, (b_idx - 1) % 2 == 0)
         length = hi - lo
         if length < eta:
             mid = 0.5 * (lo + hi)
@@ -135,9 +149,9 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
             if len(within):
                 off = np.mod(within - mid + np.pi, TWO_PI) - np.pi
                 mid = float(within[np.argmin(np.abs(off))])
-            out.append((0, float(np.mod(mid, TWO_PI)), dbgs[a]))
+            out.append((0, float(np.mod(mid, TWO_PI)), dbgs[a], span))
         else:
-            out.append((1, float(np.mod(0.5 * (lo + hi), TWO_PI)), dbgs[a]))
+            out.append((1, float(np.mod(0.5 * (lo + hi), TWO_PI)), dbgs[a], span))
     return sorted(out, key=lambda r: r[1])
 
 

@@ -1,26 +1,75 @@
 """Prismatic form-closure grasp of order 1 (paper section 7.2).
 
 A finger is a point-plane contact on a face of some part, fixed in space: it blocks that part
-translating along ``d`` iff ``d . n > 0`` (``n`` the face's outward normal). The grasp must make,
-in every DBG of the NDBG, each sink strong component of the condensation (a set of parts that
-could translate along ``d`` on its own, the whole product included when it is one component)
-contain a part held by a finger with ``d . n > 0``; then no subassembly can translate relative
-to the others and the fingers (order 1: one internal motion at a time).
+translating along ``d`` iff ``d . n > 0`` (``n`` the face's outward unit normal). The grasp must
+make, for every direction ``d`` of every region of the NDBG, each sink strong component of the
+region's DBG (a set of parts that could translate along ``d`` on its own, the whole product
+included when it is one component) contain a part held by a finger blocking ``d``; then no
+subassembly can translate relative to the others and the fingers (order 1: one internal
+motion at a time).
 
 Face data is not in the NDBG, so the caller passes the candidate faces as
-``(part index, outward normal, point or None)`` (exterior faces of the parts). The NDBG has no
-cell geometry either: coverage is required at every region's representative direction (all
-regions, including 1- and 0-dimensional ones; a finger with ``d . n = 0`` does not count), the
-finite form of the paper's refinement of the arrangement by the fingers' planes.
+``(part index, outward normal, point or None)`` (exterior faces of the parts).
 
-Placement is the paper's scan made greedy: the requirements are the pairs (region, sink
-component); each step places the finger that covers the most uncovered requirements (ties:
-lowest part, then face order). The count is not guaranteed minimal (neither is the paper's).
+Regions are sets of directions
+------------------------------
+A region is an open 2D cell of S^2, an open arc or a point (on S^1 for 2D assemblies: an
+open arc or a point), and a finger blocks only on its open half-space ``d . n > 0``: covering
+a region's representative direction is not enough, the finger's great circle ``d . n = 0``
+may cross the region. So each requirement, a pair (region, sink component), is held over the
+region's whole extent. The region is cut into convex *pieces*, each a relatively open convex
+cone given by unit generators (the extreme rays of its closure, in cyclic order): one (a
+point), two (the open arc between them, shorter than ``pi``) or three and more (an open convex
+spherical polygon inside an open hemisphere). An open piece is the set of strictly positive
+combinations of its generators, so a finger blocks all of it iff every generator has
+``g . n >= 0`` and one has ``g . n > 0`` (on a region whose closure touches the finger's circle
+but lies on its positive side, every direction of the open region is still blocked). A finger
+whose circle crosses a piece splits it (the paper's refinement of the arrangement by the
+finger's plane): the part on its positive side is covered, and the part on its negative side
+and the chord on the circle itself (``d . n = 0`` does not block) are pieces still to cover.
+A requirement is met when none of its pieces is left: the open half-spaces of its
+component's fingers contain the whole region.
+
+Tolerance
+---------
+``tol`` (a cosine; about radians) is the NDBG's own angular tolerance: the infinitesimal
+family's ``angle_tolerance`` (the contact analysis', 1 degree by default in 3D; 1e-6 rad in
+2D), the infinite family's :data:`ndbg_cli.infinite.OPEN_TOL` (1e-6 rad). A generator with
+``|g . n| <= tol`` is on the finger's circle, as the NDBG reads a direction within ``tol`` of
+a contact's circle as sliding along it: a piece is covered when all its generators have
+``g . n >= -tol`` and one has ``g . n > tol`` (a point: ``d . n > tol``), and cut when some
+have ``g . n > tol`` and others ``g . n < -tol``. The directions of a covered piece that the
+finger does not block lie within ``tol / cos(rho)`` of its circle (``rho``: the angular
+radius of a cap holding the piece); everything else is exact for polyhedral parts.
+
+Where the regions' extents come from (:func:`region_pieces`)
+-------------------------------------------------------------
+* infinitesimal 3D: :attr:`NDBG.geometry`, the arrangement of great circles (vertices, arcs
+  between vertices, faces' vertex cycles); cells that are not pointed (the whole sphere, a
+  hemisphere, the lunes of a pencil of circles, a whole circle) are cut into pointed pieces
+  by planes through the axes (or the pencil's axis), and long arcs into shorter ones;
+* infinitesimal 2D: the regions themselves (points and open arcs alternate round S^1);
+* infinite 2D: the runs of :func:`ndbg_cli.equator.equator_extents` (ends open or closed);
+* infinite 3D: the cells of :func:`ndbg_cli.arrangement.arrangement_cells`, recomputed from
+  the NDBG's blocked sets and matched to its regions in order (:func:`_match_cells`); chart
+  polygons are triangulated (open triangles and their inner diagonals), chains cut into
+  segments and inner vertices; a lower-dimensional region's representative (moved onto
+  contact circles, or a thin cell's centroid, which may lie outside it) is a point piece too;
+* otherwise (hand-built NDBGs, an NDBG whose blocked sets were dropped, e.g. by
+  :func:`ndbg_cli.generalized.block_threads`): the representatives only, and the result says
+  ``"coverage": "representatives"``. Generalized suggested motions are single motions, not
+  directions: they make no requirement.
+
+Placement is the paper's scan made greedy: each step places the finger that covers the most
+of what is left wholly, then the most in part (each requirement weighs :data:`WEIGHT`,
+shared by its region's pieces; ties: lowest part, then face order). The count is not
+guaranteed minimal (neither is the paper's).
 """
 
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -29,6 +78,10 @@ from .dbg import bit_rows, bits, condensation
 from .ndbg import NDBG
 
 Face = tuple[int, Sequence[float], Sequence[float] | None]
+
+#: Arcs and polygon edges longer than this (radians) are cut (arcs) or given inner vertices
+#: (polygons), so that no generator is near the antipode of its neighbour.
+LONG = 2.0 * math.pi / 3.0
 
 
 def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
@@ -45,86 +98,495 @@ def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
     return out
 
 
-#: Largest number of (requirement, candidate face) tests :func:`grasp` makes: the first
-#: gains cost one test per requirement and face of a part in its sink component. Beyond it
-#: the grasp is not computed (``"skipped"``), as for a display model with 10^5 regions and
-#: 10^4 distinct face normals.
+# ------------------------------------------------------------------------- region extents
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _turn(a: np.ndarray, axis: np.ndarray | None) -> np.ndarray:
+    """The unit tangent at ``a`` turning counter-clockwise (2D) or about ``axis`` (3D)."""
+    if len(a) == 2:
+        return np.array([-a[1], a[0]])
+    return _unit(np.cross(axis, a))
+
+
+def _arc(a: np.ndarray, theta: float, axis: np.ndarray | None = None,
+         b: np.ndarray | None = None) -> list[np.ndarray]:
+    """Pieces of the open arc from ``a`` turning by ``theta`` radians (about ``axis`` in 3D;
+    ends at ``b`` when given): one arc if not longer than :data:`LONG`, else equal sub-arcs
+    and the points between them."""
+    k = max(1, math.ceil(theta / LONG - 1e-12))
+    u = _turn(a, axis)
+    pts = [a] + [math.cos(t) * a + math.sin(t) * u for t in np.arange(1, k) * theta / k]
+    pts.append(b if b is not None else math.cos(theta) * a + math.sin(theta) * u)
+    out = [np.stack([p, q]) for p, q in zip(pts, pts[1:])]
+    return out + [p[None] for p in pts[1:-1]]
+
+
+def _densify(cycle: np.ndarray) -> np.ndarray:
+    """A convex polygon's cycle with inner vertices on edges longer than :data:`LONG`."""
+    out = []
+    for a, b in zip(cycle, np.roll(cycle, -1, axis=0)):
+        out.append(a)
+        theta = math.acos(min(1.0, max(-1.0, float(a @ b))))
+        k = math.ceil(theta / LONG - 1e-12)
+        for j in range(1, k):  # slerp: the shorter arc
+            t = j / k
+            out.append(_unit(math.sin((1 - t) * theta) * a + math.sin(t * theta) * b))
+    return np.array(out)
+
+
+def _orthants(fixed: list[np.ndarray], free: list[np.ndarray]) -> list[np.ndarray]:
+    """Pieces of the open cone of the strictly positive combinations of ``fixed`` plus any
+    combination of ``+-free``: one per sign vector over ``free`` (0 leaves it out)."""
+    out = []
+    for signs in np.ndindex(*(3,) * len(free)):
+        gens = list(fixed) + [(s - 1) * f for s, f in zip(signs, free) if s != 1]
+        if not gens:
+            continue
+        g = np.array(gens)
+        if len(g) == 2 and float(g[0] @ g[1]) < math.cos(LONG):
+            out += _arc(g[0], math.acos(max(-1.0, float(g[0] @ g[1]))), np.cross(g[0], g[1])
+                        if g.shape[1] == 3 else None, g[1])
+        else:
+            out.append(_densify(g) if len(g) >= 3 else g)
+    return out
+
+
+def _axes(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors completing the unit ``m`` to a right-handed orthonormal basis."""
+    from .sphere import plane_basis
+
+    e1, e2 = plane_basis(m)
+    return e1[0], e2[0]
+
+
+def _arrangement_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
+    """Pieces of the infinitesimal 3D NDBG's regions from its arrangement (vertices, edges,
+    faces, in that order), or ``None`` when it is absent or does not fit the regions."""
+    arr = ndbg.geometry
+    if arr is None or not hasattr(arr, "face_vertices"):
+        return None
+    nv, ne, nf = len(arr.vertices), len(arr.edge_mid), len(arr.face_rep)
+    if nv + ne + nf != len(ndbg.regions):
+        return None
+    verts, circles = arr.vertices, arr.circles
+    out: list[list[np.ndarray]] = [[np.asarray(r.direction, float)[None]]
+                                   for r in ndbg.regions[:nv]]
+    for e in range(ne):
+        m = circles[arr.edge_circle[e]]
+        a, b = int(arr.edge_start[e]), int(arr.edge_end[e])
+        if a < 0:  # a closed circle (one circle drawn)
+            out.append(_orthants([], list(_axes(m))))
+            continue
+        va, vb = verts[a], verts[b]
+        theta = math.atan2(float(np.cross(va, vb) @ m), float(va @ vb)) % (2 * math.pi)
+        out.append(_arc(va, theta or 2 * math.pi, m, vb))
+    for f in range(nf):
+        cyc = arr.face_vertices[f]
+        rep = arr.face_rep[f]
+        if len(cyc) == 0:  # the whole sphere, or a hemisphere of one circle
+            if len(circles) == 0:
+                out.append(_orthants([], list(np.eye(3))))
+            else:
+                m = circles[0] * (1.0 if rep @ circles[0] > 0 else -1.0)
+                out.append(_orthants([m], list(_axes(m))))
+        elif len(cyc) == 2:  # a lune of a pencil of circles through +-p
+            p = verts[cyc[0]]
+            e1, e2 = _axes(p)
+            rays = _unit(np.cross(p[None], circles))
+            rays = np.vstack([rays, -rays])
+            ang = np.arctan2(rays @ e2, rays @ e1)
+            at = math.atan2(float(rep @ e2), float(rep @ e1))
+            off = np.mod(ang - at, 2 * math.pi)
+            b1, b2 = rays[int(np.argmax(off))], rays[int(np.argmin(off))]
+            out.append(_orthants([b1, b2], [p]))
+        else:
+            out.append([_densify(verts[list(cyc)])])
+    return out
+
+
+def _s1_pieces(spans: list[tuple[float, float, bool, bool]]) -> list[list[np.ndarray]]:
+    """Pieces of regions of S^1 given as ``(lo, hi, lo_closed, hi_closed)`` angles."""
+    out = []
+    for lo, hi, lo_in, hi_in in spans:
+        if hi - lo >= 2 * math.pi - 1e-12:
+            out.append(_orthants([], [np.array([1.0, 0.0]), np.array([0.0, 1.0])]))
+            continue
+        a, b = (np.array([math.cos(t), math.sin(t)]) for t in (lo, hi))
+        pieces = [a[None]] if lo_in else []
+        if hi_in and hi > lo:
+            pieces.append(b[None])
+        if hi > lo:
+            pieces += _arc(a, hi - lo, None, b)
+        out.append(pieces)
+    return out
+
+
+def _sequence_spans(ndbg: NDBG) -> list[tuple[float, float, bool, bool]] | None:
+    """The 2D infinitesimal regions' extents: points and the open arcs between them
+    alternate round S^1 (:func:`ndbg_cli.infinitesimal.iter_regions_2d`)."""
+    regs = ndbg.regions
+    if len(regs) == 1:
+        return [(0.0, 2 * math.pi, True, False)]
+    if len(regs) % 2 or any(r.dimension != k % 2 for k, r in enumerate(regs)):
+        return None
+    phi = [math.atan2(r.direction[1], r.direction[0]) % (2 * math.pi) for r in regs[::2]]
+    out = []
+    for k, t in enumerate(phi):
+        nxt = phi[(k + 1) % len(phi)]
+        out += [(t, t, True, True), (t, t + ((nxt - t) % (2 * math.pi) or 2 * math.pi),
+                                     False, False)]
+    return out
+
+
+def _match_cells(regions, cells, near: float) -> list[int] | None:
+    """Index of the cell of each region: the regions are the cells in order, less the seam
+    candidates the open-set test dropped, lower-dimensional ones moved by up to ``near``
+    radians (:func:`ndbg_cli.infinite._snap_to_circles`). A forward search over the
+    possible region counts; ``None`` if the regions are no such subsequence."""
+    dirs = np.array([r.direction for r in regions], dtype=float).reshape(-1, 3)
+    dims = [r.dimension for r in regions]
+    cos_near = math.cos(near) - 1e-12
+    states: dict[int, tuple] = {0: ()}
+    back: list[dict[int, tuple[int, bool]]] = []
+    for c in cells:
+        new: dict[int, tuple[int, bool]] = {}
+        for k in states:
+            if k < len(dims) and dims[k] == c.dimension:
+                dot = float(dirs[k] @ c.direction)
+                if dot >= 1 - 1e-12 or (c.dimension < 2 and dot >= cos_near):
+                    new[k + 1] = (k, True)
+            if c.seam and k not in new:
+                new.setdefault(k, (k, False))
+        if not new:
+            return None
+        back.append(new)
+        states = dict.fromkeys(new, ())
+    if len(dims) not in states:
+        return None
+    out = [0] * len(dims)
+    k = len(dims)
+    for i in range(len(cells) - 1, -1, -1):
+        prev, took = back[i][k]
+        if took:
+            out[prev] = i
+        k = prev
+    return out
+
+
+def _cell_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
+    """Pieces of the infinite 3D NDBG's regions from their recomputed chart cells."""
+    import shapely
+
+    from .arrangement import arrangement_cells
+    from .cubemap import direction_of
+    from .infinite import SNAP_ETA
+
+    bs = getattr(ndbg, "_blocked_sets", None)
+    if bs is None:
+        return None
+    cells = arrangement_cells(bs)
+    at = _match_cells(ndbg.regions, cells, SNAP_ETA * bs.eta)
+    if at is None:
+        return None
+    out = []
+    for r, i in zip(ndbg.regions, at):
+        c, d = cells[i], np.asarray(r.direction, float)
+        # a thin cell's centroid may lie outside it: lower-dimensional ones keep theirs
+        pieces = [d[None]] if r.dimension < 2 or float(d @ c.direction) < 1 - 1e-12 else []
+        kind = shapely.get_type_id(c.geom)
+        if kind == 0:
+            pieces.append(c.direction[None])
+        elif kind in (1, 5):  # a chain: its segments and inner vertices
+            for line in shapely.get_parts(c.geom):
+                p = direction_of(c.face, shapely.get_coordinates(line))
+                pieces += [np.stack([a, b]) for a, b in zip(p, p[1:])]
+                pieces += [q[None] for q in p[1:-1]]
+        else:  # polygons: open triangles and the inner diagonals between them
+            seen: dict[tuple, int] = {}
+            for tri in shapely.get_parts(shapely.constrained_delaunay_triangles(c.geom)):
+                xy = shapely.get_coordinates(tri)[:3]
+                u, w = xy[1] - xy[0], xy[2] - xy[0]
+                if u[0] * w[1] - u[1] * w[0] == 0:  # a flat triangle
+                    continue
+                pieces.append(direction_of(c.face, xy))
+                for a, b in ((0, 1), (1, 2), (2, 0)):
+                    key = tuple(sorted((tuple(xy[a]), tuple(xy[b]))))
+                    seen[key] = seen.get(key, 0) + 1
+            pieces += [direction_of(c.face, np.array(k)) for k, n in seen.items() if n == 2]
+        out.append(pieces)
+    return out
+
+
+def region_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
+    """Every region's extent as convex pieces (see the module docstring): per region a list
+    of ``(g, dim)`` arrays of unit generators; ``None`` when the NDBG keeps no geometry its
+    regions can be matched to (then only their representatives are known)."""
+    from .infinite import FAMILY as INFINITE
+    from .infinitesimal import FAMILY as INFINITESIMAL
+
+    if not ndbg.regions or any(r.direction is None for r in ndbg.regions):
+        return None
+    if ndbg.family == INFINITESIMAL:
+        if ndbg.space_dimension == 3:
+            return _arrangement_pieces(ndbg)
+        spans = _sequence_spans(ndbg) if "diameters" in ndbg.stats else None
+        return None if spans is None else _s1_pieces(spans)
+    if ndbg.family == INFINITE:
+        bs = getattr(ndbg, "_blocked_sets", None)
+        if bs is not None and bs.arcs is not None:
+            from .equator import direction, equator_extents, sliding_angles
+
+            ext = equator_extents(bs.arcs, bs.n, bs.eta, sliding_angles(bs.circles))
+            if len(ext) != len(ndbg.regions) or any(
+                    dm != r.dimension or direction(phi) != tuple(r.direction)
+                    for (dm, phi, _, _), r in zip(ext, ndbg.regions)):
+                return None
+            return _s1_pieces([e[3] for e in ext])
+        if bs is not None:
+            return _cell_pieces(ndbg)
+    return None
+
+
+# ----------------------------------------------------------------------------- the pieces
+class _Pieces:
+    """Pieces to cover: each a ``(g, dim)`` array of generators and its requirement; the
+    flat array of all generators grows as fingers split pieces."""
+
+    def __init__(self, dim: int):
+        self.chunks: list[np.ndarray] = []
+        self.start: list[int] = []
+        self.req: list[int] = []
+        self.weight: list[int] = []
+        self._flat = np.zeros((0, dim))
+        self._nflat = 0
+
+    def add(self, gens: np.ndarray, req: int, weight: int) -> int:
+        self.start.append(self.start[-1] + len(self.chunks[-1]) if self.chunks else 0)
+        self.chunks.append(gens)
+        self.req.append(req)
+        self.weight.append(weight)
+        return len(self.req) - 1
+
+    def gather(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The generators of the pieces ``q``, one piece after the other, and where each
+        piece's start."""
+        if self._nflat < len(self.chunks):
+            self._flat = np.concatenate([self._flat] + self.chunks[self._nflat:])
+            self._nflat = len(self.chunks)
+        size = np.array([len(self.chunks[i]) for i in q.tolist()], dtype=np.int64)
+        seg = (np.cumsum(size) - size).astype(np.int64)
+        idx = np.repeat(np.asarray(self.start)[q] - seg, size) + np.arange(size.sum())
+        return self._flat[idx], seg
+
+
+def _tests(gens: np.ndarray, seg: np.ndarray, normals: np.ndarray, tol: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """``(covered, cut)`` ``(pieces, F)``: whether each finger (``normals`` ``(F, dim)``)
+    blocks all of each piece (generators ``gens`` from :meth:`_Pieces.gather`), and whether
+    its circle crosses it (module docstring)."""
+    if len(seg) == 0:
+        return np.zeros((0, len(normals)), bool), np.zeros((0, len(normals)), bool)
+    v = gens @ normals.T
+    blocks = np.maximum.reduceat(v, seg, axis=0) > tol
+    low = np.minimum.reduceat(v, seg, axis=0) < -tol
+    return blocks & ~low, blocks & low
+
+
+def _split(g: np.ndarray, v: np.ndarray, tol: float) -> list[np.ndarray]:
+    """The pieces of the open piece ``g`` a finger with values ``v = g . n`` (some above
+    ``tol``, some below ``-tol``) leaves unblocked: the part with ``d . n < 0`` and the chord
+    on its circle ``d . n = 0``."""
+    s = np.where(v > tol, 1, np.where(v < -tol, -1, 0))
+    if len(g) == 2:
+        c = _unit(abs(v[0]) * g[1] + abs(v[1]) * g[0])
+        return [np.stack([c, g[int(np.argmin(v))]]), c[None]]
+    out, on = [], []
+    for i in range(len(g)):
+        j = (i + 1) % len(g)
+        if s[i] <= 0:
+            out.append(g[i])
+            if s[i] == 0:
+                on.append(g[i])
+        if s[i] * s[j] == -1:
+            c = _unit(abs(v[i]) * g[j] + abs(v[j]) * g[i])
+            out.append(c)
+            on.append(c)
+    on_a = np.array(on)
+    dots = on_a @ on_a.T
+    a, b = np.unravel_index(int(np.argmin(dots)), dots.shape)
+    pieces = [_densify(np.array(out))]
+    if dots[a, b] >= 1 - 1e-15:
+        return pieces + [on_a[a][None]]
+    axis = np.cross(on_a[a], on_a[b]) if g.shape[1] == 3 else None
+    return pieces + _arc(on_a[a], math.acos(max(-1.0, float(dots[a, b]))), axis, on_a[b])
+
+
+# ------------------------------------------------------------------------------ the grasp
+#: Largest number of (generator, candidate face) tests :func:`grasp` makes for the first
+#: gains: one per generator of a piece and face of a part in the piece's sink component.
+#: Beyond it the grasp is not computed (``"skipped"``), as for a display model with 10^5
+#: regions and 10^4 distinct face normals.
 GRASP_BUDGET = 2_000_000_000
+
+#: A requirement's weight in the gains, shared by its region's pieces (so that a region cut
+#: into many pieces counts as one; pieces split by a finger keep their weight).
+WEIGHT = 1 << 20
 
 #: Tests per numpy block when computing gains (bounds memory to ~100 MB).
 _BLOCK = 4_000_000
 
 
-def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
-          tol: float = 1e-9, budget: int = GRASP_BUDGET) -> dict:
-    """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts).
+def tolerance(ndbg: NDBG) -> float:
+    """The angular tolerance of ``ndbg``'s sign tests (see the module docstring)."""
+    from .infinite import FAMILY as INFINITE
+    from .infinite import OPEN_TOL
+    from .sphere import DEFAULT_ANGLE_TOL
 
-    Returns ``{"value": number of fingers, "fingers": [{"part", "normal", "point",
-    "covers"}...], "uncovered": [{"region", "parts"}...], "complete": bool, "why"}``; when
+    if ndbg.family == INFINITE:
+        return OPEN_TOL
+    return float(ndbg.stats.get("angle_tolerance", DEFAULT_ANGLE_TOL))
+
+
+def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
+          tol: float | None = None, budget: int = GRASP_BUDGET) -> dict:
+    """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts),
+    each requirement held over its region's whole extent (module docstring; ``tol``: the
+    angular tolerance, default :func:`tolerance`).
+
+    Returns ``{"value": number of fingers, "fingers": [{"part", "normal", "point", "covers",
+    "covers_part"}...], "uncovered": [{"region", "parts", "direction"}...], "complete": bool,
+    "coverage": "regions" | "representatives", "why", "parts"}``: ``covers`` counts the
+    requirements a finger blocks wholly on its own, ``covers_part`` those it blocks in part;
+    ``direction`` is one direction of the region that no finger on those parts blocks. When
     the first gains would take more than ``budget`` tests, ``{"value": None, "skipped":
     True, "why"}`` instead.
 
-    The greedy choice is made lazily (a heap of gains, each re-counted only when it comes
-    to the top: gains only fall as requirements are covered), which picks exactly the
-    fingers of the plain greedy scan without its requirements x faces matrix.
+    The greedy choice is made lazily: a heap of upper bounds of the gains (a piece a finger
+    splits may become wholly coverable by another, so the bounds of the fingers on its parts
+    are raised by what they get from the new pieces), each re-counted when it comes to the
+    top, which picks the fingers of the plain greedy scan without its pieces x faces matrix.
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
+    tol = tolerance(ndbg) if tol is None else float(tol)
     reqs = requirements(ndbg, m)
+    extents = region_pieces(ndbg) if reqs else None
+    coverage = "representatives" if extents is None else "regions"
+    pieces = _Pieces(ndbg.space_dimension)
+    for q, (k, _) in enumerate(reqs):
+        ext = (extents[k] if extents is not None
+               else [np.asarray(ndbg.regions[k].direction, float)[None]])
+        for g in ext:
+            pieces.add(np.asarray(g, float), q, WEIGHT // len(ext))
+    n0 = len(pieces.req)
     part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
     normals = (np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]) if faces
                else np.zeros((0, ndbg.space_dimension)))
-    dirs = np.array([ndbg.regions[k].direction for k, _ in reqs], dtype=float)
     inside = bit_rows([c for _, c in reqs], ndbg.n) if reqs else np.zeros((0, ndbg.n), bool)
-    # per part: the requirements whose sink component holds it, and its faces
-    holds = {p: np.flatnonzero(inside[:, p]) for p in np.unique(part_of).tolist()}
+    piece_req = np.asarray(pieces.req, dtype=np.intp)
+    # per part: the pieces whose requirement's sink component holds it, and its faces
+    holds = {p: np.flatnonzero(inside[piece_req, p]) for p in np.unique(part_of).tolist()}
     by_part = {p: np.flatnonzero(part_of == p) for p in holds}
-    work = sum(len(holds[p]) * len(by_part[p]) for p in holds)
+    size = np.array([len(c) for c in pieces.chunks], dtype=np.int64)
+    work = sum(int(size[holds[p]].sum()) * len(by_part[p]) for p in holds)
     if work > budget:
         return {"value": None, "skipped": True, "fingers": [], "uncovered": [],
                 "complete": False, "parts": [ndbg.ids[i] for i in bits(m)],
-                "why": (f"skipped: {len(reqs)} (region, sink component) requirements x "
-                        f"candidate faces need {work} tests, over the budget of {budget}")}
-
-    def hits(f: int, q: np.ndarray) -> np.ndarray:
-        """Requirements among ``q`` that finger ``f`` holds (its part is in each of them)."""
-        return q[dirs[q] @ normals[f] > tol]
-
-    gain = np.zeros(len(faces), dtype=np.int64)
-    for p, q in holds.items():
-        fs = by_part[p]
-        if len(q) == 0 or len(fs) == 0:
-            continue
-        step = max(1, _BLOCK // len(q))
-        for s in range(0, len(fs), step):
-            gain[fs[s:s + step]] = (dirs[q] @ normals[fs[s:s + step]].T > tol).sum(axis=0)
-    # most uncovered requirements first; ties: lowest part, then first face
+                "why": (f"skipped: {len(reqs)} (region, sink component) requirements in "
+                        f"{n0} pieces x candidate faces need {work} tests, over the budget "
+                        f"of {budget}")}
+    alive = np.ones(n0, dtype=bool)
+    bound = np.zeros((len(faces), 2), dtype=np.int64)  # gains (covered, cut), or more
+    taken = np.zeros(len(faces), dtype=bool)
+    # most pieces covered wholly first, then cut; ties: lowest part, then first face
     rank = np.empty(len(faces), dtype=np.int64)
     rank[np.lexsort((np.arange(len(faces)), part_of))] = np.arange(len(faces))
-    heap = [(-int(g), int(r), f) for f, (g, r) in enumerate(zip(gain, rank)) if g > 0]
-    heapq.heapify(heap)
-    left = np.ones(len(reqs), dtype=bool)
+    heap: list[tuple[int, int, int, int]] = []
+    exact: dict[int, bool] = {}
+
+    def recount(p: int) -> None:
+        """Exact gains of all of part ``p``'s faces (in blocks); queued again where they
+        rose (a queued key bounds its face's gain from above)."""
+        q = holds[p] = holds[p][alive[holds[p]]]
+        fs = by_part[p][~taken[by_part[p]]]
+        got = np.zeros((len(fs), 2), dtype=np.int64)
+        if len(q) and len(fs):
+            gens, seg = pieces.gather(q)
+            wq = np.asarray(pieces.weight, dtype=np.int64)[q]
+            step = max(1, _BLOCK // len(gens))
+            for s in range(0, len(fs), step):
+                cov, cut = _tests(gens, seg, normals[fs[s:s + step]], tol)
+                got[s:s + step] = np.column_stack([wq @ cov, wq @ cut])
+        old = bound[fs]
+        up = (got[:, 0] > old[:, 0]) | ((got[:, 0] == old[:, 0]) & (got[:, 1] > old[:, 1]))
+        bound[fs] = got
+        for f, w, c in zip(fs[up].tolist(), got[up, 0].tolist(), got[up, 1].tolist()):
+            heapq.heappush(heap, (-w, -c, int(rank[f]), f))
+        exact[p] = True
+
+    for p in holds:
+        recount(p)
     chosen: list[int] = []
-    while heap and left.any():
-        neg, r, f = heapq.heappop(heap)
-        q = holds[int(part_of[f])]
-        got = hits(f, q[left[q]])
-        if len(got) == -neg:
-            chosen.append(f)
-            left[got] = False
-        elif len(got):
-            heapq.heappush(heap, (-len(got), r, f))
+    while heap and alive.any():
+        neg_w, neg_c, r, f = heapq.heappop(heap)
+        if taken[f]:
+            continue
+        p = int(part_of[f])
+        if not exact[p]:
+            recount(p)
+        w, c = int(bound[f, 0]), int(bound[f, 1])
+        if (w, c) != (-neg_w, -neg_c):  # a stale key: queue the face's current gain
+            if w or c:
+                heapq.heappush(heap, (-w, -c, r, f))
+            continue
+        # an exact gain on top: no other face gains more (every key bounds its face's gain)
+        chosen.append(f)
+        taken[f] = True
+        q = holds[p]
+        cov, cut = (x[:, 0] for x in _tests(*pieces.gather(q), normals[f][None], tol))
+        alive[q[cov | cut]] = False
+        for pp in np.flatnonzero(inside[piece_req[q[cov | cut]]].any(axis=0)).tolist():
+            exact[pp] = False
+        new: list[int] = []
+        for i in q[cut].tolist():
+            g = pieces.chunks[i]
+            new += [pieces.add(h, pieces.req[i], pieces.weight[i])
+                    for h in _split(g, g @ normals[f], tol)]
+        if new:  # new pieces may raise other faces' gains: re-count their parts now
+            alive = np.r_[alive, np.ones(len(new), dtype=bool)]
+            piece_req = np.asarray(pieces.req, dtype=np.intp)
+            new_a = np.array(new)
+            for pp in holds:
+                mine = new_a[inside[piece_req[new_a], pp]]
+                if len(mine):
+                    holds[pp] = np.r_[holds[pp], mine]
+                    recount(pp)
     fingers = []
     for f in chosen:
         part, normal, point = faces[f]
+        q = np.flatnonzero(inside[piece_req[:n0], part])
+        cov, cut = (x[:, 0] for x in _tests(*pieces.gather(q), normals[f][None], tol))
+        per = np.bincount(piece_req[q], minlength=len(reqs))
+        whole = np.bincount(piece_req[q], weights=cov, minlength=len(reqs))
+        some = np.bincount(piece_req[q], weights=cov | cut, minlength=len(reqs))
+        n_whole = int(((per > 0) & (whole == per)).sum())
         fingers.append({"part": ndbg.ids[part], "normal": [float(x) for x in normal],
                         "point": None if point is None else [float(x) for x in point],
-                        "covers": len(hits(f, holds[part]))})
-    uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1])}
-                 for q in np.flatnonzero(left).tolist()]
+                        "covers": n_whole, "covers_part": int((some > 0).sum()) - n_whole})
+    left: dict[int, int] = {}
+    for i in np.flatnonzero(alive).tolist():
+        left.setdefault(pieces.req[i], i)
+    uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1]),
+                  "direction": [float(x) for x in _unit(pieces.chunks[i].sum(axis=0))]}
+                 for q, i in sorted(left.items())]
+    where = ("over each region's whole extent" if coverage == "regions" else
+             "at each region's representative direction only (no region geometry)")
     why = (f"{len(fingers)} finger(s) hold every sink component of all "
-           f"{len({k for k, _ in reqs})} directional DBGs ({len(reqs)} requirements)")
+           f"{len({k for k, _ in reqs})} directional DBGs ({len(reqs)} requirements) {where}")
     if uncovered:
-        why = (f"incomplete: {len(uncovered)} (region, sink component) pair(s) have no candidate "
-               f"face with positive inner product; {len(fingers)} finger(s) placed")
+        why = (f"incomplete: {len(uncovered)} (region, sink component) pair(s) have directions "
+               f"no candidate face blocks ({where}); {len(fingers)} finger(s) placed")
     return {"value": len(fingers), "fingers": fingers, "uncovered": uncovered,
-            "complete": not uncovered, "why": why, "parts": [ndbg.ids[i] for i in bits(m)]}
+            "complete": not uncovered, "coverage": coverage, "why": why,
+            "parts": [ndbg.ids[i] for i in bits(m)]}

@@ -161,7 +161,7 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
         region = Region(2, (0.0, 0.0, 1.0), DBG.empty(n))
         return NDBG(FAMILY, tuple(ids), (region,), 3,
                     _stats([region], circles=0, normals=0, pairs=0, angle_tolerance=tol,
-                           refined=refine))
+                           refined=refine), geometry=arrangement_s2(np.zeros((0, 3)), tol))
     pair_index = {e: k for k, e in enumerate(ends)}
     group_pair = np.array([pair_index[(g[0], g[1])] for g in groups])
     group_all = np.array([g[3] == "all" for g in groups])
@@ -223,7 +223,7 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     stats = _stats(regions, circles=int(len(keep)), circles_total=int(len(circles)),
                    normals=int(len(all_n)), pairs=len(ends), angle_tolerance=tol,
                    refined=refine, arrangement_circles=arr.circles.tolist())
-    return NDBG(FAMILY, tuple(ids), regions, 3, stats)
+    return NDBG(FAMILY, tuple(ids), regions, 3, stats, geometry=arr)
 
 
 def _region_signs(arr, reps: np.ndarray) -> np.ndarray:

@@ -46,13 +46,20 @@ class Region:
 
 @dataclass(frozen=True)
 class NDBG:
-    """All regions of one motion family over parts ``ids`` (the node order of every DBG)."""
+    """All regions of one motion family over parts ``ids`` (the node order of every DBG).
+
+    ``geometry``: the arrangement whose cells the regions are, when its builder keeps it (the
+    infinitesimal 3D NDBG: its :class:`ndbg_cli.sphere.Arrangement`, regions in
+    :meth:`~ndbg_cli.sphere.Arrangement.regions` order); ``None`` otherwise. Only the grasp
+    reads it (:func:`ndbg_cli.grasp.region_pieces`, which recovers the other families' cells
+    from what they keep)."""
 
     family: str
     ids: tuple[str, ...]
     regions: tuple[Region, ...]
     space_dimension: int = 3
     stats: dict = field(default_factory=dict)
+    geometry: object = field(default=None, compare=False, repr=False)
 
     @property
     def n(self) -> int:

@@ -486,7 +486,11 @@ def test_grasp_two_stacked_boxes_needs_ten_fingers():
     assert ("T", UP) in parts and ("L", DOWN) in parts
     # without the top face the up-requirement cannot be covered
     r2 = grasp(nd, faces[:-1])
-    assert not r2["complete"] and r2["uncovered"] == [{"region": 0, "parts": ["T"]}]
+    # (hand-built regions carry no extent: only their representatives are required, and
+    # each uncovered requirement names a direction no finger blocks, here the region's own)
+    assert r["coverage"] == "representatives"
+    assert not r2["complete"] and r2["uncovered"] == [{"region": 0, "parts": ["T"],
+                                                        "direction": [0.0, 0.0, 1.0]}]
 
 
 def _greedy_grasp_reference(nd, faces, tol=1e-9):
