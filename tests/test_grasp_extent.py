@@ -175,3 +175,29 @@ def test_region_pieces_of_the_3d_infinite_family_match_its_regions():
     for r, ps in zip(nd.regions, pieces):
         d = np.asarray(r.direction)
         assert any(nnls(g.T, d)[1] < 1e-7 for g in ps), r
+
+
+def test_grasp_budget_counts_tests_and_says_where_it_stopped():
+    # the stacked boxes (10 fingers): with budgets from 1 test up, the grasp is first
+    # skipped (the first gains alone exceed it), then stopped part-way (incomplete, with
+    # fewer fingers, and the why says so), then complete, the same 10 every time
+    nd = build_ndbg_3d(("A", "B"), [(1, 0, np.array([[0.0, 0.0, -1.0]]))])
+    sides = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0)]
+    faces = ([(0, s, None) for s in sides] + [(0, (0, 0, -1), None)]
+             + [(1, s, None) for s in sides] + [(1, (0, 0, 1), None)])
+    seen = []
+    for budget in range(1, 600, 7):
+        r = grasp(nd, faces, budget=budget)
+        if r.get("skipped"):
+            kind = "skipped"
+            assert r["value"] is None and "over the budget" in r["why"]
+        elif not r["complete"]:
+            kind = "stopped"
+            assert 0 < r["value"] < 10 and "face tests ran out" in r["why"]
+        else:
+            kind = "complete"
+            assert r["value"] == 10
+        seen.append(kind)
+    assert seen == sorted(seen, key=["skipped", "stopped", "complete"].index)
+    assert set(seen) == {"skipped", "stopped", "complete"}
+    assert grasp(nd, faces, budget=400) == grasp(nd, faces, budget=400)
