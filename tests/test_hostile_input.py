@@ -1,0 +1,109 @@
+"""Hostile or odd input: YAML alias bombs, nesting past the recursion limit, file names that
+are not UTF-8. Each is an input error (exit 2, one line) or, for names, a report written with
+the name escaped, never an internal error or a traceback."""
+
+from __future__ import annotations
+
+import json
+import resource
+import subprocess
+import sys
+
+import pytest
+
+from helpers import run_cli, write_two_boxes
+
+#: Nine anchors of nine aliases each: 9**9 values when expanded, 400 bytes of YAML.
+BOMB = ["metadata:", "  a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"] + [
+    f"  a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * 9)}]" for i in range(1, 9)]
+#: The same with merge keys: every level merges the one below nine times.
+MERGE_BOMB = ["metadata:", "  a0: &a0 {k0: 0, k1: 1, k2: 2, k3: 3, k4: 4, k5: 5, k6: 6}"] + [
+    f"  a{i}: &a{i} {{<<: [{', '.join([f'*a{i - 1}'] * 9)}]}}" for i in range(1, 11)]
+
+
+def _nest(n: int) -> str:
+    return "[" * n + "]" * n
+
+
+def _run_limited(*args: str) -> subprocess.CompletedProcess:
+    """The CLI with its address space capped at 1 GB: a bomb that expands fails the run
+    with a MemoryError (an internal error) instead of swapping the machine."""
+    def cap():
+        resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+
+    return subprocess.run([sys.executable, "-m", "ndbg_cli", *args], capture_output=True,
+                          text=True, timeout=120, preexec_fn=cap)
+
+
+def _one_line_input_error(r: subprocess.CompletedProcess, *fragments: str) -> None:
+    assert r.returncode == 2, (r.returncode, r.stderr[-2000:])
+    assert "Traceback" not in r.stderr and "internal error" not in r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("ndbg: error: "), r.stderr[-2000:]
+    for f in fragments:
+        assert f in lines[0], lines[0]
+
+
+# -- YAML aliases that expand too much ----------------------------------------------------
+
+@pytest.mark.parametrize("bomb", [BOMB, MERGE_BOMB], ids=["aliases", "merge-keys"])
+def test_alias_bomb_in_a_manifest_is_an_input_error(tmp_path, bomb):
+    """Was: the line map, the finiteness check and the schema walked the 9**9 expanded
+    values (1.3 GB, minutes). Now refused while composing, naming the anchor's line."""
+    p = write_two_boxes(tmp_path, extra="\n".join(bomb) + "\n")
+    r = _run_limited("analyze", str(p), "--no-cache")
+    _one_line_input_error(r, "two.yaml:", "aliases expand to more than")
+
+
+def test_alias_bomb_in_a_config_file(tmp_path):
+    p = write_two_boxes(tmp_path)
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text("motion: all\nx:\n" + "\n".join(BOMB[1:]) + "\n")
+    _one_line_input_error(_run_limited("analyze", str(p), "--config", str(cfg)),
+                          "cfg.yaml", "aliases expand to more than")
+
+
+def test_recursive_alias_is_an_input_error(tmp_path):
+    p = write_two_boxes(tmp_path, extra="metadata: &m {self: *m}\n")
+    _one_line_input_error(run_cli("analyze", p), "two.yaml:9:", "refers to a node that "
+                          "contains it")
+
+
+def test_a_few_aliases_are_still_fine(tmp_path):
+    from ndbg_cli.loaders import load
+
+    p = write_two_boxes(tmp_path, extra="metadata: {r: &r [1, 2, 3], s: *r, t: *r}\n")
+    assert load(p).metadata == {"r": [1, 2, 3], "s": [1, 2, 3], "t": [1, 2, 3]}
+
+
+# -- nesting past the recursion limit -----------------------------------------------------
+
+def test_deeply_nested_yaml_is_an_input_error(tmp_path):
+    """Was: exit 3 (RecursionError in PyYAML's composer) for the manifest, the config and
+    the rules file."""
+    deep = _nest(100_000)
+    p = write_two_boxes(tmp_path, extra=f"metadata: {{x: {deep}}}\n")
+    _one_line_input_error(run_cli("analyze", p), "two.yaml:9:", "nested deeper than 100")
+    ok = write_two_boxes(tmp_path / "ok")
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(f"motion: {deep}\n")
+    _one_line_input_error(run_cli("analyze", ok, "--config", cfg), "cfg.yaml",
+                          "nested deeper than 100")
+
+
+def test_nesting_at_the_limit_is_read(tmp_path):
+    """100 levels (the root mapping, ``metadata``'s mapping, 98 lists) load; the readers
+    that walk the data recursively (line map, finiteness, schema) stay within Python's
+    recursion limit."""
+    from ndbg_cli.loaders import load
+
+    p = write_two_boxes(tmp_path, extra=f"metadata: {{x: {_nest(98)}}}\n")
+    assert load(p).metadata["x"] == json.loads(_nest(98))
+
+
+def test_aliases_cannot_nest_past_the_limit(tmp_path):
+    """Each anchor 60 levels deep inside the next: 240 levels once expanded."""
+    lines = ["metadata:", f"  a0: &a0 {_nest(60)}"] + [
+        f"  a{i}: &a{i} {'[' * 60}*a{i - 1}{']' * 60}" for i in range(1, 4)]
+    p = write_two_boxes(tmp_path, extra="\n".join(lines) + "\n")
+    _one_line_input_error(run_cli("analyze", p), "once its aliases are expanded")
