@@ -55,12 +55,16 @@ def test_alias_bomb_in_a_manifest_is_an_input_error(tmp_path, bomb):
     _one_line_input_error(r, "two.yaml:", "aliases expand to more than")
 
 
-def test_alias_bomb_in_a_config_file(tmp_path):
+def test_alias_bomb_in_config_and_rules_files(tmp_path):
     p = write_two_boxes(tmp_path)
     cfg = tmp_path / "cfg.yaml"
     cfg.write_text("motion: all\nx:\n" + "\n".join(BOMB[1:]) + "\n")
     _one_line_input_error(_run_limited("analyze", str(p), "--config", str(cfg)),
                           "cfg.yaml", "aliases expand to more than")
+    rules = tmp_path / "rules.yaml"
+    rules.write_text("rules: {max_warnings: 1}\ndescription:\n" + "\n".join(BOMB[1:]) + "\n")
+    _one_line_input_error(_run_limited("check", str(p), "--rules", str(rules)),
+                          "rules.yaml:", "aliases expand to more than")
 
 
 def test_recursive_alias_is_an_input_error(tmp_path):
@@ -89,6 +93,10 @@ def test_deeply_nested_yaml_is_an_input_error(tmp_path):
     cfg.write_text(f"motion: {deep}\n")
     _one_line_input_error(run_cli("analyze", ok, "--config", cfg), "cfg.yaml",
                           "nested deeper than 100")
+    rules = tmp_path / "rules.yaml"
+    rules.write_text(f"rules: {deep}\n")
+    _one_line_input_error(run_cli("check", ok, "--rules", rules), "rules.yaml:1:",
+                          "nested deeper than 100")
 
 
 def test_nesting_at_the_limit_is_read(tmp_path):
@@ -107,3 +115,27 @@ def test_aliases_cannot_nest_past_the_limit(tmp_path):
         f"  a{i}: &a{i} {'[' * 60}*a{i - 1}{']' * 60}" for i in range(1, 4)]
     p = write_two_boxes(tmp_path, extra="\n".join(lines) + "\n")
     _one_line_input_error(run_cli("analyze", p), "once its aliases are expanded")
+
+
+# -- rules files read numbers as manifests do ---------------------------------------------
+
+def test_rules_files_read_exponent_floats_as_manifests_do(tmp_path):
+    """Was: yaml.safe_load (YAML 1.1) read ``1e1`` as the string '1e1' in a rules file,
+    while manifests and configs read it as 10.0 (manifest.YamlLoader)."""
+    from ndbg_cli.errors import InputError
+    from ndbg_cli.rules import load_rules
+
+    rules = tmp_path / "rules.yaml"
+    rules.write_text("rules:\n  max_depth: 1e1\n")
+    with pytest.raises(InputError, match=r"needs a non-negative integer, got 10\.0$"):
+        load_rules(rules)
+    rules.write_text("rules:\n  max_depth: 10\nassemblies:\n  1e3: {max_depth: 2}\n")
+    assert load_rules(rules).assemblies[0][0] == str(1e3)
+
+
+def test_rules_file_that_is_not_utf8_is_an_input_error(tmp_path):
+    rules = tmp_path / "rules.yaml"
+    rules.write_bytes(b"rules: {max_depth: 3}\n# caf\xe9\n")
+    p = write_two_boxes(tmp_path)
+    _one_line_input_error(run_cli("check", p, "--rules", rules), "rules.yaml: ",
+                          "not UTF-8")
