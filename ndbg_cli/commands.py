@@ -255,7 +255,8 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
     Example:
       ndbg diff main/bell.json branch/bell.json --fail-on worse
     """
-    from .diff import diff_sets, fails, read_reports
+    from .cli import read_reports
+    from .diff import diff_sets, fails
 
     changes = diff_sets(read_reports(old), read_reports(new))
     if fmt == "json":

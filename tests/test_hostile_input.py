@@ -117,6 +117,17 @@ def test_aliases_cannot_nest_past_the_limit(tmp_path):
     _one_line_input_error(run_cli("analyze", p), "once its aliases are expanded")
 
 
+def test_deeply_nested_json_report_is_an_input_error(tmp_path):
+    """Was: exit 3 (RecursionError from ``json``) for ``ndbg diff`` and ``ndbg check``."""
+    deep = tmp_path / "deep.json"
+    deep.write_text(_nest(100_000))
+    _one_line_input_error(run_cli("diff", deep, deep), "deep.json: ", "nested too deeply")
+    rules = tmp_path / "rules.yaml"
+    rules.write_text("rules: {max_warnings: 1}\n")
+    _one_line_input_error(run_cli("check", deep, "--rules", rules), "deep.json: ",
+                          "nested too deeply")
+
+
 # -- rules files read numbers as manifests do ---------------------------------------------
 
 def test_rules_files_read_exponent_floats_as_manifests_do(tmp_path):
