@@ -26,6 +26,7 @@ from .loaders import discover
 from .progress import progress
 from .report import (
     BATCH_SCHEMA,
+    ESCAPE,
     clean,
     dumps,
     identity,
@@ -494,7 +495,18 @@ from . import commands  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Entry point: run the CLI, mapping exceptions to exit codes and one-line messages."""
+    """Entry point: run the CLI, mapping exceptions to exit codes and one-line messages.
+
+    stdout and stderr write what their encoding cannot (the undecodable bytes of a file name
+    that is not UTF-8, kept by Python as lone surrogates) as ``\\xNN``, as the reports do
+    (:data:`ndbg_cli.report.ESCAPE`): otherwise a text report or an error message naming
+    such a file fails with UnicodeEncodeError (stdout's default is strict), or writes
+    the raw byte (a C locale's surrogateescape), which is not UTF-8."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors=ESCAPE)
+        except (AttributeError, ValueError, OSError):  # replaced by a non-TextIOWrapper
+            pass
     try:
         cli.main(args=argv, prog_name="ndbg", standalone_mode=False)
     except click.exceptions.Exit as exc:

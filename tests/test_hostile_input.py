@@ -5,13 +5,15 @@ the name escaped, never an internal error or a traceback."""
 from __future__ import annotations
 
 import json
+import os
 import resource
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
-from helpers import run_cli, write_two_boxes
+from helpers import box, run_cli, write_two_boxes
 
 #: Nine anchors of nine aliases each: 9**9 values when expanded, 400 bytes of YAML.
 BOMB = ["metadata:", "  a0: &a0 [lol, lol, lol, lol, lol, lol, lol, lol, lol]"] + [
@@ -150,3 +152,95 @@ def test_rules_file_that_is_not_utf8_is_an_input_error(tmp_path):
     p = write_two_boxes(tmp_path)
     _one_line_input_error(run_cli("check", p, "--rules", rules), "rules.yaml: ",
                           "not UTF-8")
+
+
+# -- file names that are not UTF-8 --------------------------------------------------------
+
+def _run_bytes(*args, errors: str = "strict") -> subprocess.CompletedProcess:
+    """The CLI with bytes out (to check they are UTF-8), its stdout and stderr UTF-8 with
+    the ``errors`` handler Python would give them: ``strict`` (a UTF-8 locale such as
+    en_US.UTF-8) or ``surrogateescape`` (the C locale, UTF-8 mode)."""
+    env = {**os.environ, "PYTHONIOENCODING": f"utf-8:{errors}"}
+    return subprocess.run([sys.executable, "-m", "ndbg_cli", *map(os.fsencode, args)],
+                          capture_output=True, timeout=300, env=env)
+
+
+@pytest.fixture
+def latin1_batch(tmp_path) -> Path:
+    """A batch folder holding ``tw\\xffo.yaml`` (a good manifest whose name has the byte
+    0xff) and ``bad\\xff.yaml`` (an invalid one)."""
+    src = tmp_path / "src"
+    write_two_boxes(src)
+    folder = os.fsencode(src)
+    try:
+        os.rename(folder + b"/two.yaml", folder + b"/tw\xffo.yaml")
+    except OSError:
+        pytest.skip("the file system refuses names that are not UTF-8")
+    with open(folder + b"/bad\xff.yaml", "w") as fh:
+        fh.write("parts: 5\n")
+    return src
+
+
+def _check_names(text: bytes) -> dict:
+    doc = json.loads(text.decode("utf-8"))  # strict: the JSON text is UTF-8
+    sources = sorted(identity_source(r) for r in doc["reports"])
+    assert [s.rsplit("/", 1)[1] for s in sources] == ["bad\\xff.yaml", "tw\\xffo.yaml"]
+    return doc
+
+
+def identity_source(r: dict) -> str:
+    from ndbg_cli.report import identity
+
+    return identity(r)[1]
+
+
+@pytest.mark.parametrize("errors", ["strict", "surrogateescape"])
+def test_non_utf8_names_in_json_on_stdout(latin1_batch, errors):
+    """Was: exit 3 (UnicodeEncodeError: surrogates not allowed) with a strict stdout, and
+    the raw byte 0xff in the JSON (not UTF-8) with surrogateescape. Now the byte is
+    written ``\\xff`` in the JSON string, the bad manifest is an error record, the other
+    report completes."""
+    r = _run_bytes("-q", "analyze", latin1_batch, "--format", "json", "--no-cache",
+                   errors=errors)
+    assert r.returncode == 2, r.stderr.decode(errors="replace")[-2000:]
+    doc = _check_names(r.stdout)
+    assert doc["summary"] == {"assemblies": 2, "ok": 1, "errors": 1}
+    err = r.stderr.decode("utf-8")
+    assert err.startswith("ndbg: error: ") and "bad\\xff.yaml:1: parts" in err
+    assert "internal error" not in err
+    lines = _run_bytes("-q", "analyze", latin1_batch, "--format", "jsonl", "--no-cache",
+                       errors=errors).stdout.decode("utf-8")
+    assert len([json.loads(line) for line in lines.splitlines()]) == 2
+
+
+def test_non_utf8_names_in_out_dir_and_text(latin1_batch, tmp_path):
+    """--out-dir: both reports and the index are written (UTF-8, ``\\xff``); text on
+    stdout names the file ``tw\\xffo.yaml``."""
+    out = tmp_path / "out"
+    r = _run_bytes("-q", "analyze", latin1_batch, "--out-dir", out, "--no-cache")
+    assert r.returncode == 2, r.stderr.decode(errors="replace")[-2000:]
+    index = _check_names((out / "index.json").read_bytes())
+    assert index["summary"]["errors"] == 1
+    assert sorted(p.name for p in out.iterdir()) == ["bad_.json", "index.json", "two.json"]
+    good = json.loads((out / "two.json").read_bytes().decode("utf-8"))
+    assert good["assembly"]["source"].endswith("/tw\\xffo.yaml")
+    text = _run_bytes("-q", "analyze", os.fsencode(latin1_batch) + b"/tw\xffo.yaml",
+                      "--no-cache")
+    assert text.returncode == 0, text.stderr.decode(errors="replace")[-2000:]
+    assert "tw\\xffo.yaml)" in text.stdout.decode("utf-8").splitlines()[0]
+
+
+def test_non_utf8_mesh_file_names(tmp_path):
+    """A folder of meshes, one named ``a\\xff.stl``: was exit 3 (trimesh encodes the body
+    name it takes from the file name to hash its scene graph); now part ``a\\xff``."""
+    folder = os.fsencode(tmp_path)
+    box((0, 0, 0), (1, 1, 1)).export(tmp_path / "b.stl")
+    try:
+        os.rename(folder + b"/b.stl", folder + b"/a\xff.stl")
+    except OSError:
+        pytest.skip("the file system refuses names that are not UTF-8")
+    box((0, 0, 1), (1, 1, 2)).export(tmp_path / "b.stl")
+    r = _run_bytes("-q", "analyze", tmp_path, "--format", "json", "--no-cache")
+    assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]
+    doc = json.loads(r.stdout.decode("utf-8"))
+    assert [p["id"] for p in doc["assembly"]["parts"]] == ["a\\xff", "b"]
