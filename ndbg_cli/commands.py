@@ -15,6 +15,8 @@ from . import __version__
 from .cli import (
     CONTEXT,
     STATE,
+    _cannot_write,
+    _check_writable,
     _common_load_options,
     _global_options,
     cli,
@@ -45,8 +47,14 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
     from .convert import convert_assembly
     from .loaders import load
 
+    # as analyze --out: a folder that cannot be written is an input error (exit 2) naming
+    # it, found before the model is read (a STEP file can take minutes)
+    _check_writable(out, Path(out))
     asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths)
-    manifest = convert_assembly(asm, Path(out), force=force)
+    try:
+        manifest = convert_assembly(asm, Path(out), force=force)
+    except OSError as exc:  # e.g. out/meshes is a file, or the disk is full
+        raise _cannot_write(out, exc) from None
     if not STATE.quiet:
         click.echo(f"wrote {manifest} ({len(asm)} parts, units {asm.units})", err=True)
     click.echo(str(manifest))

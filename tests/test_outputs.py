@@ -122,3 +122,30 @@ def test_reports_get_the_permissions_of_a_plain_open(hover, tmp_path):
     entries = [p for p in (tmp_path / "cache").rglob("*") if p.is_file()]
     assert entries
     assert {p: _mode(p) for p in written + entries} == {p: 0o664 for p in written + entries}
+
+
+CONVERT_CASES = {  # name: (--out relative to tmp, or absolute; the reason the message gives)
+    "folder-under-a-file": ("afile/proj", "Not a directory"),
+    "folder-is-a-file": ("afile", "afile is not a directory"),
+    "meshes-is-a-file": ("proj", "proj/meshes is not a directory"),
+    "in-proc": ("/proc/ndbg-x", "No such file or directory"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CONVERT_CASES))
+def test_convert_to_an_unwritable_folder_is_an_input_error(hover, tmp_path, name):
+    """Was: exit 3 ('internal error: NotADirectoryError' or 'FileNotFoundError'); now the
+    one-line 'cannot write OUT: REASON' (exit 2) that analyze --out gives."""
+    rel, reason = CONVERT_CASES[name]
+    if rel.startswith("/proc") and not Path("/proc/self").is_dir():
+        pytest.skip("no /proc")
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "proj").mkdir()
+    (tmp_path / "proj" / "meshes").write_text("x")
+    out = rel if rel.startswith("/") else str(tmp_path / rel)
+    r = run_cli("convert", hover.parent / "meshes" / "hover" / "base.stl", "--out", out)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [r.stderr.strip()]  # one line
+    assert r.stderr.startswith(f"ndbg: error: cannot write {out}: ")
+    assert reason in r.stderr and "internal error" not in r.stderr
+    assert not list(tmp_path.rglob("*.tmp"))
