@@ -124,7 +124,10 @@ def _common_load_options(f):
               "for one assembly, a directory (one NAME.json each, as --out-dir) for several "
               "or when it ends with a slash or names an existing directory.")
 @click.option("--out-dir", type=click.Path(file_okay=False), help="Write one NAME.json per "
-              "assembly (atomically, as each completes) plus index.json into this folder.")
+              "assembly (atomically, as each completes) plus index.json into this folder. "
+              "index.json is removed when the run starts and written when it ends: it exists "
+              "only after a complete run and lists that run's reports (each entry's 'report' "
+              "is its file).")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
               help="Worker processes: one assembly each in a batch; for a single assembly, "
               "its infinite-translation NDBG's part pairs (default: the number of cores). "
@@ -191,6 +194,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     inputs = _input_files(targets)
     if out_file is not None:
         _refuse_input(where, out_file, inputs)
+    if out_dir is not None:
+        _drop_index(where, out_dir, inputs)
     jobs = jobs or default_jobs()
     reports: list[dict] = []
     names: set[str] = set()
@@ -208,13 +213,14 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                 path = out_dir / f"{_report_name(r, names)}.json"
                 _refuse_input(where, path, inputs | _part_files(r))
                 _write(where, path, dumps(r))
-                reports.append(_index_entry(r))
+                reports.append(_index_entry(r, path.name))
             elif fmt == "jsonl" and out_file is None:
                 click.echo(_jsonl_line(r), nl=False)
             else:
                 reports.append(r)
     except Interrupted:
-        click.echo("ndbg: terminated; reports written so far are complete", err=True)
+        tail = " (no index.json: the run is incomplete)" if out_dir is not None else ""
+        click.echo(f"ndbg: terminated; reports written so far are complete{tail}", err=True)
         sys.exit(143)
     finally:  # an error writing a report: the workers are ended now, not at exit
         stream.close()
@@ -283,6 +289,26 @@ def _write(where: str, path: Path, text: str) -> None:
     try:
         write_atomic(path, text)
     except OSError as exc:
+        raise _cannot_write(where, exc) from None
+
+
+def _drop_index(where: str, out_dir: Path, inputs: set[Path]) -> None:
+    """Remove an earlier run's ``index.json`` from ``out_dir`` before this run writes any
+    report; the run writes its own (atomically) once every report is written.
+
+    A rerun into the same folder that is killed or interrupted part-way would otherwise
+    leave the old index describing reports that are partly this run's: whoever reads the
+    folder (a CI job, ``ndbg check DIR``, which takes it for a folder of reports only when
+    it holds an index.json) could not tell. So an index, when there is one, is always the
+    complete list of one run's reports. Report files of an earlier run that this one does
+    not rewrite stay in the folder; they are not in the index."""
+    index = out_dir / "index.json"
+    _refuse_input(where, index, inputs)
+    try:
+        index.unlink()
+    except FileNotFoundError:
+        pass
+    except OSError as exc:  # a folder named index.json, a read-only folder
         raise _cannot_write(where, exc) from None
 
 
@@ -391,12 +417,14 @@ def _report_name(r: dict, names: set[str]) -> str:
     return name
 
 
-def _index_entry(r: dict) -> dict:
-    """What ``index.json`` keeps of a report: identity and error, not the analysis. Every
-    entry has the top-level ``source`` the batch schema requires (an error record has its
-    own; a report's is its assembly's)."""
+def _index_entry(r: dict, file: str) -> dict:
+    """What ``index.json`` keeps of a report: identity and error, not the analysis, and
+    ``report``, the name of its file in the folder (so that a reader takes this run's files,
+    not others left there). Every entry has the top-level ``source`` the batch schema
+    requires (an error record has its own; a report's is its assembly's)."""
     out = {k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
     out["source"] = identity(r)[1]
+    out["report"] = file
     if "assembly" in r:
         out["assembly"] = {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}
     return out
