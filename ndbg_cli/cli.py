@@ -204,11 +204,16 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
     else:
         stream = run_batch(targets, options, jobs, debug=STATE.debug)
+    # the warnings are in a text report on stdout; elsewhere a human would not see them
+    summary = not STATE.quiet and (out_dir is not None or out_file is not None or fmt != "text")
     try:
         for r in progress(stream, len(targets), "analyzing", quiet=STATE.quiet):
             code = max(code, _exit_code(r))
             if "error" in r:
-                click.echo(f"ndbg: error: {r['error']['message']}", err=True)
+                _note(f"ndbg: error: {r['error']['message']}")
+            elif summary:
+                for line in _warning_lines(r):
+                    _note(line)
             if out_dir is not None:
                 path = out_dir / f"{_report_name(r, names)}.json"
                 _refuse_input(where, path, inputs | _part_files(r))
@@ -239,6 +244,34 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         click.echo("\n".join(render(r) for r in reports), nl=False)
     _trim_cache(options.cache)
     sys.exit(code)
+
+
+#: Warnings summarised on stderr per assembly; the rest are counted (all are in the report).
+MAX_WARNING_LINES = 20
+
+
+def _warning_lines(report: dict) -> list[str]:
+    """One ``ndbg: warning: NAME: MESSAGE [PART]`` line per warning of ``report`` (at most
+    :data:`MAX_WARNING_LINES`, then how many more), for stderr: a report written to a file,
+    a folder or as JSON carries its warnings (interferences, skipped stages, open meshes)
+    where the person running ndbg does not look."""
+    name = identity(report)[0]
+    warnings = report.get("warnings") or []
+    lines = [f"ndbg: warning: {name}: {w['message']}"
+             + (f" [{w['part']}]" if w.get("part") else "")
+             for w in warnings[:MAX_WARNING_LINES]]
+    if len(warnings) > MAX_WARNING_LINES:
+        lines.append(f"ndbg: warning: {name}: ... and {len(warnings) - MAX_WARNING_LINES} "
+                     "more (see the report)")
+    return lines
+
+
+def _note(line: str) -> None:
+    """Print ``line`` on stderr, first clearing the progress bar's line on a terminal (the
+    bar is drawn again at the next assembly)."""
+    if sys.stderr.isatty():
+        click.echo("\r" + " " * 70 + "\r", nl=False, err=True)
+    click.echo(line, err=True)
 
 
 def _jsonl_line(report: dict) -> str:
