@@ -194,8 +194,6 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     inputs = _input_files(targets)
     if out_file is not None:
         _refuse_input(where, out_file, inputs)
-    if out_dir is not None:
-        _drop_index(where, out_dir, inputs)
     jobs = jobs or default_jobs()
     reports: list[dict] = []
     names: set[str] = set()
@@ -207,6 +205,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     # the warnings are in a text report on stdout; elsewhere a human would not see them
     summary = not STATE.quiet and (out_dir is not None or out_file is not None or fmt != "text")
     try:
+        if out_dir is not None:  # once the run can start (a dask scheduler was reached)
+            _drop_index(where, out_dir, inputs)
         for r in progress(stream, len(targets), "analyzing", quiet=STATE.quiet):
             code = max(code, _exit_code(r))
             if "error" in r:

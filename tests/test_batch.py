@@ -262,3 +262,20 @@ def test_index_json_that_cannot_be_removed_is_an_input_error(tmp_path):
     assert r.returncode == 2
     assert r.stderr.startswith(f"ndbg: error: cannot write {tmp_path / 'out'}: ")
     assert not (tmp_path / "out" / "hover.json").exists()  # refused before any analysis
+
+
+def test_a_run_that_cannot_start_keeps_the_previous_index(tmp_path):
+    """The index goes only once the run can start: an unreachable dask scheduler (exit 2
+    before any analysis) leaves the previous complete run's index and reports as they were."""
+    pytest.importorskip("distributed")
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    shutil.copy(EX / "hover.yaml", src / "hover.yaml")
+    out = tmp_path / "out"
+    first = run_cli("analyze", src, "--out-dir", out, "--motion", "translation", "-q")
+    assert first.returncode == 0, first.stderr
+    before = (out / "index.json").read_text()
+    r = run_cli("analyze", src, "--out-dir", out, "--scheduler", "tcp://127.0.0.1:1")
+    assert r.returncode == 2 and "tcp://127.0.0.1:1" in r.stderr
+    assert (out / "index.json").read_text() == before
