@@ -95,9 +95,9 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
         click.echo(dumps(doc), nl=False)
     else:
         click.echo("\n".join(contacts_text(asm, result)))
-        if not STATE.quiet:
-            for w in warnings:
-                click.echo(f"ndbg: warning: {w.message}", err=True)
+    if not STATE.quiet:  # on stderr for JSON too, as analyze does
+        for w in warnings:
+            click.echo(f"ndbg: warning: {w.message}", err=True)
 
 
 @cli.command(context_settings=CONTEXT)

@@ -196,3 +196,12 @@ def test_warning_summary_is_capped_per_assembly():
     lines = _warning_lines(report)
     assert len(lines) == MAX_WARNING_LINES + 1
     assert lines[-1] == "ndbg: warning: x: ... and 5 more (see the report)"
+
+
+def test_contacts_json_warns_on_stderr_too(overlapping):
+    """Was: 'ndbg contacts' printed its interference warnings on stderr for text only."""
+    r = run_cli("contacts", overlapping, "--format", "json")
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.startswith("ndbg: warning: parts 'a' and 'b' interpenetrate")
+    assert json.loads(r.stdout)["warnings"][0]["code"] == "interference"
+    assert run_cli("contacts", overlapping, "--format", "json", "-q").stderr == ""
