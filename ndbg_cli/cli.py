@@ -367,18 +367,6 @@ def _refuse_input(where: str, path: Path, inputs: set[Path]) -> None:
         raise InputError(f"cannot write {where}: {path} is an input of this run")
 
 
-def read_reports(path: str) -> dict[str, dict]:
-    """:func:`ndbg_cli.diff.read_reports`, with a JSON file nested beyond Python's recursion
-    limit (``json`` raises RecursionError, e.g. on 100000 nested lists) an input error
-    naming ``path`` rather than an internal one: no report nests that deep."""
-    from .diff import read_reports as read
-
-    try:
-        return read(path)
-    except RecursionError:
-        raise InputError("not an ndbg report: JSON nested too deeply", file=path) from None
-
-
 def _trim_cache(directory: str | None) -> None:
     """After a run: the cache back under its size limit (:func:`ndbg_cli.cache.trim`);
     never fails the run (a malformed ``$NDBG_CACHE_MAX_MB`` is a warning)."""
@@ -491,6 +479,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     Example:
       ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
     """
+    from .commands import read_reports
     from .junit import junit_xml
     from .rules import evaluate, load_rules
 
