@@ -244,3 +244,11 @@ def test_non_utf8_mesh_file_names(tmp_path):
     assert r.returncode == 0, r.stderr.decode(errors="replace")[-2000:]
     doc = json.loads(r.stdout.decode("utf-8"))
     assert [p["id"] for p in doc["assembly"]["parts"]] == ["a\\xff", "b"]
+
+
+def test_config_file_that_is_not_utf8_is_an_input_error(tmp_path):
+    """Was: exit 3 (UnicodeDecodeError escaped analysis.read_config)."""
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_bytes(b"motion: all\n# caf\xe9\n")
+    p = write_two_boxes(tmp_path)
+    _one_line_input_error(run_cli("analyze", p, "--config", cfg), "cfg.yaml: ", "not UTF-8")
