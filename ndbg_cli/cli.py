@@ -26,6 +26,7 @@ from .loaders import discover
 from .progress import progress
 from .report import (
     BATCH_SCHEMA,
+    ESCAPE,
     clean,
     dumps,
     identity,
@@ -123,7 +124,10 @@ def _common_load_options(f):
               "for one assembly, a directory (one NAME.json each, as --out-dir) for several "
               "or when it ends with a slash or names an existing directory.")
 @click.option("--out-dir", type=click.Path(file_okay=False), help="Write one NAME.json per "
-              "assembly (atomically, as each completes) plus index.json into this folder.")
+              "assembly (atomically, as each completes) plus index.json into this folder. "
+              "index.json is removed when the run starts and written when it ends: it exists "
+              "only after a complete run and lists that run's reports (each entry's 'report' "
+              "is its file).")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
               help="Worker processes: one assembly each in a batch; for a single assembly, "
               "its infinite-translation NDBG's part pairs (default: the number of cores). "
@@ -203,22 +207,30 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
     else:
         stream = run_batch(targets, options, jobs, debug=STATE.debug)
+    # the warnings are in a text report on stdout; elsewhere a human would not see them
+    summary = not STATE.quiet and (out_dir is not None or out_file is not None or fmt != "text")
     try:
+        if out_dir is not None:  # once the run can start (a dask scheduler was reached)
+            _drop_index(where, out_dir, inputs)
         for r in progress(stream, len(targets), "analyzing", quiet=STATE.quiet):
             code = max(code, _exit_code(r))
             if "error" in r:
-                click.echo(f"ndbg: error: {r['error']['message']}", err=True)
+                _note(f"ndbg: error: {r['error']['message']}")
+            elif summary:
+                for line in _warning_lines(r):
+                    _note(line)
             if out_dir is not None:
                 path = out_dir / f"{_report_name(r, names)}.json"
                 _refuse_input(where, path, inputs | _part_files(r))
                 _write(where, path, dumps(r))
-                reports.append(_index_entry(r))
+                reports.append(_index_entry(r, path.name))
             elif fmt == "jsonl" and out_file is None:
                 click.echo(_jsonl_line(r), nl=False)
             else:
                 reports.append(r)
     except Interrupted:
-        click.echo("ndbg: terminated; reports written so far are complete", err=True)
+        tail = " (no index.json: the run is incomplete)" if out_dir is not None else ""
+        click.echo(f"ndbg: terminated; reports written so far are complete{tail}", err=True)
         sys.exit(143)
     finally:  # an error writing a report: the workers are ended now, not at exit
         stream.close()
@@ -237,6 +249,34 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         click.echo("\n".join(render(r) for r in reports), nl=False)
     _trim_cache(options.cache)
     sys.exit(code)
+
+
+#: Warnings summarised on stderr per assembly; the rest are counted (all are in the report).
+MAX_WARNING_LINES = 20
+
+
+def _warning_lines(report: dict) -> list[str]:
+    """One ``ndbg: warning: NAME: MESSAGE [PART]`` line per warning of ``report`` (at most
+    :data:`MAX_WARNING_LINES`, then how many more), for stderr: a report written to a file,
+    a folder or as JSON carries its warnings (interferences, skipped stages, open meshes)
+    where the person running ndbg does not look."""
+    name = identity(report)[0]
+    warnings = report.get("warnings") or []
+    lines = [f"ndbg: warning: {name}: {w['message']}"
+             + (f" [{w['part']}]" if w.get("part") else "")
+             for w in warnings[:MAX_WARNING_LINES]]
+    if len(warnings) > MAX_WARNING_LINES:
+        lines.append(f"ndbg: warning: {name}: ... and {len(warnings) - MAX_WARNING_LINES} "
+                     "more (see the report)")
+    return lines
+
+
+def _note(line: str) -> None:
+    """Print ``line`` on stderr, first clearing the progress bar's line on a terminal (the
+    bar is drawn again at the next assembly)."""
+    if sys.stderr.isatty():
+        click.echo("\r" + " " * 70 + "\r", nl=False, err=True)
+    click.echo(line, err=True)
 
 
 def _jsonl_line(report: dict) -> str:
@@ -290,6 +330,26 @@ def _write(where: str, path: Path, text: str) -> None:
         raise _cannot_write(where, exc) from None
 
 
+def _drop_index(where: str, out_dir: Path, inputs: set[Path]) -> None:
+    """Remove an earlier run's ``index.json`` from ``out_dir`` before this run writes any
+    report; the run writes its own (atomically) once every report is written.
+
+    A rerun into the same folder that is killed or interrupted part-way would otherwise
+    leave the old index describing reports that are partly this run's: whoever reads the
+    folder (a CI job, ``ndbg check DIR``, which takes it for a folder of reports only when
+    it holds an index.json) could not tell. So an index, when there is one, is always the
+    complete list of one run's reports. Report files of an earlier run that this one does
+    not rewrite stay in the folder; they are not in the index."""
+    index = out_dir / "index.json"
+    _refuse_input(where, index, inputs)
+    try:
+        index.unlink()
+    except FileNotFoundError:
+        pass
+    except OSError as exc:  # a folder named index.json, a read-only folder
+        raise _cannot_write(where, exc) from None
+
+
 def _input_files(targets: list[Path]) -> set[Path]:
     """The resolved input files (a folder target: the files in it), that no output may
     replace."""
@@ -335,7 +395,11 @@ def _options(ctx: click.Context, config: str | None, **given) -> Options:
     """Options from the config file, overridden by the options given on the command line."""
     from .cache import default_dir
 
-    settings = read_config(config) if config else {}
+    try:
+        settings = read_config(config) if config else {}
+    except UnicodeDecodeError as exc:  # read_config catches OSError and YAML errors only
+        raise InputError(f"cannot read config: not UTF-8 text ({exc.reason} at byte "
+                         f"{exc.start})", file=config) from None
     for name, value in given.items():
         source = ctx.get_parameter_source(name)
         flagged = source is not None and source.name != "DEFAULT"
@@ -384,12 +448,14 @@ def _report_name(r: dict, names: set[str]) -> str:
     return name
 
 
-def _index_entry(r: dict) -> dict:
-    """What ``index.json`` keeps of a report: identity and error, not the analysis. Every
-    entry has the top-level ``source`` the batch schema requires (an error record has its
-    own; a report's is its assembly's)."""
+def _index_entry(r: dict, file: str) -> dict:
+    """What ``index.json`` keeps of a report: identity and error, not the analysis, and
+    ``report``, the name of its file in the folder (so that a reader takes this run's files,
+    not others left there). Every entry has the top-level ``source`` the batch schema
+    requires (an error record has its own; a report's is its assembly's)."""
     out = {k: v for k, v in r.items() if k in {"schema", "tool", "source", "error"}}
     out["source"] = identity(r)[1]
+    out["report"] = file
     if "assembly" in r:
         out["assembly"] = {"name": r["assembly"]["name"], "source": r["assembly"]["source"]}
     return out
@@ -423,7 +489,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     Example:
       ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
     """
-    from .diff import read_reports
+    from .commands import read_reports
     from .junit import junit_xml
     from .rules import evaluate, load_rules
 
@@ -489,7 +555,18 @@ from . import commands  # noqa: E402,F401
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Entry point: run the CLI, mapping exceptions to exit codes and one-line messages."""
+    """Entry point: run the CLI, mapping exceptions to exit codes and one-line messages.
+
+    stdout and stderr write what their encoding cannot (the undecodable bytes of a file name
+    that is not UTF-8, kept by Python as lone surrogates) as ``\\xNN``, as the reports do
+    (:data:`ndbg_cli.report.ESCAPE`): otherwise a text report or an error message naming
+    such a file fails with UnicodeEncodeError (stdout's default is strict), or writes
+    the raw byte (a C locale's surrogateescape), which is not UTF-8."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors=ESCAPE)
+        except (AttributeError, ValueError, OSError):  # replaced by a non-TextIOWrapper
+            pass
     try:
         cli.main(args=argv, prog_name="ndbg", standalone_mode=False)
     except click.exceptions.Exit as exc:

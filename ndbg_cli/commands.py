@@ -15,12 +15,14 @@ from . import __version__
 from .cli import (
     CONTEXT,
     STATE,
+    _cannot_write,
+    _check_writable,
     _common_load_options,
     _global_options,
     cli,
     fail,
 )
-from .errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION
+from .errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION, InputError
 from .report import (
     CONTACTS_SCHEMA,
     QUERY_SCHEMA,
@@ -45,8 +47,14 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
     from .convert import convert_assembly
     from .loaders import load
 
+    # as analyze --out: a folder that cannot be written is an input error (exit 2) naming
+    # it, found before the model is read (a STEP file can take minutes)
+    _check_writable(out, Path(out))
     asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths)
-    manifest = convert_assembly(asm, Path(out), force=force)
+    try:
+        manifest = convert_assembly(asm, Path(out), force=force)
+    except OSError as exc:  # e.g. out/meshes is a file, or the disk is full
+        raise _cannot_write(out, exc) from None
     if not STATE.quiet:
         click.echo(f"wrote {manifest} ({len(asm)} parts, units {asm.units})", err=True)
     click.echo(str(manifest))
@@ -87,9 +95,9 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
         click.echo(dumps(doc), nl=False)
     else:
         click.echo("\n".join(contacts_text(asm, result)))
-        if not STATE.quiet:
-            for w in warnings:
-                click.echo(f"ndbg: warning: {w.message}", err=True)
+    if not STATE.quiet:  # on stderr for JSON too, as analyze does
+        for w in warnings:
+            click.echo(f"ndbg: warning: {w.message}", err=True)
 
 
 @cli.command(context_settings=CONTEXT)
@@ -258,7 +266,7 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
     Example:
       ndbg diff main/bell.json branch/bell.json --fail-on worse
     """
-    from .diff import diff_sets, fails, read_reports
+    from .diff import diff_sets, fails
 
     changes = diff_sets(read_reports(old), read_reports(new))
     if fmt == "json":
@@ -271,6 +279,18 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
         if not changes:
             click.echo("no change a designer cares about")
     sys.exit(EXIT_VIOLATION if fails(changes, fail_on) else EXIT_OK)
+
+
+def read_reports(path: str) -> dict[str, dict]:
+    """:func:`ndbg_cli.diff.read_reports`, with a JSON file nested beyond Python's recursion
+    limit (``json`` raises RecursionError, e.g. on 100000 nested lists) an input error
+    naming ``path`` rather than an internal one: no report nests that deep."""
+    from .diff import read_reports as read
+
+    try:
+        return read(path)
+    except RecursionError:
+        raise InputError("not an ndbg report: JSON nested too deeply", file=path) from None
 
 
 @cli.command(context_settings=CONTEXT)

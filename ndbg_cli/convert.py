@@ -38,10 +38,8 @@ def convert_assembly(asm: Assembly, out: Path, *, force: bool = False) -> Path:
             name = f"{safe_name(p.id)}-{k}"
         used.add(name.lower())
         rel = f"meshes/{name}.stl"
-        data = p.mesh.export(file_type="stl")
-        tmp = out / (rel + ".tmp")
-        tmp.write_bytes(data)
-        tmp.replace(out / rel)
+        # atomically: a failed write leaves no partial mesh (nor a .tmp file) behind
+        write_atomic(out / rel, p.mesh.export(file_type="stl"))
         entry = {"id": p.id, "mesh": rel}
         if p.fixed:
             entry["fixed"] = True

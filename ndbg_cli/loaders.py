@@ -219,7 +219,20 @@ def _read_scene(path: Path, *, part: str | None = None) -> trimesh.Scene:
         kwargs: dict[str, Any] = {}
         if suffix == ".obj":
             kwargs = {"split_objects": True, "split_groups": True, "group_material": False}
-        loaded = trimesh.load(str(path), force="scene", process=False, **kwargs)
+        name = str(path)
+        try:
+            name.encode("utf-8")
+        except UnicodeEncodeError:
+            # a file name that is not UTF-8 (lone surrogates in Python): trimesh names a
+            # body after its file and encodes the names to hash the scene graph, which then
+            # fails. Read it from an open file, as trimesh names a stream's bodies (by the
+            # file's content, else ``geometry_0``...); other files it refers to (a glTF's
+            # buffers, an OBJ's materials) are still found next to it.
+            with open(path, "rb") as fh:
+                return trimesh.load(fh, file_type=suffix[1:], force="scene", process=False,
+                                    resolver=trimesh.resolvers.FilePathResolver(name),
+                                    **kwargs)
+        loaded = trimesh.load(name, force="scene", process=False, **kwargs)
     except InputError:
         raise
     except Exception as exc:  # trimesh raises many kinds for unreadable files

@@ -39,17 +39,123 @@ from .errors import InputError
 _SCHEMA: dict | None = None
 
 
+#: Deepest nesting of lists and mappings a YAML input may have (with its aliases expanded).
+#: Manifests, configs and rules need a handful of levels; past Python's recursion limit
+#: (about 300 levels for PyYAML's composer) every reader of the data would fail with a
+#: RecursionError, an internal error instead of an input error.
+MAX_YAML_DEPTH = 100
+#: Nodes the aliases of a YAML input may add to it when expanded. Readers walk the data as a
+#: tree (line numbers, finiteness, the schema), so nine nested anchors of nine aliases each
+#: (a "billion laughs" of 400 bytes) would make them walk 9**9 nodes (1.3 GB, minutes).
+MAX_ALIAS_NODES = 100_000
+
+
+class YamlLimitError(yaml.composer.ComposerError):
+    """A YAML input nested too deeply or whose aliases expand too much (see
+    :data:`MAX_YAML_DEPTH`, :data:`MAX_ALIAS_NODES`); ``problem`` says which, and
+    ``problem_mark`` where."""
+
+
 class YamlLoader(yaml.SafeLoader):
     """The safe loader, reading ``1e-3``, ``2E6`` and ``1.0e12`` as floats, as YAML 1.2
     does (PyYAML follows YAML 1.1, whose floats need a dot and a signed exponent, and reads
     those as strings). Only numbers with an exponent are added; every other tag is YAML
-    1.1's, as before."""
+    1.1's, as before.
+
+    It also refuses documents nested deeper than :data:`MAX_YAML_DEPTH` and those whose
+    aliases expand to more than :data:`MAX_ALIAS_NODES` extra nodes (or refer to themselves),
+    with a :class:`YamlLimitError` (a ``yaml.YAMLError``): checked while composing, before
+    anything is built, for ``yaml.load`` and ``yaml.compose`` alike. Every YAML input ndbg
+    reads (manifests, configs, rules files) goes through it."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._depth = 0
+        self._aliases = 0
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.AliasEvent):
+            self._aliases += 1
+            return super().compose_node(parent, index)
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:  # before PyYAML's recursion gets deeper
+                raise YamlLimitError(problem=f"nested deeper than {MAX_YAML_DEPTH} levels",
+                                     problem_mark=self.peek_event().start_mark)
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def get_single_node(self):
+        node = super().get_single_node()
+        if node is not None and self._aliases:
+            _check_expansion(node)
+        return node
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [n for pair in node.value for n in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
+
+
+def _check_expansion(root: yaml.Node) -> None:
+    """:class:`YamlLimitError` if the document ``root`` (a graph: an alias is its anchored
+    node again) expands, as a tree, to more than :data:`MAX_ALIAS_NODES` nodes beyond its
+    own, or deeper than :data:`MAX_YAML_DEPTH`, or is recursive. One post-order walk over
+    the distinct nodes (not recursive: the graph may be deep), each node's expanded size
+    and depth from its children's; the error marks the first node found too large."""
+    size: dict[int, int] = {}
+    depth: dict[int, int] = {}
+    open_: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    distinct = 0
+    while stack:
+        node, done = stack.pop()
+        k = id(node)
+        if done:
+            open_.discard(k)
+            kids = _children(node)
+            size[k] = 1 + sum(size[id(c)] for c in kids)
+            depth[k] = 1 + max((depth[id(c)] for c in kids), default=0)
+            distinct += 1
+            problem = None
+            if depth[k] > MAX_YAML_DEPTH:
+                problem = f"nested deeper than {MAX_YAML_DEPTH} levels once its aliases " \
+                          "are expanded"
+            elif size[k] > distinct + MAX_ALIAS_NODES:
+                problem = (f"its aliases expand to more than {MAX_ALIAS_NODES} extra values "
+                           "(nested anchors and aliases, a 'billion laughs'?)")
+            if problem:
+                raise YamlLimitError(problem=problem, problem_mark=node.start_mark)
+            continue
+        if k in size:
+            continue
+        if k in open_:
+            raise YamlLimitError(problem="an alias refers to a node that contains it",
+                                 problem_mark=node.start_mark)
+        open_.add(k)
+        stack.append((node, True))
+        stack.extend((c, False) for c in reversed(_children(node)) if id(c) not in size)
 
 
 YamlLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
     re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
     list("-+.0123456789"))
+
+
+def yaml_input_error(exc: yaml.YAMLError, file: str) -> InputError:
+    """The one-line input error of a YAML reading error: ``malformed YAML: PROBLEM`` (or,
+    for a :class:`YamlLimitError`, the PROBLEM alone: the YAML is well formed), with the
+    problem's line when PyYAML knows it."""
+    mark = getattr(exc, "problem_mark", None)
+    problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    if not isinstance(exc, YamlLimitError):
+        problem = f"malformed YAML: {problem}"
+    return InputError(problem, file=file, line=mark.line + 1 if mark else None)
 
 
 def manifest_schema() -> dict:
@@ -116,10 +222,7 @@ def read_manifest(path: Path) -> _Located:
         node = yaml.compose(text, Loader=YamlLoader)
         data = yaml.load(text, Loader=YamlLoader)
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise InputError(f"malformed YAML: {problem}", file=file,
-                         line=mark.line + 1 if mark else None) from None
+        raise yaml_input_error(exc, file) from None
     if node is None or not isinstance(data, dict):
         raise InputError("a manifest must be a YAML mapping with a 'parts' list", file=file)
     lines: dict[tuple, int] = {}

@@ -1,14 +1,24 @@
-"""Reports: deterministic JSON, the report JSON Schema, atomic writes.
+r"""Reports: deterministic JSON, the report JSON Schema, atomic writes.
 
 Determinism: the same input gives byte-identical JSON. Keys are sorted, lists are built in a
 stable order by the stages, floats are rounded to :data:`FLOAT_DIGITS` significant digits
 (and magnitudes below :data:`ZERO`, ``-0.0`` included, become ``0.0``), and wall-clock
 timings are left out unless asked for (``timings`` is then ``{}``), since they differ on every
 run.
+
+File names that are not UTF-8: Python reads a byte it cannot decode (``0xff`` in a file
+name, on a UTF-8 system) as a lone surrogate (``\udcff``), which UTF-8 cannot encode. Every
+output writes such a byte as the four characters ``\xff`` (:func:`printable`): JSON strings
+(so ``"tw\\xffo.yaml"`` in the JSON text), text reports, files, and every line printed
+(the CLI sets the :data:`ESCAPE` error handler on stdout and stderr). Any other lone
+surrogate is written ``\udXXX``. The same name always gives the same text; a name that holds
+a literal backslash-x followed by two hex digits is written the same way, so the mapping is
+not reversible in that (unlikely) case.
 """
 
 from __future__ import annotations
 
+import codecs
 import contextlib
 import json
 import math
@@ -37,6 +47,34 @@ FLOAT_DIGITS = 9
 ZERO = 1e-15
 
 _SCHEMA: dict | None = None
+
+#: The codec error handler that writes what UTF-8 cannot encode as ``\xNN`` (an undecodable
+#: byte of a file name) or ``\udXXX`` (any other lone surrogate); see the module docstring.
+ESCAPE = "ndbg-escape"
+
+
+def _escape(exc: UnicodeError) -> tuple[str, int]:
+    if not isinstance(exc, UnicodeEncodeError):
+        raise exc
+    out = []
+    for ch in exc.object[exc.start:exc.end]:
+        c = ord(ch)
+        if 0xDC80 <= c <= 0xDCFF:  # surrogateescape's stand-in for the byte c - 0xDC00
+            out.append(f"\\x{c - 0xDC00:02x}")
+        else:
+            out.append(f"\\u{c:04x}" if c <= 0xFFFF else f"\\U{c:08x}")
+    return "".join(out), exc.end
+
+
+codecs.register_error(ESCAPE, _escape)
+
+
+def printable(text: str) -> str:
+    r"""``text`` with what UTF-8 cannot encode (the undecodable bytes of a file name) escaped
+    as ``\xNN``, so that it can be written anywhere; ``text`` itself when it can be."""
+    if text.isascii():
+        return text
+    return text.encode("utf-8", ESCAPE).decode("utf-8")
 
 
 #: Stage fragments (``schemas/fragments/NAME.json``) embedded in the report schema.
@@ -74,9 +112,13 @@ def validate_report(doc: dict) -> None:
 
 
 def clean(value: Any) -> Any:
-    """JSON-ready copy of ``value``: numpy types to Python, floats rounded, tuples to lists."""
+    """JSON-ready copy of ``value``: numpy types to Python, floats rounded, tuples to lists,
+    strings :func:`printable` (a file name that is not UTF-8 would otherwise fail the
+    encoding of the whole report)."""
+    if isinstance(value, str):
+        return printable(value)
     if isinstance(value, dict):
-        return {str(k): clean(v) for k, v in value.items()}
+        return {printable(str(k)): clean(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [clean(v) for v in value]
     if isinstance(value, np.ndarray):
@@ -108,8 +150,9 @@ def identity(report: dict) -> tuple[str, str]:
 
 
 def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -> None:
-    """Write ``data`` (text as UTF-8, or bytes) to ``path`` atomically: a temporary file in the
-    same folder, renamed over the target, so a reader never sees a half-written file.
+    """Write ``data`` (text as UTF-8, undecodable file-name bytes escaped as :func:`printable`
+    does, or bytes) to ``path`` atomically: a temporary file in the same folder, renamed
+    over the target, so a reader never sees a half-written file.
     ``durable`` fsyncs before the rename (reports); a cache entry can skip it.
 
     The file gets the permissions a plain ``open(path, "w")`` would give it (the temporary
@@ -117,7 +160,7 @@ def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -
     so that a cache shared through ``$NDBG_CACHE_DIR`` is readable as its folder says."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
+    raw = data.encode("utf-8", ESCAPE) if isinstance(data, str) else data
     try:
         mode = stat.S_IMODE(path.stat().st_mode)
     except OSError:  # a new file (or one we cannot stat: the rename will say)

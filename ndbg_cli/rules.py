@@ -160,16 +160,25 @@ def _check_rules(data: Any, where: str, file: str) -> tuple[tuple[str, Any], ...
 
 
 def load_rules(path: str | Path) -> RuleSet:
-    """Parse and validate a rules file; any problem is an :class:`InputError` (exit code 2)."""
+    """Parse and validate a rules file; any problem is an :class:`InputError` (exit code 2).
+
+    Read with the manifests' :class:`~ndbg_cli.manifest.YamlLoader`, so that a rules file
+    reads numbers as a manifest or config does (``1e-3`` a float, not YAML 1.1's string)
+    and is refused, as they are, when nested too deeply or inflated by aliases."""
     import yaml
+
+    from .manifest import YamlLoader, yaml_input_error
 
     file = str(path)
     try:
-        data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+        data = yaml.load(Path(path).read_text(encoding="utf-8"), Loader=YamlLoader)
     except OSError as exc:
         raise InputError(f"cannot read rules: {exc.strerror or exc}", file=file) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"cannot read rules: not UTF-8 text ({exc.reason} at byte "
+                         f"{exc.start})", file=file) from None
     except yaml.YAMLError as exc:
-        raise InputError(f"malformed YAML: {str(exc).splitlines()[0]}", file=file) from None
+        raise yaml_input_error(exc, file) from None
     if not isinstance(data, dict):
         raise InputError("a rules file must be a YAML mapping with a 'rules' key", file=file)
     known = {"family", "undecided", "rules", "assemblies", "description"}

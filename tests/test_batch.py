@@ -218,3 +218,64 @@ def test_sigkilled_worker_costs_only_its_assembly(tmp_path):
     ok = {json.loads(p.read_text())["assembly"]["name"] for p in out.glob("*.json")
           if p.name != "index.json" and "error" not in json.loads(p.read_text())}
     assert ok == set(fast) | {"y-stack", "z-stack"} - {Path(errors[0]["source"]).stem}
+
+
+def test_a_rerun_stopped_part_way_leaves_no_index_of_the_old_run(tmp_path):
+    """Was: a rerun into the same --out-dir that stopped part-way kept the first run's
+    index.json, describing files partly rewritten by the second. Now the index is removed
+    before the first report and written at the end, naming each run's own files: here the
+    rerun stops at its second report (the path is a folder: 'cannot write', exit 2)."""
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    for name in ("fig5-rotation", "hover", "peg-37"):
+        shutil.copy(EX / f"{name}.yaml", src / f"{name}.yaml")
+    out = tmp_path / "out"
+    fast = ["--motion", "translation", "--no-cache", "-q", "--jobs", "1"]
+    first = run_cli("analyze", src, "--out-dir", out, *fast)
+    assert first.returncode == 0, first.stderr
+    index = json.loads((out / "index.json").read_text())
+    assert [Path(e["source"]).name for e in index["reports"]] == \
+        ["fig5-rotation.yaml", "hover.yaml", "peg-37.yaml"]
+    (src / "peg-37.yaml").unlink()
+    (out / "hover.json").unlink()
+    (out / "hover.json").mkdir()  # the rerun cannot write its second report
+    r = run_cli("analyze", src, "--out-dir", out, *fast)
+    assert r.returncode == 2 and "cannot write" in r.stderr, r.stderr
+    assert not (out / "index.json").exists()
+    (out / "hover.json").rmdir()
+    again = run_cli("analyze", src, "--out-dir", out, *fast)
+    assert again.returncode == 0, again.stderr
+    index = json.loads((out / "index.json").read_text())
+    assert index["summary"]["assemblies"] == 2
+    assert [e["report"] for e in index["reports"]] == ["fig5-rotation.json", "hover.json"]
+    assert not list(out.glob(".*.tmp"))
+
+
+def test_index_json_that_cannot_be_removed_is_an_input_error(tmp_path):
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    shutil.copy(EX / "hover.yaml", src / "hover.yaml")
+    (tmp_path / "out" / "index.json").mkdir(parents=True)
+    r = run_cli("analyze", src, "--out-dir", tmp_path / "out", "--motion", "translation")
+    assert r.returncode == 2
+    assert r.stderr.startswith(f"ndbg: error: cannot write {tmp_path / 'out'}: ")
+    assert not (tmp_path / "out" / "hover.json").exists()  # refused before any analysis
+
+
+def test_a_run_that_cannot_start_keeps_the_previous_index(tmp_path):
+    """The index goes only once the run can start: an unreachable dask scheduler (exit 2
+    before any analysis) leaves the previous complete run's index and reports as they were."""
+    pytest.importorskip("distributed")
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copytree(EX / "meshes", src / "meshes")
+    shutil.copy(EX / "hover.yaml", src / "hover.yaml")
+    out = tmp_path / "out"
+    first = run_cli("analyze", src, "--out-dir", out, "--motion", "translation", "-q")
+    assert first.returncode == 0, first.stderr
+    before = (out / "index.json").read_text()
+    r = run_cli("analyze", src, "--out-dir", out, "--scheduler", "tcp://127.0.0.1:1")
+    assert r.returncode == 2 and "tcp://127.0.0.1:1" in r.stderr
+    assert (out / "index.json").read_text() == before

@@ -1,0 +1,105 @@
+"""What a person running ndbg sees on stderr, and where ``ndbg convert`` writes: warnings
+summarised one line each when the report does not go to stdout as text; an unwritable
+``convert --out`` is the one-line input error ``analyze --out`` gives."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from helpers import run_cli, write_two_boxes
+
+ROOT = Path(__file__).resolve().parents[1]
+EX = ROOT / "assemblies"
+
+
+@pytest.fixture()
+def hover(tmp_path) -> Path:
+    """A copy of the hover example (manifest and meshes) in ``tmp_path``."""
+    shutil.copytree(EX / "meshes" / "hover", tmp_path / "meshes" / "hover")
+    shutil.copy(EX / "hover.yaml", tmp_path / "hover.yaml")
+    return tmp_path / "hover.yaml"
+
+
+CONVERT_CASES = {  # name: (--out relative to tmp, or absolute; the reason the message gives)
+    "folder-under-a-file": ("afile/proj", "Not a directory"),
+    "folder-is-a-file": ("afile", "afile is not a directory"),
+    "meshes-is-a-file": ("proj", "proj/meshes is not a directory"),
+    "in-proc": ("/proc/ndbg-x", "No such file or directory"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CONVERT_CASES))
+def test_convert_to_an_unwritable_folder_is_an_input_error(hover, tmp_path, name):
+    """Was: exit 3 ('internal error: NotADirectoryError' or 'FileNotFoundError'); now the
+    one-line 'cannot write OUT: REASON' (exit 2) that analyze --out gives."""
+    rel, reason = CONVERT_CASES[name]
+    if rel.startswith("/proc") and not Path("/proc/self").is_dir():
+        pytest.skip("no /proc")
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "proj").mkdir()
+    (tmp_path / "proj" / "meshes").write_text("x")
+    out = rel if rel.startswith("/") else str(tmp_path / rel)
+    r = run_cli("convert", hover.parent / "meshes" / "hover" / "base.stl", "--out", out)
+    assert r.returncode == 2, r.stderr
+    assert r.stderr.strip().splitlines() == [r.stderr.strip()]  # one line
+    assert r.stderr.startswith(f"ndbg: error: cannot write {out}: ")
+    assert reason in r.stderr and "internal error" not in r.stderr
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+@pytest.fixture()
+def overlapping(tmp_path) -> Path:
+    """Two 10 mm cubes, the second sunk 5 mm into the first: one interference warning."""
+    path = write_two_boxes(tmp_path / "src")
+    path.write_text(path.read_text().replace("[0, 0, 10]", "[0, 0, 5]"))
+    return path
+
+
+@pytest.mark.parametrize("where", ["out", "out-dir", "json", "jsonl", "text-out"])
+def test_warnings_are_summarised_on_stderr(overlapping, tmp_path, where):
+    """Was: a report written to a file, a folder or as JSON kept its warnings to itself;
+    stderr was empty. Now one line each on stderr (never stdout)."""
+    args = {"out": ["--out", tmp_path / "r.json"], "out-dir": ["--out-dir", tmp_path / "o"],
+            "json": ["--format", "json"], "jsonl": ["--format", "jsonl"],
+            "text-out": ["--out", tmp_path / "r.txt"]}[where]
+    r = run_cli("analyze", overlapping, *args, "--motion", "translation", "--no-cache")
+    assert r.returncode == 0, r.stderr
+    lines = r.stderr.splitlines()
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith("ndbg: warning: two: parts 'a' and 'b' interpenetrate")
+    if where in ("json", "jsonl"):
+        assert json.loads(r.stdout)["warnings"][0]["code"] == "interference"
+    else:
+        assert r.stdout == ""
+
+
+def test_no_warning_summary_when_quiet_or_in_the_text_on_stdout(overlapping, tmp_path):
+    quiet = run_cli("analyze", overlapping, "--out", tmp_path / "r.json", "--motion",
+                    "translation", "--no-cache", "-q")
+    assert quiet.returncode == 0 and quiet.stderr == ""
+    text = run_cli("analyze", overlapping, "--motion", "translation", "--no-cache")
+    assert text.returncode == 0 and text.stderr == ""
+    assert "interpenetrate" in text.stdout
+
+
+def test_warning_summary_is_capped_per_assembly():
+    from ndbg_cli.cli import MAX_WARNING_LINES, _warning_lines
+
+    report = {"assembly": {"name": "x", "source": "x.yaml"},
+              "warnings": [{"message": f"w{k}", "part": None} for k in range(25)]}
+    lines = _warning_lines(report)
+    assert len(lines) == MAX_WARNING_LINES + 1
+    assert lines[-1] == "ndbg: warning: x: ... and 5 more (see the report)"
+
+
+def test_contacts_json_warns_on_stderr_too(overlapping):
+    """Was: 'ndbg contacts' printed its interference warnings on stderr for text only."""
+    r = run_cli("contacts", overlapping, "--format", "json")
+    assert r.returncode == 0, r.stderr
+    assert r.stderr.startswith("ndbg: warning: parts 'a' and 'b' interpenetrate")
+    assert json.loads(r.stdout)["warnings"][0]["code"] == "interference"
+    assert run_cli("contacts", overlapping, "--format", "json", "-q").stderr == ""
