@@ -390,7 +390,10 @@ def test_the_engine_and_the_beam_analyse_end_to_end(tmp_path):
     rep = json.loads(out.read_text())
     assert "error" not in rep
     grasp = rep["classes"]["infinitesimal_translation"]["grasp"]
-    assert grasp["value"] is not None and grasp["value"] > 0
+    # exact over every region's extent, its 162,555 requirements x 66,865 candidate faces
+    # need 1.2e9 tests, over the grasp's counted budget: skipped, saying so
+    assert grasp["value"] is None and grasp["skipped"]
+    assert "over the budget of 100000000" in grasp["why"]
     r = run_cli("analyze", shared("beam", "assembled"), "--format", "json", "--no-cache",
                 "-q", "--out", tmp_path / "beam.json")
     assert r.returncode == 0, r.stderr[-2000:]
