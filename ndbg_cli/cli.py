@@ -121,7 +121,8 @@ def _common_load_options(f):
               show_default=True, help="Report format on stdout; jsonl: one compact report per "
               "line, streamed in input order.")
 @click.option("--out", type=click.Path(), help="Write reports here instead of stdout: a file "
-              "for one assembly, a directory (one NAME.json each, as --out-dir) for several "
+              "for one assembly (in JSON or JSONL when it ends with .json or .jsonl and no "
+              "--format is given), a directory (one NAME.json each, as --out-dir) for several "
               "or when it ends with a slash or names an existing directory.")
 @click.option("--out-dir", type=click.Path(file_okay=False), help="Write one NAME.json per "
               "assembly (atomically, as each completes) plus index.json into this folder. "
@@ -196,6 +197,9 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         targets.extend(discover(p))
     batch = len(targets) > 1 or any(Path(p).is_dir() and discover(p) != [Path(p)] for p in paths)
     out_dir, out_file, where = _outputs(out, out_dir, batch)
+    if out_file is not None and ctx.get_parameter_source("fmt").name == "DEFAULT":
+        # --out report.json means JSON (a text report under that name was a trap)
+        fmt = {".json": "json", ".jsonl": "jsonl"}.get(out_file.suffix.lower(), fmt)
     inputs = _input_files(targets)
     if out_file is not None:
         _refuse_input(where, out_file, inputs)

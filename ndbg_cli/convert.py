@@ -9,12 +9,18 @@ import yaml
 
 from .assembly import Assembly
 from .errors import InputError
+from .loaders import MODEL_SUFFIXES
 from .report import write_atomic
 
 
 def safe_name(part_id: str) -> str:
-    """A file-name-safe version of a part id."""
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", part_id).strip("._") or "part"
+    """A file-name-safe version of a part id, without a model file's suffix (a part read from
+    ``b.stl`` is named ``b.stl``; its mesh is ``b.stl``, not ``b.stl.stl``)."""
+    name = re.sub(r"[^A-Za-z0-9_.-]+", "_", part_id).strip("._")
+    stem, dot, suffix = name.rpartition(".")
+    if dot and stem and f".{suffix.lower()}" in MODEL_SUFFIXES:
+        name = stem.strip("._")
+    return name or "part"
 
 
 def convert_assembly(asm: Assembly, out: Path, *, force: bool = False) -> Path:

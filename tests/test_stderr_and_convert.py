@@ -103,3 +103,27 @@ def test_contacts_json_warns_on_stderr_too(overlapping):
     assert r.stderr.startswith("ndbg: warning: parts 'a' and 'b' interpenetrate")
     assert json.loads(r.stdout)["warnings"][0]["code"] == "interference"
     assert run_cli("contacts", overlapping, "--format", "json", "-q").stderr == ""
+
+
+def test_out_file_format_follows_its_suffix_unless_given(hover, tmp_path):
+    base = ("analyze", hover, "--motion", "translation", "--no-cache", "-q")
+    assert run_cli(*base, "--out", tmp_path / "r.json").returncode == 0
+    assert json.loads((tmp_path / "r.json").read_text())["assembly"]["name"] == "hover"
+    assert run_cli(*base, "--out", tmp_path / "r.jsonl").returncode == 0
+    (line,) = (tmp_path / "r.jsonl").read_text().splitlines()
+    assert json.loads(line)["assembly"]["name"] == "hover"
+    # an explicit --format wins; other suffixes keep the default text
+    assert run_cli(*base, "--out", tmp_path / "t.json", "--format", "text").returncode == 0
+    assert (tmp_path / "t.json").read_text().startswith("assembly hover")
+    assert run_cli(*base, "--out", tmp_path / "r.txt").returncode == 0
+    assert (tmp_path / "r.txt").read_text().startswith("assembly hover")
+
+
+def test_convert_a_single_mesh_file_names_its_mesh_once(tmp_path):
+    shutil.copy(EX / "meshes" / "hover" / "puck.stl", tmp_path / "b.stl")
+    r = run_cli("convert", tmp_path / "b.stl", "--out", tmp_path / "out")
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in (tmp_path / "out" / "meshes").iterdir()) == ["b.stl"]
+    r = run_cli("analyze", tmp_path / "out" / "b.yaml", "--format", "json", "--motion",
+                "translation", "--no-cache", "-q")
+    assert r.returncode == 0 and json.loads(r.stdout)["assembly"]["parts"][0]["id"] == "b.stl"
