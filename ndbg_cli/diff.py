@@ -3,7 +3,8 @@ cares about, the paper's "posting warnings to the designers when the product cha
 complexity class to another" (section 7).
 
 Inputs are reports as ``ndbg analyze`` writes them: one JSON report, a batch document
-(``--format json`` over several assemblies), a JSON Lines stream, or an ``--out-dir`` folder.
+(``--format json`` over several assemblies), a JSON Lines stream, or an ``--out-dir`` folder
+(the reports its ``index.json`` names; every ``*.json`` in it when it has no index).
 Assemblies are matched by name. Each change is a :class:`Change` graded ``worse``, ``better``
 or ``changed`` (neither, e.g. a part renamed or a measure becoming undecided):
 
@@ -67,7 +68,7 @@ def read_reports(path: str | Path) -> dict[str, dict]:
     p = Path(path)
     docs: list[dict] = []
     if p.is_dir():
-        files = sorted(f for f in p.glob("*.json") if f.name != "index.json")
+        files = _indexed(p) or sorted(f for f in p.glob("*.json") if f.name != "index.json")
         if not files:
             raise InputError("no report files (*.json) in this folder", file=str(p))
         for f in files:
@@ -87,6 +88,27 @@ def read_reports(path: str | Path) -> dict[str, dict]:
             key = f"{name}-{k}"
         out[key] = d
     return out
+
+
+def _indexed(folder: Path) -> list[Path] | None:
+    """The report files an ``--out-dir`` run's ``index.json`` names (each entry's
+    ``report``), so that reports an earlier run left in the folder are not read; ``None``
+    without an index that names them all (a folder of reports made otherwise, or an index
+    from before entries named their file: then every ``*.json`` is read)."""
+    index = folder / "index.json"
+    if not index.is_file():
+        return None
+    try:
+        doc = json.loads(index.read_text(encoding="utf-8"))
+        names = [e["report"] for e in doc["reports"]]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if not all(isinstance(n, str) and n and Path(n).name == n for n in names):
+        return None
+    missing = [n for n in names if not (folder / n).is_file()]
+    if missing:
+        raise InputError(f"index.json names {missing[0]}, which is missing", file=str(folder))
+    return [folder / n for n in names]
 
 
 def _parse(p: Path) -> list[dict]:

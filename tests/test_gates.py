@@ -271,3 +271,25 @@ def test_check_reads_an_out_dir_of_saved_reports(tmp_path):
     assert c.returncode == 1
     assert sorted(line.split(":")[0] for line in c.stdout.splitlines()) == ["hover", "stack"]
     assert all(": max_depth: measured" in line for line in c.stdout.splitlines())
+    # a report an earlier run left in the folder is not read: only those index.json names
+    (out / "old.json").write_text((out / "hover.json").read_text().replace(
+        '"name": "hover"', '"name": "old"'))
+    c = run_cli("check", out, "--rules", rules)
+    assert sorted(line.split(":")[0] for line in c.stdout.splitlines()) == ["hover", "stack"]
+
+
+def test_read_reports_of_a_folder_follows_its_index(tmp_path):
+    from ndbg_cli.diff import read_reports
+    from ndbg_cli.errors import InputError
+
+    rep = {"schema": "ndbg.report/1", "assembly": {"name": "a"}, "classes": {}}
+    (tmp_path / "a.json").write_text(json.dumps(rep))
+    (tmp_path / "b.json").write_text(json.dumps({**rep, "assembly": {"name": "b"}}))
+    assert sorted(read_reports(tmp_path)) == ["a", "b"]  # no index: every *.json
+    (tmp_path / "index.json").write_text(json.dumps({"reports": [{"report": "a.json"}]}))
+    assert sorted(read_reports(tmp_path)) == ["a"]  # b.json is an earlier run's
+    (tmp_path / "index.json").write_text(json.dumps({"reports": [{"report": "c.json"}]}))
+    with pytest.raises(InputError, match="names c.json, which is missing"):
+        read_reports(tmp_path)
+    (tmp_path / "index.json").write_text(json.dumps({"reports": [{"name": "a"}]}))
+    assert sorted(read_reports(tmp_path)) == ["a", "b"]  # an index without file names
