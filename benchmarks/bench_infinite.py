@@ -25,7 +25,7 @@ import ndbg_cli
 from ndbg_cli.assembly import Assembly
 from ndbg_cli.batch import default_jobs
 from ndbg_cli.blocking_cones import cones_to_face_geoms, pair_cones, part_triangles
-from ndbg_cli.infinite import build_infinite
+from ndbg_cli.infinite import TooLarge, build_infinite
 from ndbg_cli.validate import make_part
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
@@ -150,7 +150,11 @@ def run() -> list[tuple[str, float, str]]:
                 out.append((f"grid{n}", float("nan"),
                             f"skipped: estimated {est:.0f} s (exponent {slope:.2f})"))
                 continue
-        dt, note = _time(grid(n))
+        try:
+            dt, note = _time(grid(n))
+        except TooLarge as exc:
+            out.append((f"grid{n}", float("nan"), f"skipped: {exc}"))
+            continue
         sizes.append(n)
         times.append(dt)
         out.append((f"grid{n}", dt, note))

@@ -76,6 +76,7 @@ from .cache import PairCache
 from .cubemap import face_of
 from .dbg import DBG
 from .domain import domain_polygons
+from .errors import NdbgError
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
 from .pair_workers import pair_sets
@@ -458,11 +459,26 @@ def _thaw(value: tuple) -> tuple[np.ndarray, np.ndarray, list]:
 EXACT_CELLS = 2000
 
 
+#: Largest size in bytes of the table of DBGs read at the regions' directions (regions x
+#: parts x parts / 8, packed): a 1000-box grid's 789,702 regions would need 92 GiB.
+MAX_DBG_BYTES = 1 << 30
+
+
+class TooLarge(NdbgError):
+    """The NDBG has too many regions x parts to hold (:data:`MAX_DBG_BYTES`)."""
+
+
 def _regions_3d(bs: BlockedSets) -> tuple[list[Region], int]:
     """The regions of S^2 (:func:`~ndbg_cli.arrangement.arrangement_cells`), each with its DBG,
     the seam candidates kept where the open-set semantics frees something; and the number of
-    lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`)."""
+    lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`).
+    :class:`TooLarge` when their DBGs would pass :data:`MAX_DBG_BYTES`."""
     cells = arrangement_cells(bs)
+    need = len(cells) * bs.n * ((bs.n + 7) // 8)
+    if need > MAX_DBG_BYTES:
+        raise TooLarge(f"its arrangement has {len(cells):,} regions over {bs.n} parts: their "
+                       f"DBGs would take {need / 2**30:.1f} GiB (limit "
+                       f"{MAX_DBG_BYTES / 2**30:.0f} GiB)")
     dirs = np.array([c.direction for c in cells]) if cells else np.zeros((0, 3))
     dbgs = bs.dbgs(dirs) if len(dirs) else []
     # Seam candidates: keep those where the open-set semantics frees something.

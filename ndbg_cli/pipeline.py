@@ -123,11 +123,17 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         sec.pop("assembly", None)
         sections[INFINITESIMAL] = sec
     if INFINITE in families:
-        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected, cache,
-                                                    ca))
+        from .infinite import TooLarge
+
+        try:
+            got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected,
+                                                        cache, ca))
+            too_large = None
+        except TooLarge as exc:
+            got, too_large = None, str(exc)
         if got is None:
             sections[INFINITE] = {"family": INFINITE, "skipped": True,
-                                  "why": _infinite_skip_reason(asm, options)}
+                                  "why": too_large or _infinite_skip_reason(asm, options)}
             warnings.append(Diagnostic("warning", "infinite-skipped",
                                        "infinite-translation NDBG skipped: "
                                        + sections[INFINITE]["why"], file=asm.source or None))

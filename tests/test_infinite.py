@@ -484,3 +484,19 @@ def test_coplanar_triangles_make_no_term():
     assert len(bc.terms(ti, ni, tj + np.array([0.0, 0.0, 1.0]), nj, one, one, 1e-6)[0]) == 1
     cone = bc.terms(ti, ni, tj + np.array([0.0, 0.0, 1.0]), nj, one, one, 1e-6)[0]
     assert not bc.flat(cone).any()
+
+
+def test_an_arrangement_too_large_to_hold_is_skipped_with_its_size(monkeypatch):
+    # a 1000-box grid's 789,702 regions x 1000 parts would need 92 GiB of DBGs (a
+    # MemoryError); the limit is lowered here to meet it on hover (3 parts)
+    import ndbg_cli.infinite as inf
+    from ndbg_cli.analysis import Options, analyze
+
+    monkeypatch.setattr(inf, "MAX_DBG_BYTES", 10)
+    asm = ndbg_cli.load("assemblies/hover.yaml")
+    with pytest.raises(inf.TooLarge, match="regions over 3 parts: their DBGs would take"):
+        inf.build_infinite(asm)
+    rep = analyze(asm, Options(motion="all", cache=None))
+    sec = rep["ndbg"]["infinite_translation"]
+    assert sec["skipped"] and "regions over 3 parts" in sec["why"]
+    assert rep["plan"]["found"]  # the other families still plan
