@@ -310,6 +310,8 @@ class AndOrGraph:
         self.elapsed = 0.0
         #: work units the build spent (:data:`WORK_LIMIT`)
         self.work = 0
+        #: (subassemblies, hyperarcs) when :meth:`build` ended
+        self.built_size = (0, 0)
         #: why :meth:`build` stopped early: ``"nodes"`` (more subassemblies than
         #: ``max_nodes``), ``"work"`` (``max_work``), ``"time"`` (``time_limit``), ``"splits"``
         #: (a node's partitionings were cut at ``split_limit``), or ``None``
@@ -366,6 +368,8 @@ class AndOrGraph:
                         queue.append(child)
         self.elapsed = time.perf_counter() - start
         self.work = meter.work
+        # the size the build reached (the anytime searches may expand more nodes later)
+        self.built_size = (self.node_count, self.hyperarc_count)
         self._built = True
         self._dp: dict[str, dict[int, int | None]] = {}
         return self

@@ -83,12 +83,14 @@ def evidence(family: str, key: str, entry: dict) -> str:
 
     A yes (or a minimum) of a necessary-only family is a candidate; a no of any family is
     proven, but only for that family's motions (``holds_for``). Interlocking is decided by
-    its LP whatever the value; a greedy grasp is an upper bound."""
+    its LP whatever the value; a greedy grasp is an upper bound when complete, and bounds
+    nothing when some requirement is left (its budget ran out, or no candidate face holds a
+    direction): the fingers placed do not hold the product."""
     v = entry.get("value")
     if key == "interlocked":
         return "undecided" if v is None else "proven"
     if key == "grasp":
-        return "bound" if v is not None else "undecided"
+        return "bound" if v is not None and entry.get("complete", True) else "undecided"
     if key in MINIMA:
         if v is None:
             # no candidate at all is a proof (no algorithm with these motions); a cut search
@@ -129,6 +131,8 @@ def verdict(key: str, entry: dict) -> str:
         if ev == "proven" and key in MINIMA:
             return f"none (no algorithm with {scope})"
         return "undecided"
+    if ev == "undecided":  # e.g. an incomplete grasp: the fingers placed so far
+        return f"undecided ({v} placed, incomplete)"
     if ev == "candidate":
         return f"{v} (lower bound: minimum over candidates with {scope})"
     if ev == "bound" or not entry.get("exact", True):
@@ -151,8 +155,8 @@ def andor_section(graph: AndOrGraph, depth: dict | None = None) -> dict:
     strings."""
     graph.build()
     out: dict = {
-        "nodes": graph.node_count,
-        "hyperarcs": graph.hyperarc_count,
+        "nodes": graph.built_size[0],
+        "hyperarcs": graph.built_size[1],
         "truncated": graph.truncated,
         "split_truncated": graph.split_truncated,
         "cut_by": graph.cut_by if graph.truncated else None,

@@ -317,9 +317,11 @@ def _greedy_directions(ndbg: NDBG, root: int, base: int | None, cands: list[int]
         chosen.append(best[1])
         if best[3] is None:
             used = sorted({r for _, r in best[2].values()})
-            return {"value": len(used), "exact": False, "lower_bound": refuted + 1,
+            exact = len(used) == refuted + 1  # the bounds meet: proven all the same
+            what = "exact: the bounds meet" if exact else "upper bound"
+            return {"value": len(used), "exact": exact, "lower_bound": refuted + 1,
                     "regions": used, "directions": regions_named(ndbg, used),
-                    "why": f"upper bound (search budget exhausted after all sets of "
+                    "why": f"{what} (search budget exhausted after all sets of "
                     f"{refuted} region(s) failed): regions {used} give the tree "
                     f"{tree_string(ndbg, best[2], root)}"}
 

@@ -7,7 +7,9 @@ Directions in the output: ``removal_direction`` is the region's direction ``d`` 
 is free along ``d``), ``direction`` is the assembly (insertion) direction ``-d``; generalized
 regions give their ``motion`` dict (the removal motion) instead. A verified plan
 (:func:`verify`) states a coordinate axis instead of a region's representative direction
-where the direct sweep test frees every step of that region along it (:func:`axis_directions`).
+where the direct sweep test frees every step of that region along it (:func:`axis_directions`;
+the step then says ``"axis": true``: its ``region`` is the one it was planned in, and the
+axis may lie on that region's boundary, e.g. sliding along a contact face, or beyond it).
 
 Strategies (all deterministic):
 
@@ -228,8 +230,8 @@ def _axis_for(nd: NDBG, r: int, steps: list[Step],
     near = sorted((a for a in _axes(len(d)) if float(np.dot(a, d)) > AXIS_COS),
                   key=lambda a: -float(np.dot(a, d)))
     for a in near:
-        if np.allclose(a, d, atol=1e-12):
-            return None  # the region's direction is that axis already
+        if np.array_equal(a, d):
+            return None  # the region's direction is that axis already (a near one is tested)
         if all(frees(s.moved, s.rest, np.asarray(a)) for s in steps):
             return a
     return None
@@ -337,13 +339,16 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
         return out
     out.exact = bool(md["exact"])
     out.notes.append(md["why"])
+    within = sink_decompose(ndbg, root, md["regions"], base=base)[0]  # a tree: md proved it
     got = _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget,
-                       set(md["regions"]))
+                       set(md["regions"]), within)
     if got.found or connected is None:
         return got
     # the direction count ignores the connectivity filter: fall back to all regions
+    why = ("no connected tree within the minimum direction set" if got.exact else
+           "no connected tree within the minimum direction set found within the budget")
     out = Plan(ndbg=ndbg, root=root, strategy=strategy, exact=False, connected=True,
-               notes=["no connected tree within the minimum direction set; all regions used"])
+               notes=[why + "; all regions used"])
     return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None, sink)
 
 
@@ -376,8 +381,14 @@ def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
         out.exact = False
         out.notes.append("search budget exhausted before a tree was found; the sink "
                          "decomposition's tree is given (an upper bound on the optimum)")
-        out.steps = {m: Step(mask=m, moved=moved, rest=m & ~moved, region=region)
-                     for m, (moved, region) in sink.items()}
+        # each step in the region pick_region prefers among those freeing it (the sink
+        # decomposition takes the first in index order)
+        regs = sorted(allowed) if allowed is not None else range(len(ndbg.regions))
+        out.steps = {}
+        for m, (moved, region) in sink.items():
+            free = [r for r in regs if ndbg.regions[r].dbg.is_free(moved, m)]
+            out.steps[m] = Step(mask=m, moved=moved, rest=m & ~moved,
+                                region=pick_region(ndbg, free) if free else region)
         return out
     if not res.found:
         out.found = False
@@ -412,6 +423,10 @@ def step_motion(ndbg: NDBG, s: Step) -> dict:
     if r.direction is not None:
         d["removal_direction"] = _vec(s.removal(ndbg))
         d["direction"] = [(-x if x != 0 else 0.0) for x in _vec(s.removal(ndbg))]
+        if s.axis is not None:
+            # a coordinate axis the sweep test frees the step along, which may lie on the
+            # region's boundary (a sliding contact) or in a neighbouring region
+            d["axis"] = True
     else:
         d["direction"] = None
     if r.motion is not None:

@@ -96,7 +96,11 @@ def andor_lines(report: dict) -> list[str]:
             lines.append(f"  {fam.replace('_', ' ')}: {g['why']}")
             continue
         if g["truncated"]:
-            lines.append(f"{head}; cut ({g.get('why', '')}): no exact counts")
+            lines.append(f"  {fam.replace('_', ' ')}: cut after {g['nodes']} subassemblies "
+                         f"({g.get('why', '')}): no exact counts")
+            continue
+        if g["min_depth"] is None:
+            lines.append(f"{head}; no candidate tree")
             continue
         trees = g.get("trees_str", g["trees"])
         seqs = g.get("linear_sequences_str", g["linear_sequences"])

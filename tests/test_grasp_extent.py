@@ -11,6 +11,7 @@ import numpy as np
 
 import ndbg_cli
 from ndbg_cli.analysis import Options, analyze
+from ndbg_cli.classes import label, verdict
 from ndbg_cli.dbg import condensation
 from ndbg_cli.grasp import grasp, region_pieces
 from ndbg_cli.infinitesimal import build_ndbg_2d, build_ndbg_3d, locate_region
@@ -194,6 +195,10 @@ def test_grasp_budget_counts_tests_and_says_where_it_stopped():
         elif not r["complete"]:
             kind = "stopped"
             assert 0 < r["value"] < 10 and "face tests ran out" in r["why"]
+            # the fingers placed so far hold nothing: not an upper bound (review finding)
+            lab = label("infinitesimal_translation", "grasp", r)
+            assert lab["evidence"] == "undecided"
+            assert verdict("grasp", lab) == f"undecided ({r['value']} placed, incomplete)"
         else:
             kind = "complete"
             assert r["value"] == 10

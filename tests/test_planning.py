@@ -25,7 +25,7 @@ from ndbg_cli.classes import (
 from ndbg_cli.dbg import DBG, bits, mask_of
 from ndbg_cli.grasp import grasp
 from ndbg_cli.interlock import interlock
-from ndbg_cli.ndbg import NDBG, Region
+from ndbg_cli.ndbg import NDBG, ConnectivityTest, Region
 from ndbg_cli.planning import STRATEGIES, plan, plan_section, plan_text, remove
 
 UP, DOWN = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
@@ -1096,3 +1096,38 @@ def test_removal_states_the_nearest_axis_the_sweep_test_frees():
     only_a = r.section(nd, lambda m, rest, d: m == 0b001 and d[2] > 0.5)
     assert only_a["steps"][0]["removal_direction"] == [0.0, 0.0, 1.0]
     assert only_a["final"] == plain["final"]
+
+
+def test_fewest_directions_cut_by_the_budget_still_gives_its_tree():
+    # review finding: the sink-decomposition fallback was not given to this strategy, so a
+    # work cut left no plan although min_directions had just found a tree
+    nd = mk("ABC", [(UP, [(0, 1), (1, 2)]), (DOWN, [(1, 0), (2, 1)]), (PX, complete(3))])
+    for connected in (None, ConnectivityTest([0b110, 0b101, 0b011])):
+        p = plan(nd, "fewest-directions", connected=connected,
+                 budget=Budget(max_nodes=1, max_work=1))
+        if connected is None:
+            assert p.found and not p.exact and p.directions() == 1
+            assert {s.region for s in p.steps.values()} <= {0, 1}
+        else:  # the connected search is cut: said so, not "no connected tree"
+            assert not p.found or not p.exact
+            assert all("found within the budget" in n for n in p.notes
+                       if n.startswith("no connected tree"))
+
+
+def test_andor_section_reports_the_size_the_build_reached():
+    # review finding: anytime searches expanding the same memo after the build made the
+    # section's size depend on which searches ran first
+    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])
+    g = AndOrGraph(nd, budget=Budget(max_nodes=10)).build()
+    size = (g.node_count, g.hyperarc_count)
+    min_depth_search(nd, budget=Budget(max_nodes=10_000), graph=g)
+    assert g.node_count > size[0]  # the search expanded more nodes into the graph
+    sec = andor_section(g)
+    assert (sec["nodes"], sec["hyperarcs"]) == size and sec["cut_by"] == "nodes"
+
+
+def test_min_directions_cut_by_the_budget_is_exact_when_its_bounds_meet():
+    nd = mk("ABC", [(UP, [(0, 1), (1, 2)]), (DOWN, [(1, 0), (2, 1)]), (PX, complete(3))])
+    md = min_directions(nd, budget=Budget(max_nodes=0))  # cut before the first test
+    assert (md["value"], md["lower_bound"], md["exact"]) == (1, 1, True)
+    assert md["why"].startswith("exact: the bounds meet")
