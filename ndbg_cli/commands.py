@@ -201,7 +201,7 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
     from .infinite import build_infinite, triangle_pairs
     from .infinitesimal import infinitesimal_ndbg
     from .loaders import load
-    from .planning import remove as remove_parts
+    from .removal import remove as remove_parts
     from .sweep import SweepChecker
 
     asm = load(assembly, units=units, tolerance=tolerance,

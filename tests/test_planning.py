@@ -26,7 +26,8 @@ from ndbg_cli.dbg import DBG, bits, mask_of
 from ndbg_cli.grasp import grasp
 from ndbg_cli.interlock import interlock
 from ndbg_cli.ndbg import NDBG, ConnectivityTest, Region
-from ndbg_cli.planning import STRATEGIES, plan, plan_section, plan_text, remove
+from ndbg_cli.planning import STRATEGIES, plan, plan_section, plan_text
+from ndbg_cli.removal import remove
 
 UP, DOWN = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
 PX, NX, PY, NY = (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0)
