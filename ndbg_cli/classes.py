@@ -277,8 +277,11 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
                                     "graph truncated)"}
         out["min_depth"] = {"value": r.upper, "exact": r.exact, "lower_bound": r.lower,
                             "upper_bound": r.upper,
-                            "why": r.why or (("exact" if r.exact else "upper bound (best tree "
-                                              f"found), lower bound {r.lower}")
+                            "why": r.why or (("exact" if r.exact else
+                                              "no tree found within the budget, lower bound "
+                                              f"{r.lower}" if r.upper is None else
+                                              "upper bound (best tree found), lower bound "
+                                              f"{r.lower}")
                                              + " by iterative deepening over "
                                              f"{r.expanded} subassemblies (AND/OR graph "
                                              "truncated)")}

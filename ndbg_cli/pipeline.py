@@ -203,7 +203,9 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
             q = clock("plan_s", lambda nd=ndbgs[fam], g=graph: plan(
                 nd, options.strategy, base=base, connected=None, budget=budget, graph=g))
             if q.found:
-                q.notes.append("no tree with connected subassemblies; any candidate split used")
+                q.notes.append("no tree with connected subassemblies" + (
+                    "" if p.exact else " found within the budget")
+                    + "; any candidate split used")
                 p = q
         if chosen is None or (p.found and not chosen.found):
             chosen = p

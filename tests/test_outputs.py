@@ -134,6 +134,9 @@ def test_search_budget_is_counted_work_not_the_clock(tmp_path):
     assert first.stdout == second.stdout
     notes = json.loads(first.stdout)["plan"]["notes"]
     assert notes[0].startswith("AND/OR graph cut by the work budget (50 units)")
+    # a connected search only cut by the budget does not claim there is no connected tree
+    assert all("found within the budget" in n for n in notes
+               if n.startswith("no tree with connected"))
     # the same budget from a config file; a wall-clock limit stays available, opt-in
     cfg = tmp_path / "c.yaml"
     cfg.write_text("max_work: 50\ntime_limit: null\n")

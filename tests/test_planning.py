@@ -1007,6 +1007,9 @@ def test_anytime_searches_stop_on_the_work_budget():
     assert not r.exact and (r.lower, r.upper) == (3, 3) or r.upper is None
     p = plan(nd, "shortest", budget=Budget(max_work=1))
     assert p.found and not p.exact and "work budget (1 units)" in p.notes[0]
+    # a cut that found no tree says so (not "upper bound (best tree found)")
+    md = classify(nd, budget=Budget(max_nodes=1, max_work=1))["min_depth"]
+    assert md["value"] is None and md["why"].startswith("no tree found within the budget")
     # the greedy search cut before any tree: the polynomial sink decomposition's tree is a
     # candidate tree all the same (every step's moved set free in its region)
     for strategy in ("balanced", "linear"):
