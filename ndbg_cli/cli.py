@@ -493,7 +493,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     Example:
       ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
     """
-    from .commands import read_reports
+    from .diff import read_reports
     from .junit import junit_xml
     from .rules import evaluate, load_rules
 

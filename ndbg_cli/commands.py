@@ -22,7 +22,7 @@ from .cli import (
     cli,
     fail,
 )
-from .errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION, InputError
+from .errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION
 from .report import (
     CONTACTS_SCHEMA,
     QUERY_SCHEMA,
@@ -266,7 +266,7 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
     Example:
       ndbg diff main/bell.json branch/bell.json --fail-on worse
     """
-    from .diff import diff_sets, fails
+    from .diff import diff_sets, fails, read_reports
 
     changes = diff_sets(read_reports(old), read_reports(new))
     if fmt == "json":
@@ -279,18 +279,6 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
         if not changes:
             click.echo("no change a designer cares about")
     sys.exit(EXIT_VIOLATION if fails(changes, fail_on) else EXIT_OK)
-
-
-def read_reports(path: str) -> dict[str, dict]:
-    """:func:`ndbg_cli.diff.read_reports`, with a JSON file nested beyond Python's recursion
-    limit (``json`` raises RecursionError, e.g. on 100000 nested lists) an input error
-    naming ``path`` rather than an internal one: no report nests that deep."""
-    from .diff import read_reports as read
-
-    try:
-        return read(path)
-    except RecursionError:
-        raise InputError("not an ndbg report: JSON nested too deeply", file=path) from None
 
 
 @cli.command(context_settings=CONTEXT)

@@ -111,20 +111,28 @@ def _indexed(folder: Path) -> list[Path] | None:
     return [folder / n for n in names]
 
 
+def _documents(text: str) -> list:
+    """The documents of a JSON text (a batch document's ``reports``) or, when it is not one
+    JSON value, of its JSON Lines (the lines' ``JSONDecodeError`` propagates)."""
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError:
+        return [json.loads(line) for line in text.splitlines() if line.strip()]
+    return doc["reports"] if isinstance(doc, dict) and "reports" in doc else [doc]
+
+
 def _parse(p: Path) -> list[dict]:
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as exc:
         raise InputError(f"cannot read: {exc.strerror or exc}", file=str(p)) from None
     try:
-        doc = json.loads(text)
-        docs = doc["reports"] if isinstance(doc, dict) and "reports" in doc else [doc]
-    except json.JSONDecodeError:
-        try:
-            docs = [json.loads(line) for line in text.splitlines() if line.strip()]
-        except json.JSONDecodeError as exc:
-            raise InputError(f"not an ndbg report (JSON or JSON Lines): {exc.msg} at line "
-                             f"{exc.lineno}", file=str(p)) from None
+        docs = _documents(text)
+    except json.JSONDecodeError as exc:
+        raise InputError(f"not an ndbg report (JSON or JSON Lines): {exc.msg} at line "
+                         f"{exc.lineno}", file=str(p)) from None
+    except RecursionError:  # json recursing through e.g. 100000 nested lists: no report
+        raise InputError("not an ndbg report: JSON nested too deeply", file=str(p)) from None
     for d in docs:
         if not isinstance(d, dict) or "schema" not in d or not (
                 "assembly" in d or "error" in d):
