@@ -28,8 +28,8 @@ With ``base`` (a part index) the base is never moved: it always stays on the ``r
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -174,7 +174,7 @@ def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool],
                     "why": f"step {k} ({', '.join(nd.names(s.moved))}) is blocked further "
                            f"away along every direction tried: a candidate only"}
         if good != s.region:
-            p.steps[s.mask] = Step(mask=s.mask, moved=s.moved, rest=s.rest, region=good)
+            p.steps[s.mask] = replace(s, region=good)
     return {"value": True, "steps": len(seq),
             "why": "every step comes out by one translation to infinity along its direction "
                    "(direct sweep test): a 1-handed monotone 1-prismatic algorithm"}
@@ -210,8 +210,7 @@ def axis_directions(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> i
         a = _axis_for(nd, r, steps, frees)
         if a is not None:
             for s in steps:
-                p.steps[s.mask] = Step(mask=s.mask, moved=s.moved, rest=s.rest,
-                                       region=s.region, axis=a)
+                p.steps[s.mask] = replace(s, axis=a)
             changed += len(steps)
     return changed
 
@@ -236,9 +235,18 @@ def _axis_for(nd: NDBG, r: int, steps: list[Step],
 
 
 def axis_step(nd: NDBG, s: Step, frees: Callable[[int, int, np.ndarray], bool]) -> Step:
+    """``s`` stating the axis :func:`_axis_for` finds for it alone, if any."""
     a = _axis_for(nd, s.region, [s], frees)
-    return s if a is None else Step(mask=s.mask, moved=s.moved, rest=s.rest,
-                                    region=s.region, axis=a)
+    return s if a is None else replace(s, axis=a)
+
+
+def free_region(ndbg: NDBG, subset: int, mask: int,
+                regions: Sequence[int] | None = None) -> int | None:
+    """The region (of ``regions``, default all) :func:`pick_region` prefers among those in
+    which ``subset`` is free inside ``mask``; ``None`` when there is none."""
+    regs = [r for r in (range(len(ndbg.regions)) if regions is None else regions)
+            if ndbg.regions[r].dbg.is_free(subset, mask)]
+    return pick_region(ndbg, regs) if regs else None
 
 
 def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
@@ -381,12 +389,12 @@ def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
                          "decomposition's tree is given (an upper bound on the optimum)")
         # each step in the region pick_region prefers among those freeing it (the sink
         # decomposition takes the first in index order)
-        regs = sorted(allowed) if allowed is not None else range(len(ndbg.regions))
+        regs = sorted(allowed) if allowed is not None else None
         out.steps = {}
         for m, (moved, region) in sink.items():
-            free = [r for r in regs if ndbg.regions[r].dbg.is_free(moved, m)]
+            best = free_region(ndbg, moved, m, regs)
             out.steps[m] = Step(mask=m, moved=moved, rest=m & ~moved,
-                                region=pick_region(ndbg, free) if free else region)
+                                region=region if best is None else best)
         return out
     if not res.found:
         out.found = False
@@ -420,7 +428,7 @@ def step_motion(ndbg: NDBG, s: Step) -> dict:
     d: dict = {"family": ndbg.family, "region": s.region}
     if r.direction is not None:
         d["removal_direction"] = _vec(s.removal(ndbg))
-        d["direction"] = [(-x if x != 0 else 0.0) for x in _vec(s.removal(ndbg))]
+        d["direction"] = [(-x if x != 0 else 0.0) for x in d["removal_direction"]]
         if s.axis is not None:
             # a coordinate axis the sweep test frees the step along, which may lie on the
             # region's boundary (a sliding contact) or in a neighbouring region

@@ -15,7 +15,7 @@ import numpy as np
 from .andor import Budget
 from .dbg import bits
 from .ndbg import NDBG
-from .planning import Step, axis_step, pick_region, step_motion
+from .planning import Step, axis_step, free_region, pick_region, step_motion
 
 
 @dataclass
@@ -65,11 +65,6 @@ class Removal:
         }
 
 
-def _free_region(ndbg: NDBG, subset: int, mask: int) -> int | None:
-    regs = [k for k, r in enumerate(ndbg.regions) if r.dbg.is_free(subset, mask)]
-    return pick_region(ndbg, regs) if regs else None
-
-
 def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget | None = None
            ) -> Removal:
     """Which parts must be withdrawn, in which order, before subassembly ``target`` (bitmask)
@@ -102,7 +97,7 @@ def remove(ndbg: NDBG, target: int, *, base: int | None = None, budget: Budget |
             continue
         done.add(m)
         explored += 1
-        fr = _free_region(ndbg, target, m)
+        fr = free_region(ndbg, target, m)
         if fr is not None:
             steps = []
             cur = m
@@ -167,7 +162,7 @@ def _remove_greedy(ndbg: NDBG, target: int, keep: int, lower: int, explored: int
 
     wanted = blockers_of(target)
     while True:
-        fr = _free_region(ndbg, target, m)
+        fr = free_region(ndbg, target, m)
         if fr is not None:
             return Removal(target, True, full & ~m, steps, fr, False, lower, explored)
         best = None

@@ -90,22 +90,21 @@ def andor_lines(report: dict) -> list[str]:
         return []
     lines = ["", "AND/OR graphs of the candidate assembly trees (paper section 7.2)"]
     for fam, g in sorted(report["andor"].items()):
-        head = f"  {fam.replace('_', ' ')}: {g['nodes']} subassemblies, {g['hyperarcs']} " \
-               "partitionings"
+        name = f"  {fam.replace('_', ' ')}:"
         if g.get("cut_by") == "supergraph":
-            lines.append(f"  {fam.replace('_', ' ')}: {g['why']}")
-            continue
-        if g["truncated"]:
-            lines.append(f"  {fam.replace('_', ' ')}: cut after {g['nodes']} subassemblies "
-                         f"({g.get('why', '')}): no exact counts")
-            continue
-        if g["min_depth"] is None:
-            lines.append(f"{head}; no candidate tree")
-            continue
-        trees = g.get("trees_str", g["trees"])
-        seqs = g.get("linear_sequences_str", g["linear_sequences"])
-        lines.append(f"{head}; {trees} tree(s), {seqs} linear sequence(s), minimum depth "
-                     f"{g['min_depth']}")
+            lines.append(f"{name} {g['why']}")
+        elif g["truncated"]:
+            lines.append(f"{name} cut after {g['nodes']} subassemblies ({g.get('why', '')}): "
+                         "no exact counts")
+        else:
+            head = f"{name} {g['nodes']} subassemblies, {g['hyperarcs']} partitionings"
+            if g["min_depth"] is None:
+                lines.append(f"{head}; no candidate tree")
+            else:
+                trees = g.get("trees_str", g["trees"])
+                seqs = g.get("linear_sequences_str", g["linear_sequences"])
+                lines.append(f"{head}; {trees} tree(s), {seqs} linear sequence(s), minimum "
+                             f"depth {g['min_depth']}")
     return lines
 
 
