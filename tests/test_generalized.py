@@ -1204,6 +1204,41 @@ def test_locking_certificate_fails_when_a_motion_is_built_in(seed):
         assert lp._locked(rows, np.vstack([free, -free]), [], rot), trial
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_basis_bounds_hold_against_the_lp(seed):
+    """The one-NNLS bounds of the certificate's fast path (``motion_lp._basis_bounds``):
+    for random row sets that positively span R^d (locked), each ``A_i`` is at least the
+    largest ``|a_i|`` over ``P a <= eps`` found by an LP (sound), and it is finite on
+    every such set; on rows confined to a half-space (a motion ``u`` with ``P u <= 0``),
+    the bound is infinite or exceeds the LP's, which is unbounded there (``|a| <= sqrt 6``
+    caps it)."""
+    from scipy.optimize import linprog
+
+    rng = np.random.default_rng(seed)
+    eps = 1e-3
+    for trial in range(40):
+        d = int(rng.integers(1, 7))
+        m = int(rng.integers(d + 1, 60))
+        P = rng.normal(size=(m, d))
+        P = np.vstack([P, -P[: d + 1]])  # +-rows: the set positively spans R^d
+        A = lp._basis_bounds(P, eps)
+        assert A is not None and np.all(np.isfinite(A)), trial
+        for i in range(d):
+            for sgn in (1.0, -1.0):
+                c = np.zeros(d)
+                c[i] = -sgn
+                res = linprog(c, A_ub=P, b_ub=np.full(len(P), eps),
+                              bounds=[(-np.sqrt(6), np.sqrt(6))] * d, method="highs")
+                assert res.status == 0
+                assert -res.fun <= A[i] + 1e-12, (trial, i, sgn, -res.fun, A[i])
+        u = rng.normal(size=d)
+        half = P * np.where(P @ u > 0, -1.0, 1.0)[:, None]  # every row allows u
+        B = lp._basis_bounds(half, eps)
+        k = int(np.argmax(np.abs(u)))
+        assert B is None or not np.all(np.isfinite(B)) or \
+            B[k] >= np.sqrt(6) * abs(u[k]) / np.linalg.norm(u) - 1e-9, trial
+
+
 def test_locking_certificate_on_turned_rows(tmp_path):
     """The plain bolt's rows (it lifts off along +z) and the hinge leaf's (it slides out
     along +x), in 40 random orthonormal frames of the twist space (``G Q``: the motion
