@@ -484,7 +484,8 @@ def _index_entry(r: dict, file: str) -> dict:
 @click.pass_context
 def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_budget, units,
           tolerance, allow_outside_paths) -> None:
-    """CI gate: analyse PATHS (or read saved .json reports) and check design rules.
+    """CI gate: analyse PATHS (or read saved .json reports, or a folder of them) and check
+    design rules.
 
     Exit code 0 when every rule holds, 1 when any is violated (one line per violation:
     assembly, rule, measured value, expected, why), 2 for bad input or a bad rules file.
@@ -493,7 +494,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     Example:
       ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
     """
-    from .diff import read_reports
+    from .diff import holds_reports, read_reports
     from .junit import junit_xml
     from .rules import evaluate, load_rules
 
@@ -506,8 +507,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
         if not Path(p).exists():
             fail(f"{p}: no such file or directory", EXIT_INPUT)
         q = Path(p)
-        if q.suffix.lower() in (".json", ".jsonl") or (
-                q.is_dir() and (q / "index.json").is_file()):  # an --out-dir of reports
+        if q.suffix.lower() in (".json", ".jsonl") or holds_reports(q):
             saved.extend(read_reports(p).values())
         else:
             targets.extend(discover(p))

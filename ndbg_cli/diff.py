@@ -4,7 +4,8 @@ complexity class to another" (section 7).
 
 Inputs are reports as ``ndbg analyze`` writes them: one JSON report, a batch document
 (``--format json`` over several assemblies), a JSON Lines stream, or an ``--out-dir`` folder
-(the reports its ``index.json`` names; every ``*.json`` in it when it has no index).
+(the reports its ``index.json`` names; every ``*.json`` in it when it has no index; for
+``ndbg check``, :func:`holds_reports` tells such a folder from one of assemblies).
 Assemblies are matched by name. Each change is a :class:`Change` graded ``worse``, ``better``
 or ``changed`` (neither, e.g. a part renamed or a measure becoming undecided):
 
@@ -88,6 +89,25 @@ def read_reports(path: str | Path) -> dict[str, dict]:
             key = f"{name}-{k}"
         out[key] = d
     return out
+
+
+def holds_reports(folder: str | Path) -> bool:
+    """Whether a directory is a folder of reports rather than of assemblies: it has an
+    ``--out-dir`` run's ``index.json``, or it holds ``*.json`` files and nothing an analysis
+    would read (no manifest anywhere below it, no mesh file in it)."""
+    from .loaders import MANIFEST_SUFFIXES, MESH_SUFFIXES
+
+    p = Path(folder)
+    if not p.is_dir():
+        return False
+    if (p / "index.json").is_file():
+        return True
+    if any(q.suffix.lower() in MANIFEST_SUFFIXES and q.is_file() for q in p.rglob("*")):
+        return False
+    here = [q for q in p.iterdir() if q.is_file()]
+    if any(q.suffix.lower() in MESH_SUFFIXES for q in here):
+        return False
+    return any(q.suffix.lower() == ".json" for q in here)
 
 
 def _indexed(folder: Path) -> list[Path] | None:

@@ -93,6 +93,25 @@ def test_check_json_and_saved_reports(bell_report, tmp_path):
                               "undecided_failed": 0, "failed_assemblies": 0}
 
 
+def test_check_reads_a_folder_of_reports_without_an_index(bell_report, tmp_path):
+    """A folder of saved reports (written by --out, no --out-dir index) is read as reports,
+    not analysed as a folder of meshes; a folder that also holds a manifest is a batch of
+    assemblies, as before."""
+    saved = tmp_path / "saved"
+    saved.mkdir()
+    shutil.copy(bell_report, saved / "bell.json")
+    r = run_cli("check", saved, "--rules", _lenient_bell_rules(tmp_path), "--format", "json")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert json.loads(r.stdout)["summary"]["assemblies"] == 1
+    shutil.copytree(EX / "meshes", saved / "meshes")
+    shutil.copy(EX / "hover.yaml", saved / "hover.yaml")
+    rules = tmp_path / "rules.yaml"
+    rules.write_text("rules:\n  no_interference: true\n")
+    r = run_cli("check", saved, "--rules", rules, "--motion", "translation", "--format", "json")
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert [o[0]["assembly"] for o in json.loads(r.stdout)["outcomes"]] == ["hover"]
+
+
 def test_check_reports_a_broken_assembly_and_goes_on(tmp_path):
     batch = tmp_path / "batch"
     shutil.copytree(EX / "meshes", batch / "meshes")
