@@ -96,32 +96,29 @@ def read_config(path: str | Path) -> dict:
     are :class:`Options` fields. Unknown keys and bad values are input errors."""
     import dataclasses
 
-    import yaml
-
     from .errors import InputError
-    from .manifest import YamlLoader
+    from .manifest import read_located
 
-    try:
-        data = yaml.load(Path(path).read_text(encoding="utf-8"), Loader=YamlLoader) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise InputError(f"cannot read config: {exc}".splitlines()[0], file=str(path)) from None
-    if not isinstance(data, dict):
-        raise InputError("a config must be a YAML mapping", file=str(path))
+    doc = read_located(path, "config", "a config must be a YAML mapping")
+    data = doc.data
     # ``workers`` comes from --jobs only (one assembly; a batch spreads its assemblies), and
     # ``progress`` from --quiet (one assembly; a batch shows its own bar)
     fields = {f.name for f in dataclasses.fields(Options)} - {"workers", "progress"}
-    unknown = sorted(set(data) - fields)
+    unknown = sorted(set(map(str, data)) - fields)
     if unknown:
         raise InputError(f"unknown setting '{unknown[0]}' (known: {', '.join(sorted(fields))})",
-                         file=str(path))
+                         file=str(path), line=doc.line((unknown[0],)))
     for name, value in data.items():
         problem = setting_problem(name, value)
         if problem:
-            raise InputError(f"{name}: {problem}", file=str(path))
+            raise doc.error((name,), problem)
     if data.get("units") is not None:
         from .units import canonical_unit
 
-        data["units"] = canonical_unit(data["units"], file=str(path))
+        try:
+            data["units"] = canonical_unit(data["units"], file=str(path))
+        except InputError as exc:
+            raise doc.error(("units",), exc.problem) from None
     return data
 
 

@@ -399,11 +399,7 @@ def _options(ctx: click.Context, config: str | None, **given) -> Options:
     """Options from the config file, overridden by the options given on the command line."""
     from .cache import default_dir
 
-    try:
-        settings = read_config(config) if config else {}
-    except UnicodeDecodeError as exc:  # read_config catches OSError and YAML errors only
-        raise InputError(f"cannot read config: not UTF-8 text ({exc.reason} at byte "
-                         f"{exc.start})", file=config) from None
+    settings = read_config(config) if config else {}
     for name, value in given.items():
         source = ctx.get_parameter_source(name)
         flagged = source is not None and source.name != "DEFAULT"

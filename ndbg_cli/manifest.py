@@ -210,24 +210,35 @@ def _line_map(node: yaml.Node, path: tuple, out: dict, file: str) -> None:
             _line_map(value, path + (i,), out, file)
 
 
-def read_manifest(path: Path) -> _Located:
-    """Read and schema-validate a manifest; ``InputError`` with a line number on failure."""
+def read_located(path: str | Path, what: str, shape: str) -> _Located:
+    """A YAML mapping file (manifest, config, rules) read with :class:`YamlLoader`, with the
+    line of every key path (``.line(path)``, ``.error(path, problem)``) and duplicate keys
+    refused. ``what`` names the file in "cannot read WHAT" errors; ``shape`` is the error
+    when the document is not a mapping. Any problem is an ``InputError``."""
     file = str(path)
     try:
         text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read manifest: {exc.__class__.__name__}: {exc}",
-                         file=file) from None
+    except OSError as exc:
+        raise InputError(f"cannot read {what}: {exc.strerror or exc}", file=file) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"cannot read {what}: not UTF-8 text ({exc.reason} at byte "
+                         f"{exc.start})", file=file) from None
     try:
         node = yaml.compose(text, Loader=YamlLoader)
         data = yaml.load(text, Loader=YamlLoader)
     except yaml.YAMLError as exc:
         raise yaml_input_error(exc, file) from None
     if node is None or not isinstance(data, dict):
-        raise InputError("a manifest must be a YAML mapping with a 'parts' list", file=file)
+        raise InputError(shape, file=file)
     lines: dict[tuple, int] = {}
     _line_map(node, (), lines, file)
-    located = _Located(data, lines, file)
+    return _Located(data, lines, file)
+
+
+def read_manifest(path: Path) -> _Located:
+    """Read and schema-validate a manifest; ``InputError`` with a line number on failure."""
+    located = read_located(path, "manifest",
+                           "a manifest must be a YAML mapping with a 'parts' list")
     _check_finite(located)
     _validate_schema(located)
     return located

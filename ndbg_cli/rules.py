@@ -137,24 +137,29 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
-def _check_rules(data: Any, where: str, file: str) -> tuple[tuple[str, Any], ...]:
+def _check_rules(data: Any, path: tuple, doc: Any) -> tuple[tuple[str, Any], ...]:
+    """The ``rule: value`` pairs of the mapping at key ``path`` of the rules file ``doc``
+    (a :func:`~ndbg_cli.manifest.read_located` document: errors carry the line)."""
     if data is None:
         return ()
+    where = ".".join(map(str, path))
     if not isinstance(data, dict):
-        raise InputError(f"{where} must be a mapping of rule: value", file=file)
+        raise InputError(f"{where} must be a mapping of rule: value", file=doc.file,
+                         line=doc.line(path))
     out = []
     for key, value in data.items():
+        line = doc.line(path + (key,))
         if key not in RULES:
             raise InputError(f"{where}: unknown rule '{key}' (known: {', '.join(RULES)})",
-                             file=file)
+                             file=doc.file, line=line)
         kind = RULES[key][0]
         if kind == "bool" and not isinstance(value, bool):
             raise InputError(f"{where}: rule '{key}' needs true or false, got {value!r}",
-                             file=file)
+                             file=doc.file, line=line)
         if kind == "max" and (isinstance(value, bool) or not isinstance(value, int)
                               or value < 0):
             raise InputError(f"{where}: rule '{key}' needs a non-negative integer, got "
-                             f"{value!r}", file=file)
+                             f"{value!r}", file=doc.file, line=line)
         out.append((str(key), value))
     return tuple(out)
 
@@ -165,38 +170,30 @@ def load_rules(path: str | Path) -> RuleSet:
     Read with the manifests' :class:`~ndbg_cli.manifest.YamlLoader`, so that a rules file
     reads numbers as a manifest or config does (``1e-3`` a float, not YAML 1.1's string)
     and is refused, as they are, when nested too deeply or inflated by aliases."""
-    import yaml
-
-    from .manifest import YamlLoader, yaml_input_error
+    from .manifest import read_located
 
     file = str(path)
-    try:
-        data = yaml.load(Path(path).read_text(encoding="utf-8"), Loader=YamlLoader)
-    except OSError as exc:
-        raise InputError(f"cannot read rules: {exc.strerror or exc}", file=file) from None
-    except UnicodeDecodeError as exc:
-        raise InputError(f"cannot read rules: not UTF-8 text ({exc.reason} at byte "
-                         f"{exc.start})", file=file) from None
-    except yaml.YAMLError as exc:
-        raise yaml_input_error(exc, file) from None
-    if not isinstance(data, dict):
-        raise InputError("a rules file must be a YAML mapping with a 'rules' key", file=file)
+    doc = read_located(path, "rules", "a rules file must be a YAML mapping with a 'rules' key")
+    data = doc.data
     known = {"family", "undecided", "rules", "assemblies", "description"}
     unknown = sorted(set(map(str, data)) - known)
     if unknown:
         raise InputError(f"unknown key '{unknown[0]}' (known: {', '.join(sorted(known))})",
-                         file=file)
+                         file=file, line=doc.line((unknown[0],)))
     family = data.get("family", "auto")
     if family not in FAMILIES:
-        raise InputError(f"family must be one of {', '.join(FAMILIES)}", file=file)
+        raise InputError(f"family must be one of {', '.join(FAMILIES)}", file=file,
+                         line=doc.line(("family",)))
     undecided = data.get("undecided", "fail")
     if undecided not in ("fail", "pass"):
-        raise InputError("undecided must be 'fail' or 'pass'", file=file)
-    rules = _check_rules(data.get("rules"), "rules", file)
+        raise InputError("undecided must be 'fail' or 'pass'", file=file,
+                         line=doc.line(("undecided",)))
+    rules = _check_rules(data.get("rules"), ("rules",), doc)
     per = data.get("assemblies") or {}
     if not isinstance(per, dict):
-        raise InputError("assemblies must map a name or glob to rules", file=file)
-    assemblies = tuple((str(k), _check_rules(v, f"assemblies.{k}", file))
+        raise InputError("assemblies must map a name or glob to rules", file=file,
+                         line=doc.line(("assemblies",)))
+    assemblies = tuple((str(k), _check_rules(v, ("assemblies", k), doc))
                        for k, v in per.items())
     if not rules and not any(r for _, r in assemblies):
         raise InputError("the rules file states no rule", file=file)

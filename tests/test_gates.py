@@ -126,19 +126,24 @@ def test_check_reports_a_broken_assembly_and_goes_on(tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("rules:\n  max_depht: 3\n", "unknown rule 'max_depht'"),
-    ("rules:\n  max_depth: yes\n", "needs a non-negative integer"),
-    ("rules:\n  linearizable: 1\n", "needs true or false"),
-    ("family: sideways\nrules:\n  linearizable: true\n", "family must be one of"),
+    ("rules:\n  max_depht: 3\n", ":2: rules: unknown rule 'max_depht'"),
+    ("rules:\n  max_depth: yes\n", ":2: rules: rule 'max_depth' needs a non-negative integer"),
+    ("rules:\n  linearizable: 1\n", ":2: rules: rule 'linearizable' needs true or false"),
+    ("family: sideways\nrules:\n  linearizable: true\n", ":1: family must be one of"),
+    ("rules:\n  linearizable: true\nassemblies:\n  bell:\n    max_depth: -1\n",
+     ":5: assemblies.bell: rule 'max_depth' needs a non-negative integer"),
+    ("rules:\n  linearizable: true\nrules:\n  prismatic: true\n", ":3: duplicate key 'rules'"),
     ("rules: [\n", "malformed YAML"),
     ("rules: {}\n", "states no rule"),
 ])
 def test_bad_rules_files_are_input_errors(tmp_path, text, message):
+    """Each problem is one line naming the file and, where it has one, the line."""
     rules = tmp_path / "rules.yaml"
     rules.write_text(text)
     r = run_cli("check", EX / "hover.yaml", "--rules", rules)
     assert r.returncode == 2
-    assert message in r.stderr and "Traceback" not in r.stderr
+    assert f"{rules}{message}" in r.stderr or (message[0] != ":" and message in r.stderr)
+    assert "Traceback" not in r.stderr
 
 
 def _report(**classes) -> dict:

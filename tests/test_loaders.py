@@ -333,7 +333,12 @@ def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem
     cfg.write_text(text + "\n")
     with pytest.raises(InputError) as info:
         read_config(cfg)
-    assert info.value.message.startswith(f"{cfg}: ") and problem in info.value.message
+    # the value's line: one-line files here, line 2 below a comment
+    assert info.value.message.startswith(f"{cfg}:1: ") and problem in info.value.message
+    cfg.write_text("# settings\n" + text + "\n")
+    with pytest.raises(InputError) as info:
+        read_config(cfg)
+    assert info.value.message.startswith(f"{cfg}:2: ") and problem in info.value.message
 
 
 def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
@@ -347,7 +352,7 @@ def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
     cfg.write_text("cache: 5\n")  # was an internal error, printed twice
     r = run_cli("analyze", path, "--config", cfg)
     assert r.returncode == 2
-    assert r.stderr == f"ndbg: error: {cfg}: cache: expected a non-empty string or null, got 5\n"
+    assert r.stderr == f"ndbg: error: {cfg}:1: cache: expected a non-empty string or null, got 5\n"
     r = run_cli("analyze", path, "--time-limit", "nan")  # click's FloatRange lets NaN in
     assert r.returncode == 2
     assert r.stderr == "ndbg: error: --time-limit: expected a finite number > 0, got nan\n"
