@@ -270,26 +270,56 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
                                     "why": "exact: linearizable (a linear tree exists)"}
         else:
             g_lin = greedy_tree(ndbg, full, base=base, chooser=_linear_first, budget=budget)
-            ub_p = g_lin.nonlinear() if g_lin.found else None
+            ub_p, src = (g_lin.nonlinear(), "a greedy linear-first tree") if g_lin.found \
+                else (_choice_nonlinear(choice, full), "the sink decomposition's tree")
             out["min_nonlinear"] = {"value": ub_p, "exact": False, "lower_bound": 1,
-                                    "assembly_lines": None if ub_p is None else ub_p + 1,
-                                    "why": "upper bound from a greedy linear-first tree (AND/OR "
-                                    "graph truncated)"}
-        out["min_depth"] = {"value": r.upper, "exact": r.exact, "lower_bound": r.lower,
-                            "upper_bound": r.upper,
-                            "why": r.why or (("exact" if r.exact else
-                                              "no tree found within the budget, lower bound "
-                                              f"{r.lower}" if r.upper is None else
-                                              "upper bound (best tree found), lower bound "
-                                              f"{r.lower}")
-                                             + " by iterative deepening over "
-                                             f"{r.expanded} subassemblies (AND/OR graph "
-                                             "truncated)")}
+                                    "assembly_lines": ub_p + 1,
+                                    "why": f"upper bound from {src} (AND/OR graph truncated)"}
+        out["min_depth"] = _depth_entry(r, _choice_depth(choice, full))
 
     out["stack_product"] = stack_product(ndbg, base=base)
     md = min_directions(ndbg, base=base, budget=budget)
     out["min_directions"] = {k: v for k, v in md.items() if k != "stuck"}
     return out
+
+
+def _choice_depth(choice: dict[int, tuple[int, int]], m: int) -> int:
+    """Height of the tree a decomposition ``choice[m] = (moved, region)`` gives ``m``."""
+    if m.bit_count() < 2:
+        return 0
+    moved = choice[m][0]
+    return 1 + max(_choice_depth(choice, moved), _choice_depth(choice, m & ~moved))
+
+
+def _choice_nonlinear(choice: dict[int, tuple[int, int]], m: int) -> int:
+    """Nonlinear instructions (both sides of two or more parts) of that tree."""
+    if m.bit_count() < 2:
+        return 0
+    moved = choice[m][0]
+    rest = m & ~moved
+    here = int(moved.bit_count() > 1 and rest.bit_count() > 1)
+    return here + _choice_nonlinear(choice, moved) + _choice_nonlinear(choice, rest)
+
+
+def _depth_entry(r: DepthResult, sink_depth: int) -> dict:
+    """The ``min_depth`` entry from a search that did not finish the AND/OR graph: its
+    bounds, the upper one also bounded by the sink decomposition's tree (``sink_depth``; a
+    candidate tree, found in polynomial time whatever the budget). Exact when the search
+    says so or the bounds meet."""
+    upper = sink_depth if r.upper is None else min(r.upper, sink_depth)
+    exact = r.exact or upper == r.lower
+    if r.why and r.upper is not None and r.upper <= sink_depth:
+        why = r.why
+    elif exact and not r.exact:
+        why = (f"exact: the sink decomposition's tree has depth {upper}, the lower bound "
+               f"(ceil(log2 n) or refuted heights over {r.expanded} subassemblies)")
+    else:
+        src = ("the sink decomposition's tree" if r.upper is None or sink_depth < r.upper
+               else "the best tree found")
+        why = ("exact" if exact else f"upper bound from {src}, lower bound {r.lower}") + \
+            f" by iterative deepening over {r.expanded} subassemblies (AND/OR graph truncated)"
+    return {"value": upper, "exact": exact, "lower_bound": r.lower if not exact else upper,
+            "upper_bound": upper, "why": why}
 
 
 def stack_regions(ndbg: NDBG, *, base: int | None = None) -> list[int]:

@@ -1007,9 +1007,15 @@ def test_anytime_searches_stop_on_the_work_budget():
     assert not r.exact and (r.lower, r.upper) == (3, 3) or r.upper is None
     p = plan(nd, "shortest", budget=Budget(max_work=1))
     assert p.found and not p.exact and "work budget (1 units)" in p.notes[0]
-    # a cut that found no tree says so (not "upper bound (best tree found)")
+    # a cut that found no tree still bounds the depth: the polynomial sink decomposition's
+    # tree (here it peels one part at a time: height 5) is a candidate tree; ceil(log2 6) = 3
     md = classify(nd, budget=Budget(max_nodes=1, max_work=1))["min_depth"]
-    assert md["value"] is None and md["why"].startswith("no tree found within the budget")
+    assert (md["value"], md["exact"], md["lower_bound"], md["upper_bound"]) == (5, False, 3, 5)
+    assert md["why"].startswith("upper bound from the sink decomposition's tree, lower bound 3")
+    # with 3 parts that tree's height 2 is ceil(log2 3): exact without a search
+    md = classify(mk(["a", "b", "c"], [(UP, [])]),
+                  budget=Budget(max_nodes=1, max_work=1))["min_depth"]
+    assert (md["value"], md["exact"]) == (2, True) and "sink decomposition" in md["why"]
     # the greedy search cut before any tree: the polynomial sink decomposition's tree is a
     # candidate tree all the same (every step's moved set free in its region)
     for strategy in ("balanced", "linear"):
