@@ -608,7 +608,7 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
         t2 = time.perf_counter()
     t3 = time.perf_counter()
     ndbg = NDBG(family=FAMILY, ids=tuple(asm.ids), regions=tuple(regions),
-                space_dimension=asm.dimension, stats={})
+                space_dimension=asm.dimension, stats={}, geometry=bs)
     counts = ndbg.region_counts()
     ndbg.stats.update({
         "regions_by_dimension": counts, "regions": len(regions),
@@ -620,7 +620,6 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     })
     if bs.domain is not None:
         ndbg.stats["domain_area"] = float(sum(g.area for g in bs.domain if g is not None))
-    object.__setattr__(ndbg, "_blocked_sets", bs)
     return ndbg
 
 
@@ -628,19 +627,36 @@ def lookup(ndbg: NDBG, d: np.ndarray, exact: bool = False) -> list[DBG]:
     """DBGs at directions ``d`` (``(m, 3)``; ``(m, 2)`` in 2D) from the NDBG's blocked sets:
     a vectorised point location in the arrangement, no geometry of the parts. With
     ``exact`` the open-set semantics is applied too (right on the contact circles, e.g.
-    exactly along a bore's axis; slower)."""
-    bs: BlockedSets = ndbg._blocked_sets  # type: ignore[attr-defined]
+    exactly along a bore's axis; slower). Threaded pairs the NDBG's regions block
+    (``stats["threaded_pairs"]``, :func:`ndbg_cli.generalized.block_threads`) block here too."""
+    bs = _blocked(ndbg)
     d = np.atleast_2d(np.asarray(d, dtype=float))
     if bs.arcs is not None:  # 2D: the open arcs on S^1 (always the open-set semantics)
-        return equator.arc_dbgs(bs.arcs, bs.n, np.arctan2(d[:, 1], d[:, 0]))
-    return bs.dbgs(d, exact=exact)
+        out = equator.arc_dbgs(bs.arcs, bs.n, np.arctan2(d[:, 1], d[:, 0]))
+    else:
+        out = bs.dbgs(d, exact=exact)
+    index = {pid: k for k, pid in enumerate(ndbg.ids)}
+    arcs = [(index[a], index[b]) for a, b in ndbg.stats.get("threaded_pairs", ())
+            if a in index and b in index]
+    if arcs:
+        extra = DBG.from_arcs(ndbg.n, arcs + [(j, i) for i, j in arcs])
+        out = [g.union(extra) for g in out]
+    return out
+
+
+def _blocked(ndbg: NDBG) -> BlockedSets:
+    """The blocked sets :func:`build_infinite` keeps on ``ndbg.geometry``."""
+    bs = ndbg.geometry
+    if not isinstance(bs, BlockedSets):
+        raise ValueError(f"not an NDBG built by build_infinite (family {ndbg.family!r})")
+    return bs
 
 
 def boundary_distance(ndbg: NDBG, d: np.ndarray) -> np.ndarray:
     """Chart distance ``(m,)`` from each direction to the nearest ``B_ij`` boundary on its
     face (about the angle in radians, within a factor 3; 2D: the angle on S^1): where the
     lookup is robust."""
-    bs: BlockedSets = ndbg._blocked_sets  # type: ignore[attr-defined]
+    bs = _blocked(ndbg)
     d = np.atleast_2d(np.asarray(d, dtype=float))
     if bs.arcs is not None:  # 2D: radians to the nearest arc end
         return equator.boundary_distance(bs.arcs, np.arctan2(d[:, 1], d[:, 0]))

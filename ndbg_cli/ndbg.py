@@ -48,11 +48,11 @@ class Region:
 class NDBG:
     """All regions of one motion family over parts ``ids`` (the node order of every DBG).
 
-    ``geometry``: the arrangement whose cells the regions are, when its builder keeps it (the
-    infinitesimal 3D NDBG: its :class:`ndbg_cli.sphere.Arrangement`, regions in
-    :meth:`~ndbg_cli.sphere.Arrangement.regions` order); ``None`` otherwise. Only the grasp
-    reads it (:func:`ndbg_cli.grasp.region_pieces`, which recovers the other families' cells
-    from what they keep)."""
+    ``geometry``: what the regions were computed from, when its builder keeps it: the
+    infinitesimal 3D NDBG's arrangement (:class:`ndbg_cli.sphere.Arrangement`, regions in
+    :meth:`~ndbg_cli.sphere.Arrangement.regions` order), the infinite NDBG's blocked sets
+    (:class:`ndbg_cli.infinite.BlockedSets`: direction lookups and the grasp's cells);
+    ``None`` otherwise. Kept by ``dataclasses.replace`` (e.g. threaded pairs blocked)."""
 
     family: str
     ids: tuple[str, ...]

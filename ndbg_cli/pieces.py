@@ -16,12 +16,11 @@ Where the regions' extents come from (:func:`region_pieces`)
 * infinitesimal 2D: the regions themselves (points and open arcs alternate round S^1);
 * infinite 2D: the runs of :func:`ndbg_cli.equator.equator_extents` (ends open or closed);
 * infinite 3D: the cells of :func:`ndbg_cli.arrangement.arrangement_cells`, recomputed from
-  the NDBG's blocked sets and matched to its regions in order (:func:`_match_cells`); chart
-  polygons are triangulated (open triangles and their inner diagonals), chains cut into
+  the NDBG's blocked sets (:attr:`NDBG.geometry`) and matched to its regions in order
+  (:func:`_match_cells`); chart polygons are triangulated (open triangles and their inner diagonals), chains cut into
   segments and inner vertices; a lower-dimensional region's representative (moved onto
   contact circles, or a thin cell's centroid, which may lie outside it) is a point piece too;
-* otherwise (hand-built NDBGs, an NDBG whose blocked sets were dropped, e.g. by
-  :func:`ndbg_cli.generalized.block_threads`): ``None``; the grasp then holds the
+* otherwise (hand-built NDBGs): ``None``; the grasp then holds the
   representatives only and says ``"coverage": "representatives"``. Generalized suggested
   motions are single motions, not directions: they make no requirement.
 """
@@ -224,9 +223,7 @@ def _cell_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
     from .cubemap import direction_of
     from .infinite import SNAP_ETA
 
-    bs = getattr(ndbg, "_blocked_sets", None)
-    if bs is None:
-        return None
+    bs = ndbg.geometry
     cells = arrangement_cells(bs)
     at = _match_cells(ndbg.regions, cells, SNAP_ETA * bs.eta)
     if at is None:
@@ -275,7 +272,9 @@ def region_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
         spans = _sequence_spans(ndbg) if "diameters" in ndbg.stats else None
         return None if spans is None else _s1_pieces(spans)
     if ndbg.family == INFINITE:
-        bs = getattr(ndbg, "_blocked_sets", None)
+        from .infinite import BlockedSets
+
+        bs = ndbg.geometry if isinstance(ndbg.geometry, BlockedSets) else None
         if bs is not None and bs.arcs is not None:
             from .equator import direction, equator_extents, sliding_angles
 

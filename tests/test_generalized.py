@@ -891,6 +891,29 @@ def test_section_schema_text_and_partitionings(tmp_path):
     assert sec["checks"]["lp"] >= 1 and sec["checks"]["witnessed"] >= 2
 
 
+def test_threaded_infinite_ndbg_keeps_its_blocked_sets():
+    """block_threads keeps the infinite NDBG's blocked sets (``NDBG.geometry``; they were
+    dropped, so a direction lookup failed and the grasp fell back to the representatives):
+    along +z the bolt of bolt-screw.yaml lifts out of its blind hole, unless the declared
+    thread blocks it; the lookup then agrees with the regions, and the grasp holds the
+    regions' whole extents."""
+    from ndbg_cli.infinite import build_infinite, lookup
+    from ndbg_cli.pieces import region_pieces
+
+    asm = ndbg_cli.load(ASSEMBLIES / "bolt-screw.yaml")
+    nd = build_infinite(asm)
+    bolt, block = asm.index("bolt"), asm.index("block")
+    up = np.array([[0.0, 0.0, 1.0]])
+    assert not lookup(nd, up)[0].succ[bolt] >> block & 1
+    t = ge.block_threads(nd, ge.threaded_pairs(asm))
+    assert t.geometry is nd.geometry
+    g = lookup(t, up)[0]
+    assert g.succ[bolt] >> block & 1 and g.succ[block] >> bolt & 1
+    d = np.array([r.direction for r in t.regions if r.dimension == 2])
+    assert [x.succ for x in lookup(t, d)] == [r.dbg.succ for r in t.regions if r.dimension == 2]
+    assert region_pieces(t) is not None
+
+
 def test_hybrid_concatenates_families(tmp_path):
     """The paper's hybrid: translational regions (threads blocked) then the suggested ones."""
     asm, hand = bolt(tmp_path, screw=True)

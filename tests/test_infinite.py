@@ -445,7 +445,7 @@ def test_exact_lookup_on_cell_directions_equals_every_cone_tested(name):
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     nd = build_infinite(asm)
-    bs = nd._blocked_sets
+    bs = nd.geometry
     d = np.array([r.direction for r in nd.regions] + list(random_directions(500, seed=9)))
     assert (np.array([r.dimension for r in nd.regions]) < 2).any()
     got = bs.dbgs(d, exact=True)

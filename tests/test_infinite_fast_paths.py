@@ -140,7 +140,7 @@ def test_grid_of_boxes_fast_paths_agree_with_the_general_route(monkeypatch):
     asm = grid(2)
     fast = infinite.build_infinite(asm)
     assert fast.stats["regions"] > 0
-    bs = fast._blocked_sets
+    bs = fast.geometry
     assert bs.stats["convex_pairs"] == 28  # every pair of the 8 boxes
     d = random_directions(2000, seed=5)
     got = bs.dbgs(d, exact=True)
@@ -152,8 +152,8 @@ def test_grid_of_boxes_fast_paths_agree_with_the_general_route(monkeypatch):
     monkeypatch.setattr(infinite, "convex_pairs", lambda *a, **k: {})
     monkeypatch.setattr(arrangement, "merged_segments", lambda lines: lines)
     slow = infinite.build_infinite(asm)
-    assert slow._blocked_sets.stats["convex_pairs"] == 0
-    assert [g.succ for g in slow._blocked_sets.dbgs(d, exact=True)] == [g.succ for g in got]
+    assert slow.geometry.stats["convex_pairs"] == 0
+    assert [g.succ for g in slow.geometry.dbgs(d, exact=True)] == [g.succ for g in got]
 
     def two_d(nd):
         return sorted((r.direction, r.dbg.succ) for r in nd.regions if r.dimension == 2)
