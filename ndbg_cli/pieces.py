@@ -17,9 +17,10 @@ Where the regions' extents come from (:func:`region_pieces`)
 * infinite 2D: the runs of :func:`ndbg_cli.equator.equator_extents` (ends open or closed);
 * infinite 3D: the cells of :func:`ndbg_cli.arrangement.arrangement_cells`, recomputed from
   the NDBG's blocked sets (:attr:`NDBG.geometry`) and matched to its regions in order
-  (:func:`_match_cells`); chart polygons are triangulated (open triangles and their inner diagonals), chains cut into
-  segments and inner vertices; a lower-dimensional region's representative (moved onto
-  contact circles, or a thin cell's centroid, which may lie outside it) is a point piece too;
+  (:func:`_match_cells`); chart polygons are triangulated (open triangles and their inner
+  diagonals), chains cut into segments and inner vertices; a lower-dimensional region's
+  representative (moved onto contact circles, or a thin cell's centroid, which may lie
+  outside it) is a point piece too;
 * otherwise (hand-built NDBGs): ``None``; the grasp then holds the
   representatives only and says ``"coverage": "representatives"``. Generalized suggested
   motions are single motions, not directions: they make no requirement.
