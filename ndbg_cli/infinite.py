@@ -485,9 +485,8 @@ def _regions_3d(bs: BlockedSets) -> tuple[list[Region], int]:
     seam = np.array([c.seam for c in cells], dtype=bool)
     dims = np.array([c.dimension for c in cells], dtype=int)
     lower = dims < 2
-    on_circle = np.zeros(len(cells), dtype=bool)
-    if len(bs.circles) and len(dirs):
-        on_circle = sliding_counts(bs.circles, dirs) > 0
+    counts = sliding_counts(bs.circles, dirs)  # per cell; the kept ones' are the regions'
+    on_circle = counts > 0
     recheck = np.nonzero(seam | (lower & on_circle))[0]
     keep = ~seam
     skipped = 0
@@ -503,7 +502,7 @@ def _regions_3d(bs: BlockedSets) -> tuple[list[Region], int]:
     cells = [c for c, ok in zip(cells, keep) if ok]
     dbgs = [g for g, ok in zip(dbgs, keep) if ok]
     dirs = np.array([c.direction for c in cells]).reshape(-1, 3)
-    sliding = sliding_counts(bs.circles, dirs)
+    sliding = counts[keep]
     lower = np.array([c.dimension < 2 for c in cells], dtype=bool)
     dirs, sliding = _snap_to_circles(bs, dirs, sliding, dbgs, lower)
     regions = [Region(dimension=c.dimension, direction=tuple(float(x) for x in d),
@@ -574,9 +573,21 @@ ON_CIRCLE = 1e-7
 def sliding_counts(circles: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """``(m,)`` the number of contact normals ``circles`` ``(c, 3)`` perpendicular to each
     of ``dirs`` ``(m, 3)`` (within :data:`ON_CIRCLE`)."""
+    out = np.zeros(len(dirs), dtype=np.int64)
     if not len(circles) or not len(dirs):
-        return np.zeros(len(dirs), dtype=np.int64)
-    return (np.abs(dirs @ circles.T) < ON_CIRCLE).sum(axis=1)
+        return out
+    # in blocks of directions: AS1's 15,755 cells x 2,639 circles made a 330 MB temporary
+    # (1.7 s a call; 0.4 s so)
+    ct = np.ascontiguousarray(np.asarray(circles, float).T)
+    for lo in range(0, len(dirs), SLIDING_BLOCK):
+        p = dirs[lo:lo + SLIDING_BLOCK] @ ct
+        np.abs(p, out=p)
+        out[lo:lo + SLIDING_BLOCK] = np.count_nonzero(p < ON_CIRCLE, axis=1)
+    return out
+
+
+#: Directions per block of :func:`sliding_counts`.
+SLIDING_BLOCK = 1024
 
 
 def build_infinite(asm: Assembly, cache: PairCache | None = None,
