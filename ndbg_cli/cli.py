@@ -19,7 +19,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .analysis import MOTIONS, STRATEGIES, WORK_LIMIT, Options, read_config, setting_problem
+from .analysis import MOTIONS, SETTINGS, STRATEGIES, Options, read_config, setting_problem
 from .batch import Interrupted, default_jobs, run_batch, run_batch_dask
 from .errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, EXIT_VIOLATION, InputError, NdbgError
 from .loaders import discover
@@ -48,6 +48,19 @@ STATE = _State()
 def fail(message: str, code: int) -> None:
     click.echo(f"ndbg: error: {message}", err=True)
     sys.exit(code)
+
+
+#: The options' defaults are the library's (:class:`Options`).
+_DEFAULT = Options()
+
+
+def _range(name: str) -> click.ParamType:
+    """The click type of a numeric setting, from its range in :data:`analysis.SETTINGS`
+    (the one a config file is checked against)."""
+    kind, low, excluded = (SETTINGS[name] + (None, False))[:3]
+    if kind is int:
+        return click.IntRange(low)
+    return click.FloatRange(low, min_open=excluded)
 
 
 @click.group(context_settings=CONTEXT)
@@ -152,19 +165,23 @@ def _common_load_options(f):
 @click.option("--connected", is_flag=True, help="Only partitionings whose two sides are each "
               "connected in the contact graph in the lists (the plan always prefers them; "
               "classes keep the paper's definitions).")
-@click.option("--max-partitions", type=click.IntRange(1), default=1000, show_default=True,
+@click.option("--max-partitions", type=_range("max_partitions"), default=_DEFAULT.max_partitions,
+              show_default=True,
               help="Partitionings listed per motion family (the report says when it cut).")
-@click.option("--max-nodes", type=click.IntRange(1), default=2_000, show_default=True,
+@click.option("--max-nodes", type=_range("max_nodes"), default=_DEFAULT.max_nodes,
+              show_default=True,
               help="AND/OR graph budget: subassemblies per search (a graph with more is "
               "cut at once; the measures then come from anytime searches).")
-@click.option("--max-work", type=click.IntRange(1), default=WORK_LIMIT, show_default=True,
+@click.option("--max-work", type=_range("max_work"), default=_DEFAULT.max_work,
+              show_default=True,
               help="AND/OR graph budget: work units per search (DBGs induced on the "
               "subassemblies expanded and regions listed; counted, so reports stay "
               "reproducible).")
-@click.option("--time-limit", type=click.FloatRange(0, min_open=True), default=None,
+@click.option("--time-limit", type=_range("time_limit"), default=_DEFAULT.time_limit,
               help="AND/OR graph budget: seconds per search (off by default: a search cut "
               "by the clock makes the report depend on the machine's speed and load).")
-@click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
+@click.option("--infinite-budget", type=_range("infinite_budget"),
+              default=_DEFAULT.infinite_budget,
               show_default=True, help="Facing triangle pairs beyond which the infinite-"
               "translation NDBG is skipped (with a warning).")
 @_common_load_options
@@ -473,7 +490,8 @@ def _index_entry(r: dict, file: str) -> dict:
               help="Worker processes (default: the number of cores).")
 @click.option("--motion", type=click.Choice(MOTIONS), default="all", show_default=True)
 @click.option("--config", "config", type=click.Path(), help="YAML analysis settings file.")
-@click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
+@click.option("--infinite-budget", type=_range("infinite_budget"),
+              default=_DEFAULT.infinite_budget,
               show_default=True, help="As for analyze.")
 @_common_load_options
 @_cache_options

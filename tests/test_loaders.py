@@ -400,3 +400,28 @@ def test_multi_primitive_node_gets_the_same_ids_at_every_load(tmp_path):
     assert [tuple(a.ids) for a in loads] == [("17", "17-2")] * 3
     xs = [p.bounds[0][0] for p in loads[0].parts]
     assert xs == pytest.approx([0.0, 2.0])
+
+
+def test_cli_options_share_the_config_ranges_and_defaults():
+    """Every numeric setting a config file may give has the same range as its command-line
+    option (one table, analysis.SETTINGS) and the same default (analysis.Options)."""
+    import dataclasses
+
+    import click
+
+    from ndbg_cli.analysis import SETTINGS, Options
+    from ndbg_cli.cli import cli
+
+    params = {p.name: p for p in cli.commands["analyze"].params}
+    defaults = {f.name: f.default for f in dataclasses.fields(Options)}
+    checked = 0
+    for name, spec in SETTINGS.items():
+        if spec[0] not in (int, float) or name not in params or name == "tolerance":
+            continue  # the tolerance is checked by the loader, against the assembly's size
+        p = params[name]
+        assert isinstance(p.type, (click.IntRange, click.FloatRange)), name
+        assert p.type.min == spec[1] and p.type.min_open == (spec[2] if len(spec) > 2
+                                                            else False), name
+        assert p.default == defaults[name], name
+        checked += 1
+    assert checked >= 5  # max_partitions, max_nodes, max_work, time_limit, infinite_budget
