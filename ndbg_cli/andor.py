@@ -562,11 +562,18 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
     children decompose (depth-first, memoizing failed subassemblies). Without ``connected`` the
     first choice always works (heredity), so this is polynomial in the number of partitionings
     visited. ``arcs(mask, meter)`` overrides how a node's hyperarcs are obtained (e.g. an
-    AND/OR graph's), charging the work to the search's ``meter``."""
+    AND/OR graph's), charging the work to the search's ``meter``; the caller then judges
+    whether a failure over its lists proves anything.
+
+    With ``connected`` a subassembly whose partitioning list was cut (``split_limit``) may
+    fail only for want of the splits left out, so when the search fails after such a failure
+    the result is ``truncated`` (unproven), not a proof that no tree exists."""
     budget = budget or Budget()
     root = (1 << ndbg.n) - 1 if mask is None else mask
     res = GreedyResult(root=root)
     failed: set[int] = set()
+    cut: set[int] = set()  # subassemblies whose partitioning list was cut
+    unproven = False  # one of them failed
     meter = budget.meter()
     expanded = 0
 
@@ -576,10 +583,12 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
         got, trunc = node_splits(ndbg, m, base=base, connected=connected,
                                  limit=budget.split_limit, meter=meter)
         res.truncated |= trunc and not got
+        if trunc:
+            cut.add(m)
         return got
 
     def solve(m: int) -> bool:
-        nonlocal expanded
+        nonlocal expanded, unproven
         if m.bit_count() == 1 or m in res.choice:
             return True
         if m in failed:
@@ -595,6 +604,7 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
             if res.truncated:
                 return False
         failed.add(m)
+        unproven |= m in cut
         if res.stuck is None or m.bit_count() < res.stuck.bit_count():
             res.stuck = m
         return False
@@ -602,6 +612,8 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
     ok = solve(root)
     if ok:
         res.stuck = None
+    elif unproven:
+        res.truncated = True
     return res
 
 

@@ -337,7 +337,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
         return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None,
                             sink)
     # fewest-directions
-    md = min_directions(ndbg, base=base, budget=budget)
+    md = min_directions(ndbg, base=base, budget=budget, mask=root)
     if md["regions"] is None:
         out.found = False
         out.stuck = md.get("stuck")
@@ -363,8 +363,19 @@ def _fail(out: Plan, g: AndOrGraph, ndbg: NDBG) -> None:
     d = g.depths()
     stuck = [m for m, v in d.items() if v is None]
     out.stuck = min(stuck, key=lambda m: (m.bit_count(), m)) if stuck else g.root
-    out.notes.append("no candidate algorithm: subassembly "
-                     f"{ndbg.names(out.stuck)} has no candidate partitioning")
+    out.notes.append(_stuck_note(ndbg, out.stuck, g.connected is not None))
+
+
+def _stuck_note(ndbg: NDBG, stuck: int, connected: bool) -> str:
+    """Why no tree was found. Under the connectivity filter candidate trees exist (the plan
+    checks that first) and ``stuck`` may well have candidate partitionings: none with both
+    sides connected leads to single parts."""
+    if connected:
+        return ("no tree with connected subassemblies: subassembly "
+                f"{ndbg.names(stuck)} has no candidate partitioning into two connected "
+                "subassemblies that decompose further")
+    return ("no candidate algorithm: subassembly "
+            f"{ndbg.names(stuck)} has no candidate partitioning")
 
 
 def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
@@ -376,13 +387,19 @@ def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
     (``classes.sink_decompose``'s choice, any candidate partitionings: used only without a
     ``connected`` filter)."""
     arcs = None
+    cut = [False]
     if allowed is not None:
         def arcs(m: int, meter: Meter) -> list[Hyperarc]:
-            got, _ = node_splits(ndbg, m, base=base, connected=connected,
-                                 limit=budget.split_limit, meter=meter)
+            got, trunc = node_splits(ndbg, m, base=base, connected=connected,
+                                     limit=budget.split_limit, meter=meter)
+            cut[0] |= trunc
             return [r for r in (_restrict(h, allowed) for h in got) if r is not None]
     res = greedy_tree(ndbg, root, base=base, connected=connected, chooser=chooser,
                       budget=budget, arcs=arcs)
+    if not res.found and cut[0]:
+        # a list cut by split_limit may have lost every split in the allowed regions: the
+        # failure proves nothing
+        res.truncated = True
     if not res.found and res.truncated and sink is not None and connected is None:
         out.exact = False
         out.notes.append("search budget exhausted before a tree was found; the sink "
@@ -403,8 +420,7 @@ def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
         if res.truncated:
             out.notes.append("search budget exhausted before a tree was found")
         elif res.stuck is not None:
-            out.notes.append("no candidate algorithm: subassembly "
-                             f"{ndbg.names(res.stuck)} has no candidate partitioning")
+            out.notes.append(_stuck_note(ndbg, res.stuck, connected is not None))
         return out
     stack = [root]
     while stack:

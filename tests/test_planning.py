@@ -1141,3 +1141,50 @@ def test_min_directions_cut_by_the_budget_is_exact_when_its_bounds_meet():
     md = min_directions(nd, budget=Budget(max_nodes=0))  # cut before the first test
     assert (md["value"], md["lower_bound"], md["exact"]) == (1, 1, True)
     assert md["why"].startswith("exact: the bounds meet")
+
+
+def test_cut_partitioning_lists_prove_no_failure():
+    # differential fuzzing finding: a failure over a partitioning list cut by split_limit was
+    # reported as a proof (found False, exact True, "no candidate algorithm").
+    # (1) fewest-directions: region 0 frees only {P0}, region 1 (a chain) alone decomposes;
+    # split_limit=1 keeps {P0} (region 0 only), which the minimum region set [1] drops
+    nd = mk("ABC", [(UP, both((1, 2))), (PX, [(0, 1), (1, 2)])])
+    p = plan(nd, "fewest-directions", budget=Budget(split_limit=1))
+    assert p.found or not p.exact
+    assert p.found and p.regions_used() == [1]
+    # (2) contact-connected plans (no heredity): the pentagon contact graph, one DBG
+    # 0 -> 2 -> 4 -> 1; the kept split {0,1,2,4} | {3} dead-ends, {1} | {0,2,3,4} does not
+    from ndbg_cli.andor import greedy_tree
+
+    nd = mk([f"P{i}" for i in range(5)], [(UP, [(0, 2), (2, 4), (4, 1)])])
+    conn = ConnectivityTest([0b10010, 0b00101, 0b01010, 0b10100, 0b01001])
+    assert plan(nd, "balanced", connected=conn).found
+    cut = Budget(split_limit=1)
+    g = greedy_tree(nd, connected=conn, budget=cut)
+    assert not g.found and g.truncated
+    for strategy in STRATEGIES:
+        p = plan(nd, strategy, connected=conn, budget=cut)
+        assert p.found or not p.exact, strategy
+        assert not any("no candidate algorithm" in n for n in p.notes), strategy
+
+
+def test_no_connected_tree_is_not_called_no_candidate_algorithm():
+    # A, B, C with contacts A-B and B-C only; +z (A and C blocked by B and by each other)
+    # frees {B} alone, +x splits {A, C} only: the candidate tree (B | (A | C)) leaves {A, C}
+    # apart, no connected tree exists; the note must not say there is no candidate algorithm
+    nd = mk("ABC", [(UP, [(0, 1), (2, 1), (0, 2), (2, 0)]), (PX, both((0, 1), (1, 2)))])
+    assert plan(nd, "shortest").found
+    conn = ConnectivityTest([0b010, 0b101, 0b010])
+    for strategy in STRATEGIES:
+        p = plan(nd, strategy, connected=conn)
+        assert not p.found and p.exact, strategy
+        assert "no tree with connected subassemblies" in p.notes[-1], (strategy, p.notes)
+
+
+def test_fewest_directions_of_a_subassembly_counts_its_own_directions():
+    # plan(mask=) took the whole product's minimum direction set: with C interlocked with B
+    # in every region the whole has no tree and {A, B} was refused ("no candidate algorithm")
+    nd = mk("ABC", [(UP, both((1, 2))), (PX, both((1, 2)) + [(0, 1)])])
+    p = plan(nd, "fewest-directions", mask=0b011)
+    assert p.found and p.exact and p.regions_used() == [0]
+    assert min_directions(nd, mask=0b011)["value"] == 1
