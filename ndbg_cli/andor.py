@@ -583,7 +583,7 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
         got, trunc = node_splits(ndbg, m, base=base, connected=connected,
                                  limit=budget.split_limit, meter=meter)
         res.truncated |= trunc and not got
-        if trunc:
+        if trunc and connected is not None:  # without the filter, heredity: any split works
             cut.add(m)
         return got
 
