@@ -437,8 +437,9 @@ def robust_union(polys: np.ndarray) -> object:
 
 
 #: Area (chart units squared) of a piece outside the union of all the pieces above which
-#: the union is wrong (:func:`loses_area`); rounding slivers are far below it.
-LOST_AREA = 1e-14
+#: the union is wrong (:func:`loses_area`). The bell's rounding slivers reach 1.3e-13; its
+#: two real losses were 5e-6 and 1e-4 (a patch 0.6 degrees across).
+LOST_AREA = 1e-12
 
 
 def loses_area(out: object, polys: np.ndarray) -> bool:
