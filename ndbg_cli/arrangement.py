@@ -87,10 +87,50 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
         cent = shapely.get_coordinates(shapely.centroid(faces))
         use = np.where((dims == 0)[:, None], cent, xy)
         dirs = direction_of(face, use)
+        if len(bs.circles):
+            # a region's point may lie on a contact circle (point_on_surface of a square is
+            # its centre: an axis, where the contacts of an axis-aligned assembly slide),
+            # where the open sets free what the region's DBG blocks: move it off them
+            two = np.flatnonzero(dims == 2)
+            on = two[(np.abs(dirs[two] @ bs.circles.T) < OFF_CIRCLE).any(axis=1)]
+            for k in on:
+                p = off_circles(faces[k], bs.circles, face, width[k])
+                if p is not None:
+                    dirs[k] = direction_of(face, p)[0]
         for k in range(len(faces)):
             cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
         cells.extend(_edge_cells(noded, face, dom))
     return cells
+
+
+#: ``|n . d|`` below which a 2-dimensional region's point counts as on the contact circle of
+#: normal ``n`` (unit vectors) and is moved off it by :func:`off_circles`.
+OFF_CIRCLE = 1e-6
+
+
+def off_circles(region: object, normals: np.ndarray, face: int, width: float
+                ) -> np.ndarray | None:
+    """A chart point ``(1, 2)`` inside the polygon ``region`` of ``face`` off the contact
+    circles (normals ``(c, 3)``) that cross it: the region less a band round each circle, a
+    quarter of the region's width (``2 area / perimeter``) wide, narrowed 8 times while
+    nothing is left; ``None`` when the circles leave nothing (the point stays)."""
+    x0, y0, x1, y1 = region.bounds
+    corners = direction_of(face, np.array([[x0, y0], [x0, y1], [x1, y0], [x1, y1]]))
+    at = corners @ normals.T  # a circle meets the region's box where its sign changes
+    cross = normals[(at.min(axis=0) <= 0) & (at.max(axis=0) >= 0)]
+    lines = circle_lines(cross, face)
+    if not lines:
+        return None
+    lines = shapely.union_all(lines)
+    w = 0.25 * width
+    for _ in range(4):
+        rest = shapely.difference(region, shapely.buffer(lines, w, cap_style="flat"))
+        if not rest.is_empty and rest.area > 0:
+            pieces = shapely.get_parts(rest)
+            big = pieces[np.argmax(shapely.area(pieces))]
+            return shapely.get_coordinates(shapely.point_on_surface(big))
+        w /= 8.0
+    return None
 
 
 #: Segments whose supporting lines agree this closely (direction and offset, chart units)
@@ -157,7 +197,8 @@ SEAM_CIRCLES = 256
 def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object,
                pts0: np.ndarray) -> list[Cell]:
     """Seam candidates on ``face``: directions on the contact circles (normals ``(c, 3)``)
-    off the noded ``B_ij`` boundaries (farther than ``10 GRID``), where the open-set
+    off the noded ``B_ij`` boundaries (farther than ``10 GRID``; a crossing of two circles
+    off their nodes only, which have cells of their own), where the open-set
     semantics may free what the closed sets block. One per piece of a circle between two
     boundary crossings (its midpoint, 1-dimensional) and one per crossing of two circles
     (0-dimensional: ``pts0`` ``(k, 2)``, this face's entry of :func:`circle_crossings`). Only
@@ -194,11 +235,26 @@ def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object,
         if dom is not None and len(pts):
             pts = pts[shapely.contains_xy(dom, pts[:, 0], pts[:, 1])]
         if len(pts):
-            far = shapely.distance(noded, shapely.points(pts)) > 10 * GRID
-            pts = pts[far]
+            # a crossing is left to the linework's own cells only where one is: at a node
+            # (a chain's end); inside a chain (one running along a contact circle that
+            # another circle crosses) no cell has its direction
+            near = noded if dim == 1 else _nodes(noded)
+            far = shapely.distance(near, shapely.points(pts)) > 10 * GRID
+            pts = pts[far | np.isnan(far)] if dim == 0 else pts[far]
         out.extend(Cell(dim, d, face, shapely.Point(p), seam=True)
                    for d, p in zip(direction_of(face, pts), pts))
     return out
+
+
+def _nodes(noded: object) -> object:
+    """The nodes of the noded linework (its chains' end points, as :func:`_edge_cells`
+    takes them), one multipoint; empty without chains."""
+    segs = shapely.get_parts(shapely.get_parts(noded))
+    segs = segs[shapely.get_type_id(segs) == 1]
+    ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
+                           shapely.get_coordinates(shapely.get_point(segs, -1))]) \
+        if len(segs) else np.zeros((0, 2))
+    return shapely.multipoints(ends) if len(ends) else shapely.MultiPoint()
 
 
 #: Circle pairs crossed per vectorised chunk in :func:`circle_crossings`.

@@ -337,8 +337,9 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for a, b in order:
         if (a, b) in fast or cache is None:
             continue
-        # 2D parts are extruded to the assembly's diagonal: that enters the result.
-        keys[(a, b)] = cache.key("infinite", "pruned-2", gkeys[a], gkeys[b], eps,
+        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-3":
+        # unions checked for lost area (blocking_cones.robust_union); older entries may lack some
+        keys[(a, b)] = cache.key("infinite", "pruned-3", gkeys[a], gkeys[b], eps,
                                  asm.dimension, asm.diagonal if asm.dimension == 2 else None,
                                  *extra)
         got = cache.get("infinite", keys[(a, b)], _thaw)

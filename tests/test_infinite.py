@@ -216,6 +216,29 @@ def test_region_representatives_match_direct_check():
         assert r.dbg.succ == sc.dbg(np.array(r.direction)).succ, r.direction
 
 
+def test_two_dimensional_region_directions_lie_off_the_contact_circles():
+    """A box in a channel (floor below, walls at x = 0 and x = 1, open along z and +y); hand
+    answer: near +y the walls block the box along every direction with d.x != 0, and along
+    d.x = 0 (a contact circle) it slides out. The closed sets cover the whole +y cube face:
+    one 2-dimensional region, whose chart centre (shapely's point on surface of a square) is
+    +y itself, on the seam, where the box is free. Every 2-dimensional region's direction must
+    be one where its DBG holds (off the seams), here and on the faces round +-z."""
+    u = (Manifold.cube([3.0, 1.0, 1.0]).translate([-1, -1, 0])
+         + Manifold.cube([1.0, 1.0, 1.0]).translate([-1, 0, 0])
+         + Manifold.cube([1.0, 1.0, 1.0]).translate([1, 0, 0]))
+    asm = Assembly("channel", (mpart("u", u), box("b", [0, 0, 0], [1, 1, 1])))
+    nd = build_infinite(asm)
+    sc = SweepChecker(asm)
+    twod = [r for r in nd.regions if r.dimension == 2]
+    assert len(twod) >= 6
+    for r in twod:
+        assert r.dbg.succ == sc.dbg(np.array(r.direction)).succ, r.direction
+    # the seam keeps its own (lower-dimensional) regions: b slides out along +y and +-z
+    for d in ([0, 1, 0], [0, 0, 1], [0, 0, -1]):
+        assert any(r.dimension < 2 and np.allclose(r.direction, d) and r.dbg.is_free(2)
+                   for r in nd.regions), d
+
+
 def test_section_and_text():
     asm = Assembly("pair", (box("a", [0, 0, 0], [1, 1, 1]), box("b", [1, 0, 0], [2, 1, 1])))
     nd = build_infinite(asm)
@@ -467,6 +490,79 @@ def test_dbg_of_the_opposite_direction_is_the_reversed_dbg():
     assert (np.array([r.dimension for r in nd.regions]) < 2).sum() > 20
     ahead, behind = lookup(nd, d, exact=True), lookup(nd, -d, exact=True)
     assert [g.succ for g in behind] == [g.reversed().succ for g in ahead]
+
+
+def test_circle_crossing_inside_a_boundary_chain_is_a_region():
+    """A block in a slot of a frame, open at x = 0 and x = 1, under an overhang over its left
+    half, with a side part beyond the frame's short wall. By hand, along +x exactly the block
+    slides out touching only faces parallel to +x: free (and the side is blocked by the frame
+    only); just off +x it rises into the overhang or pushes into a wall. +x is where the
+    contact circles of normals y and z cross, and a boundary of B(block, frame) runs along
+    the circle d.y = 0 straight through it: the crossing, on the linework but no node of it,
+    had no cell, and {block} came out only at a direction 2e-3 rad off +x that the direct
+    check blocks."""
+    def solid(pid, boxes):
+        m = None
+        for lo, hi in boxes:
+            c = Manifold.cube(list(np.subtract(hi, lo))).translate(list(lo))
+            m = c if m is None else m + c
+        return mpart(pid, m)
+
+    side = solid("side", [([0, 2.5, 0], [0.5, 4.5, 1]), ([0, 2.5, 1], [0.5, 4.5, 2])])
+    frame = solid("frame", [([0, 0, 0], [1, 2, 3.5]), ([0, 2, 0], [1, 2.5, 1]),
+                            ([0, 2, 2], [0.5, 2.5, 3.5]), ([0, 2.5, 2], [0.5, 4.5, 3.5]),
+                            ([0.5, 2.5, 0], [1, 4.5, 3.5])])
+    block = solid("block", [([0, 2, 1], [1, 2.5, 2])])
+    asm = Assembly("slot-x", (side, frame, block))
+    nd = build_infinite(asm)
+    sc = SweepChecker(asm)
+    x = np.array([1.0, 0.0, 0.0])
+    assert arcs(sc.dbg(x), asm) == {("side", "frame")}
+    at = [r for r in nd.regions if np.allclose(r.direction, x, atol=1e-12)]
+    assert at and all(arcs(r.dbg, asm) == {("side", "frame")} for r in at)
+    parts, _ = partitionings(nd)
+    moved = nd.mask(["block"])
+    (p,) = [p for p in parts if p.moved == moved]
+    assert any(np.allclose(nd.regions[k].direction, x, atol=1e-12) for k in p.regions)
+
+
+def test_far_pair_keeps_every_blocked_direction():
+    """Two L-shaped slabs 1.5 apart in z (a far pair). By hand: 'top' moving along ``d``
+    comes down by 1.5 after t = 4.70, shifted (3.11, 3.19) in x, y: its box x in [0, 3.5],
+    y in [0, 2] then overlaps bottom's box x in [1.5, 3.5], y in [2.5, 4.5] by 0.39 x 1.31,
+    so bottom blocks top along ``d`` (and 0.02 rad round it). GEOS 3.14.1's union_all of the
+    pair's 71 chart pieces on the +y face lost 0.03 chart units^2 round ``d``, and the NDBG
+    had no arc there (:func:`ndbg_cli.blocking_cones.robust_union` now checks the union)."""
+    def slab(pid, boxes):
+        m = None
+        for lo, hi in boxes:
+            c = Manifold.cube(list(np.subtract(hi, lo))).translate(list(lo))
+            m = c if m is None else m + c
+        return mpart(pid, m)
+
+    top = slab("top", [([0, 0, 2], [1.5, 2, 3.5]), ([1.5, 0, 2], [3.5, 2, 3.5]),
+                       ([1.5, 2, 2], [3.5, 2.5, 3.5])])
+    bottom = slab("bottom", [([1.5, 0, 0], [3.5, 2, 0.5]), ([1.5, 2, 0], [3.5, 2.5, 0.5]),
+                             ([1.5, 2.5, 0], [3.5, 4.5, 0.5])])
+    asm = Assembly("far-pair", (top, bottom), tolerance=0.0011199314805164838)
+    nd = build_infinite(asm)
+    sc = SweepChecker(asm)
+    d = np.array([0.662288997346108, 0.6779731225920429, -0.31894471156782295])
+    near = np.array([unit(d + 0.02 * e) for e in np.eye(3)])
+    for x in np.concatenate([d[None], near]):
+        assert lookup(nd, x[None])[0].arcs() == [(0, 1)] == sc.dbg(x).arcs(), x
+
+
+def test_a_union_that_loses_a_piece_is_redone():
+    import shapely
+
+    from ndbg_cli import blocking_cones as bc
+
+    polys = np.array([shapely.box(0, 0, 1, 1), shapely.box(0.5, 0, 2, 1),
+                      shapely.box(0.2, 0.2, 0.4, 0.4)])
+    assert not bc.loses_area(shapely.union_all(polys), polys)
+    assert bc.loses_area(shapely.box(0, 0, 1.9, 1), polys)  # 0.1 of the second piece lost
+    assert not bc.loses_area(shapely.box(0, 0, 2 - 1e-16, 1), polys)  # rounding only
 
 
 def test_coplanar_triangles_make_no_term():
