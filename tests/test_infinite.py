@@ -40,6 +40,15 @@ def mpart(pid: str, m: Manifold, rot: np.ndarray | None = None):
                      np.asarray(mesh.tri_verts), transform=rot)[0]
 
 
+def boxes_part(pid: str, boxes) -> object:
+    """A part made of the union of axis-aligned boxes ``(lo, hi)``."""
+    m = None
+    for lo, hi in boxes:
+        c = Manifold.cube(list(np.subtract(hi, lo))).translate(list(lo))
+        m = c if m is None else m + c
+    return mpart(pid, m)
+
+
 def arcs(g, asm) -> set[tuple[str, str]]:
     return {(asm.ids[i], asm.ids[j]) for i, j in g.arcs()}
 
@@ -501,18 +510,11 @@ def test_circle_crossing_inside_a_boundary_chain_is_a_region():
     the circle d.y = 0 straight through it: the crossing, on the linework but no node of it,
     had no cell, and {block} came out only at a direction 2e-3 rad off +x that the direct
     check blocks."""
-    def solid(pid, boxes):
-        m = None
-        for lo, hi in boxes:
-            c = Manifold.cube(list(np.subtract(hi, lo))).translate(list(lo))
-            m = c if m is None else m + c
-        return mpart(pid, m)
-
-    side = solid("side", [([0, 2.5, 0], [0.5, 4.5, 1]), ([0, 2.5, 1], [0.5, 4.5, 2])])
-    frame = solid("frame", [([0, 0, 0], [1, 2, 3.5]), ([0, 2, 0], [1, 2.5, 1]),
-                            ([0, 2, 2], [0.5, 2.5, 3.5]), ([0, 2.5, 2], [0.5, 4.5, 3.5]),
-                            ([0.5, 2.5, 0], [1, 4.5, 3.5])])
-    block = solid("block", [([0, 2, 1], [1, 2.5, 2])])
+    side = boxes_part("side", [([0, 2.5, 0], [0.5, 4.5, 1]), ([0, 2.5, 1], [0.5, 4.5, 2])])
+    frame = boxes_part("frame", [([0, 0, 0], [1, 2, 3.5]), ([0, 2, 0], [1, 2.5, 1]),
+                                 ([0, 2, 2], [0.5, 2.5, 3.5]), ([0, 2.5, 2], [0.5, 4.5, 3.5]),
+                                 ([0.5, 2.5, 0], [1, 4.5, 3.5])])
+    block = boxes_part("block", [([0, 2, 1], [1, 2.5, 2])])
     asm = Assembly("slot-x", (side, frame, block))
     nd = build_infinite(asm)
     sc = SweepChecker(asm)
@@ -533,17 +535,11 @@ def test_far_pair_keeps_every_blocked_direction():
     so bottom blocks top along ``d`` (and 0.02 rad round it). GEOS 3.14.1's union_all of the
     pair's 71 chart pieces on the +y face lost 0.03 chart units^2 round ``d``, and the NDBG
     had no arc there (:func:`ndbg_cli.blocking_cones.robust_union` now checks the union)."""
-    def slab(pid, boxes):
-        m = None
-        for lo, hi in boxes:
-            c = Manifold.cube(list(np.subtract(hi, lo))).translate(list(lo))
-            m = c if m is None else m + c
-        return mpart(pid, m)
-
-    top = slab("top", [([0, 0, 2], [1.5, 2, 3.5]), ([1.5, 0, 2], [3.5, 2, 3.5]),
-                       ([1.5, 2, 2], [3.5, 2.5, 3.5])])
-    bottom = slab("bottom", [([1.5, 0, 0], [3.5, 2, 0.5]), ([1.5, 2, 0], [3.5, 2.5, 0.5]),
-                             ([1.5, 2.5, 0], [3.5, 4.5, 0.5])])
+    top = boxes_part("top", [([0, 0, 2], [1.5, 2, 3.5]), ([1.5, 0, 2], [3.5, 2, 3.5]),
+                             ([1.5, 2, 2], [3.5, 2.5, 3.5])])
+    bottom = boxes_part("bottom", [([1.5, 0, 0], [3.5, 2, 0.5]),
+                                   ([1.5, 2, 0], [3.5, 2.5, 0.5]),
+                                   ([1.5, 2.5, 0], [3.5, 4.5, 0.5])])
     asm = Assembly("far-pair", (top, bottom), tolerance=0.0011199314805164838)
     nd = build_infinite(asm)
     sc = SweepChecker(asm)
