@@ -99,7 +99,7 @@ def read_config(path: str | Path) -> dict:
     from .errors import InputError
     from .manifest import read_located
 
-    doc = read_located(path, "config", "a config must be a YAML mapping")
+    doc = read_located(path, "config", "a config must be a YAML mapping", empty_ok=True)
     data = doc.data
     # ``workers`` comes from --jobs only (one assembly; a batch spreads its assemblies), and
     # ``progress`` from --quiet (one assembly; a batch shows its own bar)

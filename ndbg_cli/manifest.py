@@ -210,11 +210,13 @@ def _line_map(node: yaml.Node, path: tuple, out: dict, file: str) -> None:
             _line_map(value, path + (i,), out, file)
 
 
-def read_located(path: str | Path, what: str, shape: str) -> _Located:
+def read_located(path: str | Path, what: str, shape: str, empty_ok: bool = False
+                 ) -> _Located:
     """A YAML mapping file (manifest, config, rules) read with :class:`YamlLoader`, with the
     line of every key path (``.line(path)``, ``.error(path, problem)``) and duplicate keys
     refused. ``what`` names the file in "cannot read WHAT" errors; ``shape`` is the error
-    when the document is not a mapping. Any problem is an ``InputError``."""
+    when the document is not a mapping (an empty document, only comments, is an empty
+    mapping with ``empty_ok``). Any problem is an ``InputError``."""
     file = str(path)
     try:
         text = Path(path).read_text(encoding="utf-8")
@@ -228,6 +230,8 @@ def read_located(path: str | Path, what: str, shape: str) -> _Located:
         data = yaml.load(text, Loader=YamlLoader)
     except yaml.YAMLError as exc:
         raise yaml_input_error(exc, file) from None
+    if node is None and empty_ok:
+        return _Located({}, {}, file)
     if node is None or not isinstance(data, dict):
         raise InputError(shape, file=file)
     lines: dict[tuple, int] = {}

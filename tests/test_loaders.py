@@ -345,6 +345,8 @@ def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
     from ndbg_cli.analysis import read_config
 
     cfg = tmp_path / "c.yaml"
+    cfg.write_text("# every setting left at its default\n")  # an empty config sets nothing
+    assert read_config(cfg) == {}
     cfg.write_text("region_limit: null\ntolerance: null\ntimings: true\nunits: inch\n")
     assert read_config(cfg) == {"region_limit": None, "tolerance": None, "timings": True,
                                 "units": "in"}
