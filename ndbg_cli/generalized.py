@@ -215,11 +215,9 @@ def block_threads(ndbg: NDBG, pairs: Iterable[tuple[str, str]]) -> NDBG:
     """``ndbg`` (a translational family) with arcs ``a -> b`` and ``b -> a`` added in every
     region for each threaded pair ``(a, b)`` (part ids; pairs naming absent parts are
     skipped): a nut on a thread cannot translate in any direction, only screw."""
-    index = {pid: k for k, pid in enumerate(ndbg.ids)}
-    arcs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
-    if not arcs:
+    extra = ndbg.mutual_blocks(pairs)
+    if extra is None:
         return ndbg
-    extra = DBG.from_arcs(ndbg.n, arcs + [(j, i) for i, j in arcs])
     regions = tuple(dataclasses.replace(r, dbg=r.dbg.union(extra)) for r in ndbg.regions)
     stats = dict(ndbg.stats)
     stats["threaded_pairs"] = sorted([list(p) for p in pairs])

@@ -647,13 +647,8 @@ def lookup(ndbg: NDBG, d: np.ndarray, exact: bool = False) -> list[DBG]:
         out = equator.arc_dbgs(bs.arcs, bs.n, np.arctan2(d[:, 1], d[:, 0]))
     else:
         out = bs.dbgs(d, exact=exact)
-    index = {pid: k for k, pid in enumerate(ndbg.ids)}
-    arcs = [(index[a], index[b]) for a, b in ndbg.stats.get("threaded_pairs", ())
-            if a in index and b in index]
-    if arcs:
-        extra = DBG.from_arcs(ndbg.n, arcs + [(j, i) for i, j in arcs])
-        out = [g.union(extra) for g in out]
-    return out
+    extra = ndbg.mutual_blocks(ndbg.stats.get("threaded_pairs", ()))
+    return out if extra is None else [g.union(extra) for g in out]
 
 
 def _blocked(ndbg: NDBG) -> BlockedSets:

@@ -90,6 +90,14 @@ class NDBG:
     def names(self, mask: int) -> list[str]:
         return [self.ids[i] for i in bits(mask)]
 
+    def mutual_blocks(self, pairs) -> DBG | None:
+        """The DBG with arcs ``a -> b`` and ``b -> a`` for each pair of part ids (threaded
+        pairs: neither may translate away from the other); pairs naming absent parts are
+        skipped; ``None`` when none is left."""
+        index = {pid: k for k, pid in enumerate(self.ids)}
+        arcs = [(index[a], index[b]) for a, b in pairs if a in index and b in index]
+        return DBG.from_arcs(self.n, arcs + [(j, i) for i, j in arcs]) if arcs else None
+
 
 @dataclass(frozen=True)
 class Partitioning:
