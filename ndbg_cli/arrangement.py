@@ -238,23 +238,25 @@ def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object,
             # a crossing is left to the linework's own cells only where one is: at a node
             # (a chain's end); inside a chain (one running along a contact circle that
             # another circle crosses) no cell has its direction
-            near = noded if dim == 1 else _nodes(noded)
-            far = shapely.distance(near, shapely.points(pts)) > 10 * GRID
-            pts = pts[far | np.isnan(far)] if dim == 0 else pts[far]
+            near = noded if dim == 1 else shapely.multipoints(_ends(_segments(noded)))
+            pts = pts[shapely.distance(near, shapely.points(pts)) > 10 * GRID]
         out.extend(Cell(dim, d, face, shapely.Point(p), seam=True)
                    for d, p in zip(direction_of(face, pts), pts))
     return out
 
 
-def _nodes(noded: object) -> object:
-    """The nodes of the noded linework (its chains' end points, as :func:`_edge_cells`
-    takes them), one multipoint; empty without chains."""
+def _segments(noded: object) -> np.ndarray:
+    """The line pieces of the noded linework (its chains)."""
     segs = shapely.get_parts(shapely.get_parts(noded))
-    segs = segs[shapely.get_type_id(segs) == 1]
-    ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
-                           shapely.get_coordinates(shapely.get_point(segs, -1))]) \
-        if len(segs) else np.zeros((0, 2))
-    return shapely.multipoints(ends) if len(ends) else shapely.MultiPoint()
+    return segs[shapely.get_type_id(segs) == 1]
+
+
+def _ends(segs: np.ndarray) -> np.ndarray:
+    """``(2 k, 2)`` the first and last points of ``k`` line pieces (the nodes of chains)."""
+    if not len(segs):
+        return np.zeros((0, 2))
+    return np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
+                           shapely.get_coordinates(shapely.get_point(segs, -1))])
 
 
 #: Circle pairs crossed per vectorised chunk in :func:`circle_crossings`.
@@ -348,8 +350,7 @@ def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:
     """The 1- and 0-dimensional cells of a face: the noded boundary segments and their end
     points, leaving out those on the chart square's border (cube-edge artefacts) and, with a
     domain ``dom`` (chart geometry), those not strictly inside it."""
-    segs = shapely.get_parts(shapely.get_parts(noded))
-    segs = segs[shapely.get_type_id(segs) == 1]
+    segs = _segments(noded)
     if not len(segs):
         return []
     mids = shapely.get_coordinates(shapely.line_interpolate_point(segs, 0.5, normalized=True))
@@ -359,9 +360,7 @@ def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:
     segs, mids = segs[inside], mids[inside]
     cells = [Cell(1, d, face, g) for d, g in zip(direction_of(face, mids), segs)] \
         if len(segs) else []
-    ends = np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
-                           shapely.get_coordinates(shapely.get_point(segs, -1))]) \
-        if len(segs) else np.zeros((0, 2))
+    ends = _ends(segs)
     ends = ends[(np.abs(ends) < _INSIDE).all(axis=1)]
     if dom is not None and len(ends):
         ends = ends[shapely.contains_xy(dom, ends[:, 0], ends[:, 1])]
