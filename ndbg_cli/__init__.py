@@ -9,6 +9,16 @@ Library API (the CLI is a thin layer over it)::
 
 __version__ = "0.1.0"
 
+import os as _os
+
+# Every matrix ndbg hands to BLAS/LAPACK is tiny (6 x 6 systems, m x 6 SVDs): threads buy
+# nothing there, and on a busy machine (a CI runner, ``--jobs N`` workers) their spinning
+# made single SVDs 30x slower (AS1's infinitesimal NDBG: 19 ms alone, 690 ms next to two
+# busy processes). One thread each, unless the caller chose (only effective when numpy is
+# not imported yet: the CLI and its worker processes).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    _os.environ.setdefault(_var, "1")
+
 from .analysis import Options, analyze, analyze_path  # noqa: E402
 from .assembly import Assembly, Diagnostic, Joint, Part  # noqa: E402
 from .errors import InputError, NdbgError  # noqa: E402
