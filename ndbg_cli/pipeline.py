@@ -429,10 +429,13 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
         centers = np.asarray(mesh.triangles_center)
         keys, inverse = np.unique(np.round(unit, digits), axis=0, return_inverse=True)
         inverse = inverse.reshape(-1)
-        for q, key in enumerate(keys):
-            sel = np.flatnonzero(inverse == q)
-            best = sel[np.argsort(-areas[sel], kind="stable")][:FINGER_TRIES]
-            groups.append([(k, key.tolist(), centers[f].tolist(), unit[f]) for f in best])
+        # each orientation's faces, largest first (ties: lower index first)
+        order = np.lexsort((np.arange(len(areas)), -areas, inverse)).tolist()
+        ends = np.cumsum(np.bincount(inverse, minlength=len(keys))).tolist()
+        key_list, center_list = keys.tolist(), centers.tolist()
+        for q, (lo, hi) in enumerate(zip([0] + ends[:-1], ends)):
+            groups.append([(k, key_list[q], center_list[f], unit[f])
+                           for f in order[lo:min(hi, lo + FINGER_TRIES)]])
     # round r tries the r-th face of every orientation still without an exposed one
     chosen: list[tuple | None] = [None] * len(groups)
     todo = list(range(len(groups)))
