@@ -65,3 +65,36 @@ def test_box_on_box_blocked_down_free_up_and_sideways_only_when_clear():
     assert s.blocked(1, 0, np.array([1.0, 0, -0.05]))
     assert not s.blocked(1, 0, np.array([1.0, 0, 0.05]))
     assert s.dbg(np.array([0, 0, -1.0])).succ != s.dbg(np.array([0, 0, 1.0])).succ
+
+
+def test_clipped_overlaps_match_shapely_on_random_triangle_pairs():
+    # an independent reference: shapely's intersection of the two triangles, then of that
+    # with a large polygon on the inner side of the depth line
+    import shapely
+
+    rng = np.random.default_rng(7)
+    k = 400
+    ti = rng.uniform(-1, 1, size=(k, 3, 2))
+    tj = rng.uniform(-1, 1, size=(k, 3, 2))
+    # orientation of t_j (the kernel reads it), and a half-plane a . x <= b per pair
+    e = np.roll(tj, -1, axis=1) - tj
+    orient = np.sign(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
+    poly, cnt = ti.copy(), np.full(k, 3)
+    for m in range(3):
+        a = orient[:, None] * np.stack([e[:, m, 1], -e[:, m, 0]], axis=1)
+        poly, cnt = _clip(poly, cnt, a, np.einsum("ij,ij->i", a, tj[:, m]))
+    over = _area(poly, cnt)
+    a = rng.normal(size=(k, 2))
+    b = rng.uniform(-0.5, 0.5, size=k)
+    cut = _area(*_clip(poly, cnt, a, b))
+    for q in range(k):
+        ref = shapely.Polygon(ti[q]).intersection(shapely.Polygon(tj[q]))
+        assert over[q] == pytest.approx(ref.area, abs=1e-12)
+        # the half-plane a . x <= b as a big polygon: the line's two far points, pushed back
+        n = a[q] / np.linalg.norm(a[q])
+        p0 = n * b[q] / np.linalg.norm(a[q])
+        t = np.array([-n[1], n[0]])
+        half = shapely.Polygon([p0 + 10 * t, p0 - 10 * t, p0 - 10 * t - 10 * n,
+                                p0 + 10 * t - 10 * n])
+        assert cut[q] == pytest.approx(ref.intersection(half).area, abs=1e-12)
+    assert (over > 0).sum() > 50 and ((cut > 0) & (cut < over)).sum() > 20
