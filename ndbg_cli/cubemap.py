@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .kernels import clip_square
+
 #: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array.
 FACES = np.array([
     [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
@@ -125,8 +127,8 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     of the square (a window: cones missing it are skipped at the cost of four corner tests).
 
     Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
-    ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face). Vectorised
-    Sutherland-Hodgman over all cones at once, one half-plane at a time.
+    ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face): see
+    :func:`ndbg_cli.kernels.clip_square`.
     """
     e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
@@ -135,76 +137,10 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
     if shrink > 0.0:
         coef[:, :, 2] -= shrink * np.hypot(coef[:, :, 0], coef[:, :, 1])
-    # A half-plane that excludes the four corners excludes the square (it is convex): most
-    # cones meet one or two faces, so this spares the clipping of the others.
-    at_corners = coef[:, :, :1] * sq[:, 0] + coef[:, :, 1:2] * sq[:, 1] + coef[:, :, 2:3]
-    miss = np.any(np.all(at_corners < 0.0, axis=2), axis=1)
-    if miss.any():
-        hit = np.nonzero(~miss)[0]
-        sub, cnt = _clip_square(coef[hit], sq, max_vertices)
-        poly = np.zeros((len(normals), sub.shape[1], 2))
-        count = np.zeros(len(normals), dtype=np.int64)
-        poly[hit], count[hit] = sub, cnt
-        return poly, count
-    return _clip_square(coef, sq, max_vertices)
-
-
-def _clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`clip_halfplanes` on chart half-plane coefficients ``coef`` ``(p, k, 3)``."""
-    p = coef.shape[0]
-    poly = np.broadcast_to(sq, (p, 4, 2)).copy()
-    count = np.full(p, 4, dtype=np.int64)
-    for k in range(coef.shape[1]):
-        c = coef[:, k]
-        active = np.any(c != 0.0, axis=1) & (count >= 3)
-        if not active.any():
-            continue
-        idx = np.nonzero(active)[0]
-        # only polygons with vertices on both sides are cut; wholly outside ones vanish
-        pi, ci = poly[idx], c[idx]
-        f = pi[:, :, 0] * ci[:, :1] + pi[:, :, 1] * ci[:, 1:2] + ci[:, 2:3]
-        valid = np.arange(pi.shape[1])[None, :] < count[idx][:, None]
-        out = ~np.any(valid & (f >= 0), axis=1)
-        count[idx[out]] = 0
-        cut = ~out & np.any(valid & (f < 0), axis=1)
-        if not cut.any():
-            continue
-        sub, cnt = _clip_one(pi[cut], count[idx[cut]], ci[cut], f[cut])
-        idx = idx[cut]
-        m = sub.shape[1]
-        if m > poly.shape[1]:
-            poly = np.concatenate([poly, np.zeros((p, m - poly.shape[1], 2))], axis=1)
-        poly[idx, :m] = sub
-        poly[idx, m:] = 0.0
-        count[idx] = cnt
-        if poly.shape[1] > max_vertices:
-            poly = poly[:, :max_vertices]
-    return poly, count
-
-
-def _clip_one(poly: np.ndarray, count: np.ndarray, coef: np.ndarray, fa: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """Clip padded convex polygons ``(p, m, 2)`` by ``a s + b t + c >= 0`` (``coef`` (p, 3);
-    ``fa`` ``(p, m)``: its value at each vertex)."""
-    p, m, _ = poly.shape
-    k = np.arange(m)[None, :]
-    valid = k < count[:, None]
-    nxt = np.where(k + 1 < count[:, None], k + 1, 0)
-    q = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
-    fb = np.take_along_axis(fa, nxt, axis=1)
-    keep_a = valid & (fa >= 0)
-    cross = valid & (((fa >= 0) & (fb < 0)) | ((fa < 0) & (fb >= 0)))
-    denom = np.where(cross, fa - fb, 1.0)
-    w = np.where(cross, fa / denom, 0.0)
-    x = poly + w[:, :, None] * (q - poly)
-    cand = np.stack([poly, x], axis=2).reshape(p, 2 * m, 2)
-    ok = np.stack([keep_a, cross], axis=2).reshape(p, 2 * m)
-    order = np.argsort(~ok, axis=1, kind="stable")
-    cand = np.take_along_axis(cand, order[:, :, None].repeat(2, axis=2), axis=1)
-    cnt = ok.sum(axis=1)
-    width = max(int(cnt.max()) if p else 0, 1)
-    return cand[:, :width], cnt
+    # Sutherland-Hodgman per cone, compiled; a half-plane that excludes the four corners
+    # excludes the square (it is convex): most cones meet one or two faces, so that test,
+    # made first, spares the clipping of the others.
+    return clip_square(np.ascontiguousarray(coef), sq, max_vertices)
 
 
 def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
