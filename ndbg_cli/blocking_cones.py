@@ -60,6 +60,7 @@ import numpy as np
 import shapely
 import trimesh
 
+from . import kernels
 from .assembly import Assembly
 from .cover import Cover, run_offsets
 from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, clip_halfplanes, compact, cone_normals
@@ -186,8 +187,7 @@ def flat(cones: np.ndarray) -> np.ndarray:
     all terms, and being lines across a whole face, the cover could never prune them."""
     if not len(cones):
         return np.zeros(0, dtype=bool)
-    dots = np.einsum("pak,pbk->pab", cones, cones)
-    return (dots <= -1.0 + FLAT).any(axis=(1, 2))
+    return kernels.flat(np.ascontiguousarray(cones, dtype=float), FLAT)
 
 
 def _stack(parts: list[np.ndarray]) -> np.ndarray:

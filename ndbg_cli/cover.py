@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import kernels
 from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes, compact, cone_normals
 
 #: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
@@ -216,8 +217,7 @@ class Cover:
         pyr = self._window_pyramid(face)
         if pyr is None:
             return None
-        val = cones @ pyr[0].T  # (p, k, 4); zero rows give 0: never outside
-        return (val < 0.0).all(axis=2).any(axis=1)
+        return kernels.outside(np.ascontiguousarray(cones, dtype=float), pyr[0])
 
     def _window_pyramid(self, face: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The window of ``face`` as a cone: its four corner directions ``(4, 3)`` (in turn
@@ -243,16 +243,12 @@ class Cover:
         (so every cell not yet covered), by two quick tests per window, no facet computed:
         every generator strictly outside one side of the window's cone, or the four corners
         outside one of the half-spaces."""
-        out = np.ones(len(gens), dtype=bool)
-        for face in range(6):
-            pyr = self._window_pyramid(face)
-            if pyr is None:
-                continue
-            corners, sides = pyr
-            miss = (gens @ sides.T < 0.0).all(axis=1).any(axis=1)
-            miss |= (facing @ corners.T <= 0.0).all(axis=2).any(axis=1)
-            out &= miss
-        return out
+        pyrs = [p for p in map(self._window_pyramid, range(6)) if p is not None]
+        corners = np.array([p[0] for p in pyrs]).reshape(-1, 4, 3)
+        sides = np.array([p[1] for p in pyrs]).reshape(-1, 4, 3)
+        return kernels.misses_spanned_open(np.ascontiguousarray(gens, dtype=float),
+                                           np.ascontiguousarray(facing, dtype=float),
+                                           corners, sides)
 
     def misses_open(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each open cone ``(p, k, 3)`` (zero rows allowed) misses every

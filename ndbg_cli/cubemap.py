@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels import clip_square
+from . import kernels
 
 #: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array.
 FACES = np.array([
@@ -68,27 +68,10 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
     empty, as it should be. ``pairs`` (two index arrays) restricts the candidates to those
     generator pairs (:data:`DIFFERENCE_PAIRS` for the 9 vertex differences of two triangles).
     """
-    gens = np.asarray(gens, dtype=float)
-    p, g, _ = gens.shape
-    a, b = np.triu_indices(g, k=1) if pairs is None else pairs
-    n = np.cross(gens[:, a], gens[:, b])  # (p, q, 3)
-    norm = np.linalg.norm(n, axis=2, keepdims=True)
-    scale = np.linalg.norm(gens, axis=2)  # (p, g)
-    big = scale.max(axis=1)[:, None, None]
-    valid = norm > 1e-12 * big * big
-    n = np.where(valid, n / np.where(valid, norm, 1.0), 0.0)
-    dots = np.einsum("pqk,pgk->pqg", n, gens)  # (p, q, g)
-    lim = rel_tol * scale[:, None, :]
-    pos = np.all(dots >= -lim, axis=2)
-    neg = np.all(dots <= lim, axis=2)
-    sign = np.where(pos, 1.0, np.where(neg, -1.0, 0.0))
-    out = n * sign[:, :, None]
-    # When both orientations are valid (all generators in the plane) keep both: +n and -n.
-    both = pos & neg & valid[:, :, 0]
-    if both.any():
-        extra = np.where(both[:, :, None], -n, 0.0)
-        out = np.concatenate([out, extra], axis=1)
-    return out
+    gens = np.ascontiguousarray(gens, dtype=float)
+    a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
+    return kernels.cone_normals(gens, np.asarray(a, dtype=np.int64),
+                                np.asarray(b, dtype=np.int64), rel_tol)
 
 
 def _difference_pairs() -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +123,7 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     # Sutherland-Hodgman per cone, compiled; a half-plane that excludes the four corners
     # excludes the square (it is convex): most cones meet one or two faces, so that test,
     # made first, spares the clipping of the others.
-    return clip_square(np.ascontiguousarray(coef), sq, max_vertices)
+    return kernels.clip_square(np.ascontiguousarray(coef), sq, max_vertices)
 
 
 def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
@@ -152,31 +135,9 @@ def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
 
 def compact(normals: np.ndarray) -> np.ndarray:
     """Drop zero rows and duplicates (rows equal when rounded to 1e-9) per cone, trimming
-    the padding ``(p, k, 3)``."""
+    the padding ``(p, k, 3)``: :func:`ndbg_cli.kernels.compact`. Two different facets can
+    share the sort number (a circle of unit normals does): only equal rows are duplicates
+    (dropping a different facet would enlarge the cone)."""
     if not len(normals):
         return normals
-    # zero rows out first (stably): the sort below then runs on the few facets only
-    nonzero = np.any(normals != 0.0, axis=2)
-    width = max(int(nonzero.sum(axis=1).max()), 1)
-    if width < normals.shape[1]:
-        first = np.argsort(~nonzero, axis=1, kind="stable")[:, :width]
-        normals = np.take_along_axis(normals, first[:, :, None].repeat(3, axis=2), axis=1)
-    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
-    # sorted by that number, ties by the rounded rows themselves: two different facets can
-    # share the number (a circle of unit normals does), and only equal rows are duplicates
-    # (dropping a different facet would enlarge the cone)
-    q = np.round(normals * 1e9)
-    order = np.lexsort((q[:, :, 2], q[:, :, 1], q[:, :, 0], key), axis=1)
-    key = np.take_along_axis(key, order, axis=1)
-    q = np.take_along_axis(q, order[:, :, None].repeat(3, axis=2), axis=1)
-    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
-    dup = np.zeros_like(key, dtype=bool)
-    dup[:, 1:] = (key[:, 1:] == key[:, :-1]) & np.all(q[:, 1:] == q[:, :-1], axis=2)
-    zero = ~np.any(nm != 0.0, axis=2)
-    drop = dup | zero
-    order = np.argsort(drop, axis=1, kind="stable")
-    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
-    width = max(int((~drop).sum(axis=1).max()), 1)
-    nm = nm[:, :width]
-    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
-    return np.where(keepmask[:, :, None], nm, 0.0)
+    return kernels.compact(np.ascontiguousarray(normals, dtype=float))

@@ -10,8 +10,53 @@ cache then lives in ``__pycache__`` beside this file).
 
 from __future__ import annotations
 
+import llvmlite.ir as llir
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import intrinsic
+
+# --------------------------------------------------------------------------------------------
+# Dot products of 3-vectors, rounded as numpy rounds them
+# --------------------------------------------------------------------------------------------
+# numpy's matmul (OpenBLAS, with fused multiply-adds) and einsum (its own sum-of-products
+# loops) each sum three products in their own order; to give the same bits the kernels
+# repeat that order (measured on this stack for every shape the callers use; a matmul of
+# fewer than about 8 rows may take another order, a last-bit difference that only a
+# comparison exactly at its threshold could see).
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        d = llir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [d], llir.FunctionType(d, [d, d, d]))
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+@njit(cache=True, inline="always")
+def dot_matmul(x0, x1, x2, y0, y1, y2):
+    """``x . y`` as numpy's matmul of ``(n, 3) @ (3, m)`` rounds it:
+    ``fma(x2, y2, fma(x1, y1, x0 y0))``."""
+    return _fma(x2, y2, _fma(x1, y1, x0 * y0))
+
+
+@njit(cache=True, inline="always")
+def dot_matvec(x0, x1, x2, y0, y1, y2):
+    """``x . y`` as numpy's matmul of ``(p, k, 3) @ (3,)`` rounds it:
+    ``fma(x2, y2, x0 y0 + x1 y1)``."""
+    return _fma(x2, y2, x0 * y0 + x1 * y1)
+
+
+@njit(cache=True, inline="always")
+def dot_einsum(x0, x1, x2, y0, y1, y2):
+    """``x . y`` as ``np.einsum`` contracting an axis of length 3 rounds it:
+    ``(x0 y0 + x2 y2) + x1 y1``."""
+    return (x0 * y0 + x2 * y2) + x1 * y1
 
 
 @njit(cache=True)
@@ -104,3 +149,229 @@ def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
     if grown and width > max_vertices:
         width = max_vertices
     return store[:, :width].copy(), count
+
+
+@njit(cache=True)
+def cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: float
+                 ) -> np.ndarray:
+    """Candidate facets of the conic hulls of generator sets (see
+    :func:`ndbg_cli.cubemap.cone_normals`): ``gens`` ``(p, g, 3)``, candidate planes through
+    generators ``pa[c]``, ``pb[c]`` (``(q,)`` each). Returns ``(p, q, 3)`` signed unit normals
+    (zero where the candidate is not a facet), or ``(p, 2 q, 3)`` when some candidate of the
+    batch has every generator in its plane within tolerance: its ``-n`` is then in row
+    ``q + c`` (zero rows elsewhere). A candidate is valid when ``|n| > 1e-12 big^2`` (``big``
+    the longest generator) and a side holds every generator within ``rel_tol`` times its
+    length."""
+    p, g, _ = gens.shape
+    q = len(pa)
+    out = np.zeros((p, 2 * q, 3))
+    scale = np.empty(g)
+    any_both = False
+    for i in range(p):
+        big = 0.0
+        for k in range(g):
+            x0, x1, x2 = gens[i, k, 0], gens[i, k, 1], gens[i, k, 2]
+            scale[k] = np.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
+            if k == 0 or scale[k] > big:
+                big = scale[k]
+        for c in range(q):
+            a0, a1, a2 = gens[i, pa[c], 0], gens[i, pa[c], 1], gens[i, pa[c], 2]
+            b0, b1, b2 = gens[i, pb[c], 0], gens[i, pb[c], 1], gens[i, pb[c], 2]
+            n0 = a1 * b2 - a2 * b1
+            n1 = a2 * b0 - a0 * b2
+            n2 = a0 * b1 - a1 * b0
+            norm = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+            valid = norm > 1e-12 * big * big
+            if valid:
+                n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
+            else:
+                n0, n1, n2 = 0.0, 0.0, 0.0
+            pos = True
+            neg = True
+            for k in range(g):
+                d = dot_einsum(n0, n1, n2, gens[i, k, 0], gens[i, k, 1], gens[i, k, 2])
+                lim = rel_tol * scale[k]
+                if not d >= -lim:
+                    pos = False
+                if not d <= lim:
+                    neg = False
+            sign = 1.0 if pos else (-1.0 if neg else 0.0)
+            out[i, c, 0] = n0 * sign
+            out[i, c, 1] = n1 * sign
+            out[i, c, 2] = n2 * sign
+            if pos and neg and valid:
+                any_both = True
+                out[i, q + c, 0] = -n0
+                out[i, q + c, 1] = -n1
+                out[i, q + c, 2] = -n2
+    if any_both:
+        return out
+    return out[:, :q].copy()
+
+
+@njit(cache=True)
+def _before(key, q, a, b):
+    """Row ``a`` sorts before row ``b``: by ``key``, then the rounded components in order."""
+    if key[a] != key[b]:
+        return key[a] < key[b]
+    for t in range(3):
+        if q[a, t] != q[b, t]:
+            return q[a, t] < q[b, t]
+    return False
+
+
+@njit(cache=True)
+def compact(normals: np.ndarray) -> np.ndarray:
+    """Drop zero rows and duplicates per cone (see :func:`ndbg_cli.cubemap.compact`):
+    ``normals`` ``(p, k, 3)`` to ``(p, w, 3)``, ``w`` the most rows kept (at least 1), the
+    kept rows first, zero rows after. Within a cone the first ``w0`` rows of the stable
+    partition nonzero-first (``w0`` the most nonzero rows of a cone of the batch) are sorted
+    stably by ``key = round(1e9 n . (1, pi, e))``, then by the rows rounded to ``1e-9``;
+    a row equal to the previous one in both is a duplicate."""
+    p, k, _ = normals.shape
+    nz = np.zeros(p, dtype=np.int64)
+    for i in range(p):
+        for r in range(k):
+            if normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0 or normals[i, r, 2] != 0.0:
+                nz[i] += 1
+    w0 = 1
+    for i in range(p):
+        w0 = max(w0, nz[i])
+    w0 = min(w0, k)
+    rows = np.empty((p, w0, 3))
+    kept = np.zeros(p, dtype=np.int64)
+    sel = np.empty(k, dtype=np.int64)
+    key = np.empty(w0)
+    q = np.empty((w0, 3))
+    order = np.empty(w0, dtype=np.int64)
+    for i in range(p):
+        # the stable partition, nonzero rows first, cut to w0 rows
+        m = 0
+        for r in range(k):
+            if normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0 or normals[i, r, 2] != 0.0:
+                sel[m] = r
+                m += 1
+        for r in range(k):
+            if not (normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0
+                    or normals[i, r, 2] != 0.0):
+                sel[m] = r
+                m += 1
+        for t in range(w0):
+            x0, x1, x2 = normals[i, sel[t], 0], normals[i, sel[t], 1], normals[i, sel[t], 2]
+            key[t] = np.rint(dot_matvec(x0, x1, x2, 1.0, np.pi, np.e) * 1e9)
+            q[t, 0] = np.rint(x0 * 1e9)
+            q[t, 1] = np.rint(x1 * 1e9)
+            q[t, 2] = np.rint(x2 * 1e9)
+            # stable insertion sort
+            s = t
+            while s > 0 and _before(key, q, t, order[s - 1]):
+                order[s] = order[s - 1]
+                s -= 1
+            order[s] = t
+        for t in range(w0):
+            r = sel[order[t]]
+            if normals[i, r, 0] == 0.0 and normals[i, r, 1] == 0.0 and normals[i, r, 2] == 0.0:
+                continue
+            if t > 0:
+                u = order[t - 1]
+                v = order[t]
+                if key[u] == key[v] and q[u, 0] == q[v, 0] and q[u, 1] == q[v, 1] \
+                        and q[u, 2] == q[v, 2]:
+                    continue
+            rows[i, kept[i], 0] = normals[i, r, 0]
+            rows[i, kept[i], 1] = normals[i, r, 1]
+            rows[i, kept[i], 2] = normals[i, r, 2]
+            kept[i] += 1
+    w = 1
+    for i in range(p):
+        w = max(w, kept[i])
+    out = np.zeros((p, w, 3))
+    for i in range(p):
+        for t in range(kept[i]):
+            out[i, t, 0] = rows[i, t, 0]
+            out[i, t, 1] = rows[i, t, 1]
+            out[i, t, 2] = rows[i, t, 2]
+    return out
+
+
+@njit(cache=True)
+def flat(cones: np.ndarray, tol: float) -> np.ndarray:
+    """``(p,)`` whether some two rows ``m``, ``m'`` of each cone ``(p, k, 3)`` have
+    ``m . m' <= -1 + tol`` (a row with itself included, as the einsum of the numpy version
+    had it)."""
+    p, k, _ = cones.shape
+    out = np.zeros(p, dtype=np.bool_)
+    lim = -1.0 + tol
+    for i in range(p):
+        for a in range(k):
+            for b in range(k):
+                if dot_einsum(cones[i, a, 0], cones[i, a, 1], cones[i, a, 2],
+                              cones[i, b, 0], cones[i, b, 1], cones[i, b, 2]) <= lim:
+                    out[i] = True
+                    break
+            if out[i]:
+                break
+    return out
+
+
+@njit(cache=True)
+def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarray,
+                        sides: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether each term (cone spanned by ``gens`` ``(p, g, 3)`` cut by the open
+    half-spaces ``facing`` ``(p, f, 3)``) misses every window ``w`` (its corner directions
+    ``corners[w]`` ``(4, 3)``, the inward normals of its sides ``sides[w]`` ``(4, 3)``): on
+    each, every generator strictly outside one side (``< 0``) or the four corners outside
+    one facing half-space (``<= 0``). With no window, every term misses."""
+    p, g, _ = gens.shape
+    nw = corners.shape[0]
+    out = np.ones(p, dtype=np.bool_)
+    for i in range(p):
+        for w in range(nw):
+            miss = False
+            for s in range(4):
+                allout = True
+                for k in range(g):
+                    if not dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
+                                      sides[w, s, 0], sides[w, s, 1], sides[w, s, 2]) < 0.0:
+                        allout = False
+                        break
+                if allout:
+                    miss = True
+                    break
+            if not miss:
+                for f in range(facing.shape[1]):
+                    allout = True
+                    for c in range(4):
+                        if not dot_matmul(facing[i, f, 0], facing[i, f, 1], facing[i, f, 2],
+                                          corners[w, c, 0], corners[w, c, 1],
+                                          corners[w, c, 2]) <= 0.0:
+                            allout = False
+                            break
+                    if allout:
+                        miss = True
+                        break
+            if not miss:
+                out[i] = False
+                break
+    return out
+
+
+@njit(cache=True)
+def outside(cones: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether one half-space ``m . d > 0`` of each open cone ``(p, k, 3)`` has the
+    four ``corners`` ``(4, 3)`` (a window's corner directions) strictly outside
+    (``m . c < 0``); a zero row never has."""
+    p, k, _ = cones.shape
+    out = np.zeros(p, dtype=np.bool_)
+    for i in range(p):
+        for r in range(k):
+            allout = True
+            for c in range(4):
+                if not dot_matmul(cones[i, r, 0], cones[i, r, 1], cones[i, r, 2],
+                                  corners[c, 0], corners[c, 1], corners[c, 2]) < 0.0:
+                    allout = False
+                    break
+            if allout:
+                out[i] = True
+                break
+    return out
