@@ -25,6 +25,17 @@ from numba.extending import intrinsic
 # comparison exactly at its threshold could see).
 
 
+#: The cube faces (axis e, chart u, chart v), as :data:`ndbg_cli.cubemap.FACES`.
+_FACES = np.array([
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
+    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
+    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
+    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+], dtype=np.float64)
+
+
 @intrinsic
 def _fma(typingctx, a, b, c):
     """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``)."""
@@ -47,9 +58,9 @@ def dot_matmul(x0, x1, x2, y0, y1, y2):
 
 @njit(cache=True, inline="always")
 def dot_matvec(x0, x1, x2, y0, y1, y2):
-    """``x . y`` as numpy's matmul of ``(p, k, 3) @ (3,)`` rounds it:
-    ``fma(x2, y2, x0 y0 + x1 y1)``."""
-    return _fma(x2, y2, x0 * y0 + x1 * y1)
+    """``x . y`` as numpy's matmul of ``(..., 3) @ (3,)`` (OpenBLAS's gemv) rounds it:
+    ``fma(x2, y2, (0 + x0 y0) + x1 y1)`` (from ``+0``: a zero result is never ``-0``)."""
+    return _fma(x2, y2, (0.0 + x0 * y0) + x1 * y1)
 
 
 @njit(cache=True, inline="always")
@@ -375,3 +386,75 @@ def outside(cones: np.ndarray, corners: np.ndarray) -> np.ndarray:
                 out[i] = True
                 break
     return out
+
+
+@njit(cache=True)
+def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
+                     faces: np.ndarray, inside: float, boxes: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Crossings of great circles (unit normals ``n`` ``(c, 3)``) on the cube faces, for the
+    circle pairs ``start <= t < stop`` of the row-major order of ``i < j`` (that of
+    ``np.triu_indices(c, 1)``) whose circles both have ``meets`` ``(c,)``.
+
+    Each pair gives ``d = n_i x n_j / |n_i x n_j|`` (skipped when ``|n_i x n_j| <= 1e-12``)
+    and ``-d``; a direction lies on the face whose axis has the largest ``d . e`` (the first
+    of equals), and is kept when that face is flagged in ``faces`` ``(6,)``, its chart point
+    has ``|s|, |t| < inside`` and lies in the face's closed box ``boxes[f]``
+    ``(x0, y0, x1, y1)`` (chart units). Returns chart points ``(m, 2)`` and their faces
+    ``(m,)``: all the ``+d`` of the pairs in order, then all the ``-d``."""
+    c = n.shape[0]
+    # the pair at position start
+    i, t = 0, 0
+    while i < c - 1 and t + (c - 1 - i) <= start:
+        t += c - 1 - i
+        i += 1
+    j = i + 1 + (start - t)
+    npairs = max(stop - start, 0)
+    dirs = np.empty((npairs, 3))
+    m = 0
+    for _ in range(npairs):
+        if i >= c - 1:
+            break
+        if meets[i] and meets[j]:
+            a0, a1, a2 = n[i, 0], n[i, 1], n[i, 2]
+            b0, b1, b2 = n[j, 0], n[j, 1], n[j, 2]
+            d0 = a1 * b2 - a2 * b1
+            d1 = a2 * b0 - a0 * b2
+            d2 = a0 * b1 - a1 * b0
+            ln = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+            if ln > 1e-12:
+                dirs[m, 0] = d0 / ln
+                dirs[m, 1] = d1 / ln
+                dirs[m, 2] = d2 / ln
+                m += 1
+        j += 1
+        if j >= c:
+            i += 1
+            j = i + 1
+    pts = np.empty((2 * m, 2))
+    lab = np.empty(2 * m, dtype=np.int64)
+    k = 0
+    for sgn in (1.0, -1.0):
+        for r in range(m):
+            d0, d1, d2 = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+            if sgn < 0.0:
+                d0, d1, d2 = -d0, -d1, -d2
+            f, best = 0, d0
+            for g, val in ((1, -d0), (2, d1), (3, -d1), (4, d2), (5, -d2)):
+                if val > best:
+                    f, best = g, val
+            if not faces[f]:
+                continue
+            e, u, v = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2]
+            de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
+            s = dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de
+            tt = dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de
+            if not (abs(s) < inside and abs(tt) < inside):
+                continue
+            if not (boxes[f, 0] <= s <= boxes[f, 2] and boxes[f, 1] <= tt <= boxes[f, 3]):
+                continue
+            pts[k, 0] = s
+            pts[k, 1] = tt
+            lab[k] = f
+            k += 1
+    return pts[:k].copy(), lab[:k].copy()
