@@ -56,7 +56,9 @@ class Cover:
         self.r = raster
         self.h = 2.0 / raster
         self.covered = np.zeros((6, raster, raster), dtype=bool)
-        self.sat: list[np.ndarray | None] = [None] * 6  # summed-area tables, built lazily
+        # summed-area tables, brought up to date lazily from the first row marked since
+        self.sat = np.zeros((6, raster + 1, raster + 1), dtype=np.int32)
+        self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
         self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
         self.empty = True
@@ -152,16 +154,15 @@ class Cover:
             - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
         inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
         self.covered[face, rows] |= inside
-        self.sat[face] = None
+        self.stale[face] = min(self.stale[face], int(rows[0]))
         self.win[face] = False
         self.empty = False
 
     def _table(self, face: int) -> np.ndarray:
-        if self.sat[face] is None:
-            sat = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
-            np.cumsum(self.covered[face], axis=0, dtype=np.int32, out=sat[1:, 1:])
-            np.cumsum(sat[1:, 1:], axis=1, out=sat[1:, 1:])
-            self.sat[face] = sat
+        """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""
+        if self.stale[face] < self.r:
+            kernels.update_sat(self.covered[face], self.sat[face], self.stale[face])
+            self.stale[face] = self.r
         return self.sat[face]
 
     def covers_spanned(self, gens: np.ndarray,

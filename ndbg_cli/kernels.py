@@ -458,3 +458,17 @@ def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
             lab[k] = f
             k += 1
     return pts[:k].copy(), lab[:k].copy()
+
+
+@njit(cache=True)
+def update_sat(covered: np.ndarray, sat: np.ndarray, r0: int) -> None:
+    """Bring the summed-area table ``sat`` ``(r + 1, r + 1)`` (int32; ``sat[y, x]`` the
+    number of set cells of ``covered`` ``(r, r)`` in rows ``< y`` and columns ``< x``, zero
+    first row and column) up to date for rows ``>= r0`` of ``covered`` (the rows above
+    unchanged since it was last right). In place; integer sums, so exact."""
+    r = covered.shape[0]
+    for y in range(r0, r):
+        run = 0
+        for x in range(r):
+            run += covered[y, x]
+            sat[y + 1, x + 1] = sat[y, x + 1] + run
