@@ -39,6 +39,20 @@ def cells_window(cells: np.ndarray) -> tuple[float, float, float, float] | None:
     return lo[0], lo[1], hi[0], hi[1]
 
 
+_last_raster: list = [None, None, None]  # (domain bytes and shape, raster, cells) made last
+
+
+def _outside_raster(domain: np.ndarray, raster: int) -> np.ndarray:
+    """The cells ``(6, raster, raster)`` outside ``domain`` (``(6, c, c)``, ``c`` dividing
+    ``raster``). Every pair's walk (two covers each) starts from the same domain: the last
+    one is kept (do not write to it)."""
+    key = (domain.tobytes(), domain.shape)
+    if _last_raster[0] != key or _last_raster[1] != raster:
+        k = raster // domain.shape[1]
+        _last_raster[:] = key, raster, ~domain.repeat(k, axis=1).repeat(k, axis=2)
+    return _last_raster[2]
+
+
 class Cover:
     """An inner approximation of the union of the kept terms, for the pruning test: per cube
     face, a raster of :data:`RASTER` x :data:`RASTER` chart cells, a cell being *covered* when
@@ -56,8 +70,9 @@ class Cover:
         self.r = raster
         self.h = 2.0 / raster
         self.covered = np.zeros((6, raster, raster), dtype=bool)
-        # summed-area tables, brought up to date lazily from the first row marked since
-        self.sat = np.zeros((6, raster + 1, raster + 1), dtype=np.int32)
+        # summed-area tables, made when first needed, then brought up to date from the first
+        # row marked since
+        self.sat: list[np.ndarray | None] = [None] * 6
         self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
         self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
@@ -65,8 +80,7 @@ class Cover:
         if domain is not None:
             # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
             # count as covered from the start, so whatever lies only there is pruned.
-            k = raster // domain.shape[1]
-            self.covered = ~domain.repeat(k, axis=1).repeat(k, axis=2)
+            self.covered = _outside_raster(domain, raster).copy()
             self.empty = not self.covered.any()
 
     def window(self, face: int) -> tuple[float, float, float, float] | None:
@@ -160,6 +174,9 @@ class Cover:
 
     def _table(self, face: int) -> np.ndarray:
         """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""
+        if self.sat[face] is None:
+            self.sat[face] = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
+            self.stale[face] = 0
         if self.stale[face] < self.r:
             kernels.update_sat(self.covered[face], self.sat[face], self.stale[face])
             self.stale[face] = self.r
