@@ -507,3 +507,31 @@ def facing_pairs(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray,
             gap = max(gap, max(lo_j[b, x] - hi_i[a, x], lo_i[a, x] - hi_j[b, x]))
         near[k] = gap <= 4 * eps
     return keep, near
+
+
+@njit(cache=True)
+def open_hits(cones: np.ndarray, d: np.ndarray, pos: np.ndarray, end: np.ndarray,
+              cand: np.ndarray, tol: float) -> np.ndarray:
+    """``(r,)`` whether direction ``d[k]`` ``(r, 3)`` (unit) lies in one of its candidate open
+    cones: ``cand[pos[k]:end[k]]`` (indices into ``cones`` ``(P, K, 3)``, unit or zero
+    rows), inside meaning ``m . d > tol`` for every nonzero row ``m``. Candidates are tried in
+    order up to the first hit."""
+    r = len(pos)
+    hit = np.zeros(r, dtype=np.bool_)
+    K = cones.shape[1]
+    for k in range(r):
+        d0, d1, d2 = d[k, 0], d[k, 1], d[k, 2]
+        for h in range(pos[k], end[k]):
+            c = cand[h]
+            inside = True
+            for t in range(K):
+                m0, m1, m2 = cones[c, t, 0], cones[c, t, 1], cones[c, t, 2]
+                if m0 == 0.0 and m1 == 0.0 and m2 == 0.0:
+                    continue
+                if not dot_einsum(m0, m1, m2, d0, d1, d2) > tol:
+                    inside = False
+                    break
+            if inside:
+                hit[k] = True
+                break
+    return hit
