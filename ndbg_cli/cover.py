@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import kernels
-from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes, compact, cone_normals
+from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes
 
 #: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
 #: direction is at least this far inside a kept cone, far above the 1e-6 of the open test.
@@ -70,9 +70,9 @@ class Cover:
         self.r = raster
         self.h = 2.0 / raster
         self.covered = np.zeros((6, raster, raster), dtype=bool)
-        # summed-area tables, made when first needed, then brought up to date from the first
-        # row marked since
-        self.sat: list[np.ndarray | None] = [None] * 6
+        # summed-area tables (6, r + 1, r + 1), made when first needed, then brought up to
+        # date from the first row marked since
+        self.sat: np.ndarray | None = None
         self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
         self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
@@ -174,9 +174,8 @@ class Cover:
 
     def _table(self, face: int) -> np.ndarray:
         """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""
-        if self.sat[face] is None:
-            self.sat[face] = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
-            self.stale[face] = 0
+        if self.sat is None:
+            self.sat = np.zeros((6, self.r + 1, self.r + 1), dtype=np.int32)
         if self.stale[face] < self.r:
             kernels.update_sat(self.covered[face], self.sat[face], self.stale[face])
             self.stale[face] = self.r
@@ -194,38 +193,23 @@ class Cover:
         takes them)."""
         if self.empty:
             return np.zeros(len(gens), dtype=bool)
-        se = gens @ FACES[:, 0].T  # (p, g, 6)
-        front = se > 0.0
-        # only the faces with open cells matter (elsewhere everything is covered)
-        faces = [f for f in range(6) if self.window(f) is not None]
-        fw = front[:, :, faces]
-        mixed = (fw.any(axis=1) & ~fw.all(axis=1)).any(axis=1)
-        ok = np.ones(len(gens), dtype=bool)
-        if mixed.any():
-            ok[mixed] = self.covers(compact(cone_normals(gens[mixed], pairs=pairs)))
-        for face in faces:
-            e, u, v = FACES[face]
-            sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
-            if not len(sel):
-                continue
-            g, w = gens[sel], se[sel, :, face]
-            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2)
-            lo, hi = st.min(axis=1), st.max(axis=1)
-            meet = np.all(hi >= -1.0, axis=1) & np.all(lo <= 1.0, axis=1)
-            sel, lo, hi = sel[meet], lo[meet], hi[meet]
-            ok[sel[~self._box_covered(face, lo, hi)]] = False
-        return ok
+        a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
+        return kernels.covers_spanned(np.ascontiguousarray(gens, dtype=float),
+                                      np.asarray(a, dtype=np.int64),
+                                      np.asarray(b, dtype=np.int64), *self._windows())
 
-    def _box_covered(self, face: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Whether every cell meeting the chart boxes ``lo..hi`` (``(p, 2)``, clipped to the
-        face) is covered."""
-        r, h = self.r, self.h
-        c0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(np.int64)
-        c1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(np.int64)
-        s = self._table(face)
-        x0, y0, x1, y1 = c0[:, 0], c0[:, 1], c1[:, 0], c1[:, 1]
-        got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
-        return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+    def _windows(self) -> tuple:
+        """The faces with a window ``(w,)``, their corner directions ``(w, 4, 3)``, chart
+        rectangles ``(w, 4)``, the summed-area tables (up to date) and the cell width: what
+        the compiled tests (:func:`ndbg_cli.kernels.covers`) take."""
+        faces = [f for f in range(6) if self.window(f) is not None]
+        for f in faces:
+            self._table(f)
+        sat = self.sat if self.sat is not None else np.zeros((6, 2, 2), dtype=np.int32)
+        return (np.array(faces, dtype=np.int64),
+                np.array([self._window_pyramid(f)[0] for f in faces]).reshape(-1, 4, 3),
+                np.array([self.window(f) for f in faces], dtype=float).reshape(-1, 4),
+                sat, self.h)
 
     def _outside(self, cones: np.ndarray, face: int) -> np.ndarray | None:
         """``(p,)`` whether each open cone ``(p, k, 3)`` misses the window of ``face``
@@ -284,20 +268,4 @@ class Cover:
         face it meets."""
         if self.empty:
             return np.zeros(len(cones), dtype=bool)
-        ok = np.ones(len(cones), dtype=bool)
-        for face in range(6):
-            miss = self._outside(cones, face)
-            if miss is None or miss.all():  # every cell of the face covered, or missed
-                continue
-            some = np.flatnonzero(~miss)
-            poly, cnt = clip_halfplanes(cones[some], face, rect=self.window(face))
-            hit = cnt >= 3
-            if not hit.any():
-                continue
-            idx = some[hit]
-            poly, cnt = poly[hit], cnt[hit]
-            valid = (np.arange(poly.shape[1])[None, :] < cnt[:, None])[:, :, None]
-            lo = np.where(valid, poly, np.inf).min(axis=1)
-            hi = np.where(valid, poly, -np.inf).max(axis=1)
-            ok[idx[~self._box_covered(face, lo, hi)]] = False
-        return ok
+        return kernels.covers(np.ascontiguousarray(cones, dtype=float), *self._windows())

@@ -71,6 +71,69 @@ def dot_einsum(x0, x1, x2, y0, y1, y2):
 
 
 @njit(cache=True)
+def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
+    """Clip the quadrilateral ``sq`` ``(4, 2)`` by the half-planes ``coef`` ``(k, 3)`` of one
+    cone (see :func:`clip_square`), in the work arrays ``cur``, ``buf`` ``(c, 2)`` and ``f``
+    ``(c,)`` (``c >= 4``; replaced by larger ones when a step needs more room). Returns
+    ``(n, widest, cur, buf, f)``: the polygon is ``cur[:n]``; ``widest`` is the largest vertex
+    count a cut produced (-1 without a cut)."""
+    k = coef.shape[0]
+    widest = -1
+    # a half-plane with the four corners strictly outside excludes the square (convex)
+    for r in range(k):
+        a, b, c = coef[r, 0], coef[r, 1], coef[r, 2]
+        out = True
+        for j in range(4):
+            if not sq[j, 0] * a + sq[j, 1] * b + c < 0.0:
+                out = False
+                break
+        if out:
+            return 0, widest, cur, buf, f
+    for j in range(4):
+        cur[j, 0] = sq[j, 0]
+        cur[j, 1] = sq[j, 1]
+    n = 4
+    for r in range(k):
+        a, b, c = coef[r, 0], coef[r, 1], coef[r, 2]
+        if (a == 0.0 and b == 0.0 and c == 0.0) or n < 3:
+            continue
+        some_in = False
+        some_out = False
+        for j in range(n):
+            f[j] = cur[j, 0] * a + cur[j, 1] * b + c
+            if f[j] >= 0.0:
+                some_in = True
+            if f[j] < 0.0:
+                some_out = True
+        if not some_in:
+            n = 0
+            continue
+        if not some_out:
+            continue
+        if 2 * n > len(buf):  # more crossings than a convex polygon has: room for all
+            buf = np.empty((2 * n, 2))
+        m = 0
+        for j in range(n):
+            nx = j + 1 if j + 1 < n else 0
+            fa, fb = f[j], f[nx]
+            if fa >= 0.0:
+                buf[m, 0] = cur[j, 0]
+                buf[m, 1] = cur[j, 1]
+                m += 1
+            if (fa >= 0.0 and fb < 0.0) or (fa < 0.0 and fb >= 0.0):
+                w = fa / (fa - fb)
+                buf[m, 0] = cur[j, 0] + w * (cur[nx, 0] - cur[j, 0])
+                buf[m, 1] = cur[j, 1] + w * (cur[nx, 1] - cur[j, 1])
+                m += 1
+        cur, buf = buf, cur
+        if len(f) < len(cur):
+            f = np.empty(len(cur))
+        n = m
+        widest = max(widest, m)
+    return n, widest, cur, buf, f
+
+
+@njit(cache=True)
 def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Clip the convex quadrilateral ``sq`` ``(4, 2)`` (counter-clockwise, chart units) by the
@@ -89,70 +152,16 @@ def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
     keep = max(4, max_vertices)  # no output row is wider
     store = np.zeros((p, keep, 2))
     count = np.zeros(p, dtype=np.int64)
-    cap = 8 + 2 * k
-    cur = np.empty((cap, 2))
-    buf = np.empty((cap, 2))
-    f = np.empty(cap)
+    cur = np.empty((8 + 2 * k, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
     width = 4
     grown = False
     for i in range(p):
-        # a half-plane with the four corners strictly outside excludes the square (convex)
-        miss = False
-        for r in range(k):
-            a, b, c = coef[i, r, 0], coef[i, r, 1], coef[i, r, 2]
-            out = True
-            for j in range(4):
-                if not sq[j, 0] * a + sq[j, 1] * b + c < 0.0:
-                    out = False
-                    break
-            if out:
-                miss = True
-                break
-        if miss:
-            continue
-        for j in range(4):
-            cur[j, 0] = sq[j, 0]
-            cur[j, 1] = sq[j, 1]
-        n = 4
-        for r in range(k):
-            a, b, c = coef[i, r, 0], coef[i, r, 1], coef[i, r, 2]
-            if (a == 0.0 and b == 0.0 and c == 0.0) or n < 3:
-                continue
-            some_in = False
-            some_out = False
-            for j in range(n):
-                f[j] = cur[j, 0] * a + cur[j, 1] * b + c
-                if f[j] >= 0.0:
-                    some_in = True
-                if f[j] < 0.0:
-                    some_out = True
-            if not some_in:
-                n = 0
-                continue
-            if not some_out:
-                continue
-            if 2 * n > len(buf):  # more crossings than a convex polygon has: room for all
-                buf = np.empty((2 * n, 2))
-            m = 0
-            for j in range(n):
-                nx = j + 1 if j + 1 < n else 0
-                fa, fb = f[j], f[nx]
-                if fa >= 0.0:
-                    buf[m, 0] = cur[j, 0]
-                    buf[m, 1] = cur[j, 1]
-                    m += 1
-                if (fa >= 0.0 and fb < 0.0) or (fa < 0.0 and fb >= 0.0):
-                    w = fa / (fa - fb)
-                    buf[m, 0] = cur[j, 0] + w * (cur[nx, 0] - cur[j, 0])
-                    buf[m, 1] = cur[j, 1] + w * (cur[nx, 1] - cur[j, 1])
-                    m += 1
-            cur, buf = buf, cur
-            if len(f) < len(cur):
-                f = np.empty(len(cur))
-            n = m
+        n, widest, cur, buf, f = _clip(coef[i], sq, cur, buf, f)
+        if widest >= 0:
             grown = True
-            if m > width:
-                width = m
+            width = max(width, widest)
         count[i] = n
         for j in range(min(n, keep)):
             store[i, j, 0] = cur[j, 0]
@@ -160,6 +169,54 @@ def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
     if grown and width > max_vertices:
         width = max_vertices
     return store[:, :width].copy(), count
+
+
+@njit(cache=True)
+def _cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: float,
+                  out: np.ndarray, scale: np.ndarray) -> bool:
+    """:func:`cone_normals` of one generator set ``gens`` ``(g, 3)`` into ``out`` ``(2 q, 3)``
+    (zeroed by the caller; ``scale``: work array ``(g,)``). Returns whether some candidate
+    has every generator in its plane (its ``-n`` written to row ``q + c``)."""
+    g = gens.shape[0]
+    q = len(pa)
+    any_both = False
+    big = 0.0
+    for k in range(g):
+        x0, x1, x2 = gens[k, 0], gens[k, 1], gens[k, 2]
+        scale[k] = np.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
+        if k == 0 or scale[k] > big:
+            big = scale[k]
+    for c in range(q):
+        a0, a1, a2 = gens[pa[c], 0], gens[pa[c], 1], gens[pa[c], 2]
+        b0, b1, b2 = gens[pb[c], 0], gens[pb[c], 1], gens[pb[c], 2]
+        n0 = a1 * b2 - a2 * b1
+        n1 = a2 * b0 - a0 * b2
+        n2 = a0 * b1 - a1 * b0
+        norm = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+        valid = norm > 1e-12 * big * big
+        if valid:
+            n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
+        else:
+            n0, n1, n2 = 0.0, 0.0, 0.0
+        pos = True
+        neg = True
+        for k in range(g):
+            d = dot_einsum(n0, n1, n2, gens[k, 0], gens[k, 1], gens[k, 2])
+            lim = rel_tol * scale[k]
+            if not d >= -lim:
+                pos = False
+            if not d <= lim:
+                neg = False
+        sign = 1.0 if pos else (-1.0 if neg else 0.0)
+        out[c, 0] = n0 * sign
+        out[c, 1] = n1 * sign
+        out[c, 2] = n2 * sign
+        if pos and neg and valid:
+            any_both = True
+            out[q + c, 0] = -n0
+            out[q + c, 1] = -n1
+            out[q + c, 2] = -n2
+    return any_both
 
 
 @njit(cache=True)
@@ -179,42 +236,8 @@ def cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: floa
     scale = np.empty(g)
     any_both = False
     for i in range(p):
-        big = 0.0
-        for k in range(g):
-            x0, x1, x2 = gens[i, k, 0], gens[i, k, 1], gens[i, k, 2]
-            scale[k] = np.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
-            if k == 0 or scale[k] > big:
-                big = scale[k]
-        for c in range(q):
-            a0, a1, a2 = gens[i, pa[c], 0], gens[i, pa[c], 1], gens[i, pa[c], 2]
-            b0, b1, b2 = gens[i, pb[c], 0], gens[i, pb[c], 1], gens[i, pb[c], 2]
-            n0 = a1 * b2 - a2 * b1
-            n1 = a2 * b0 - a0 * b2
-            n2 = a0 * b1 - a1 * b0
-            norm = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
-            valid = norm > 1e-12 * big * big
-            if valid:
-                n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
-            else:
-                n0, n1, n2 = 0.0, 0.0, 0.0
-            pos = True
-            neg = True
-            for k in range(g):
-                d = dot_einsum(n0, n1, n2, gens[i, k, 0], gens[i, k, 1], gens[i, k, 2])
-                lim = rel_tol * scale[k]
-                if not d >= -lim:
-                    pos = False
-                if not d <= lim:
-                    neg = False
-            sign = 1.0 if pos else (-1.0 if neg else 0.0)
-            out[i, c, 0] = n0 * sign
-            out[i, c, 1] = n1 * sign
-            out[i, c, 2] = n2 * sign
-            if pos and neg and valid:
-                any_both = True
-                out[i, q + c, 0] = -n0
-                out[i, q + c, 1] = -n1
-                out[i, q + c, 2] = -n2
+        if _cone_normals(gens[i], pa, pb, rel_tol, out[i], scale):
+            any_both = True
     if any_both:
         return out
     return out[:, :q].copy()
@@ -232,6 +255,53 @@ def _before(key, q, a, b):
 
 
 @njit(cache=True)
+def _compact(normals: np.ndarray, w0: int, rows: np.ndarray, sel: np.ndarray,
+             key: np.ndarray, q: np.ndarray, order: np.ndarray) -> int:
+    """:func:`compact` of one cone ``normals`` ``(k, 3)``, sorting the first ``w0`` rows of
+    its stable partition nonzero-first; the kept rows go to ``rows`` (``(>= w0, 3)``), their
+    number is returned (``sel`` ``(k,)``, ``key``, ``q``, ``order``: work arrays of ``w0``
+    rows)."""
+    k = normals.shape[0]
+    m = 0
+    for r in range(k):
+        if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
+            sel[m] = r
+            m += 1
+    for r in range(k):
+        if not (normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0):
+            sel[m] = r
+            m += 1
+    for t in range(w0):
+        x0, x1, x2 = normals[sel[t], 0], normals[sel[t], 1], normals[sel[t], 2]
+        key[t] = np.rint(dot_matvec(x0, x1, x2, 1.0, np.pi, np.e) * 1e9)
+        q[t, 0] = np.rint(x0 * 1e9)
+        q[t, 1] = np.rint(x1 * 1e9)
+        q[t, 2] = np.rint(x2 * 1e9)
+        # stable insertion sort
+        s = t
+        while s > 0 and _before(key, q, t, order[s - 1]):
+            order[s] = order[s - 1]
+            s -= 1
+        order[s] = t
+    kept = 0
+    for t in range(w0):
+        r = sel[order[t]]
+        if normals[r, 0] == 0.0 and normals[r, 1] == 0.0 and normals[r, 2] == 0.0:
+            continue
+        if t > 0:
+            u = order[t - 1]
+            v = order[t]
+            if key[u] == key[v] and q[u, 0] == q[v, 0] and q[u, 1] == q[v, 1] \
+                    and q[u, 2] == q[v, 2]:
+                continue
+        rows[kept, 0] = normals[r, 0]
+        rows[kept, 1] = normals[r, 1]
+        rows[kept, 2] = normals[r, 2]
+        kept += 1
+    return kept
+
+
+@njit(cache=True)
 def compact(normals: np.ndarray) -> np.ndarray:
     """Drop zero rows and duplicates per cone (see :func:`ndbg_cli.cubemap.compact`):
     ``normals`` ``(p, k, 3)`` to ``(p, w, 3)``, ``w`` the most rows kept (at least 1), the
@@ -240,14 +310,13 @@ def compact(normals: np.ndarray) -> np.ndarray:
     stably by ``key = round(1e9 n . (1, pi, e))``, then by the rows rounded to ``1e-9``;
     a row equal to the previous one in both is a duplicate."""
     p, k, _ = normals.shape
-    nz = np.zeros(p, dtype=np.int64)
-    for i in range(p):
-        for r in range(k):
-            if normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0 or normals[i, r, 2] != 0.0:
-                nz[i] += 1
     w0 = 1
     for i in range(p):
-        w0 = max(w0, nz[i])
+        nz = 0
+        for r in range(k):
+            if normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0 or normals[i, r, 2] != 0.0:
+                nz += 1
+        w0 = max(w0, nz)
     w0 = min(w0, k)
     rows = np.empty((p, w0, 3))
     kept = np.zeros(p, dtype=np.int64)
@@ -256,43 +325,7 @@ def compact(normals: np.ndarray) -> np.ndarray:
     q = np.empty((w0, 3))
     order = np.empty(w0, dtype=np.int64)
     for i in range(p):
-        # the stable partition, nonzero rows first, cut to w0 rows
-        m = 0
-        for r in range(k):
-            if normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0 or normals[i, r, 2] != 0.0:
-                sel[m] = r
-                m += 1
-        for r in range(k):
-            if not (normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0
-                    or normals[i, r, 2] != 0.0):
-                sel[m] = r
-                m += 1
-        for t in range(w0):
-            x0, x1, x2 = normals[i, sel[t], 0], normals[i, sel[t], 1], normals[i, sel[t], 2]
-            key[t] = np.rint(dot_matvec(x0, x1, x2, 1.0, np.pi, np.e) * 1e9)
-            q[t, 0] = np.rint(x0 * 1e9)
-            q[t, 1] = np.rint(x1 * 1e9)
-            q[t, 2] = np.rint(x2 * 1e9)
-            # stable insertion sort
-            s = t
-            while s > 0 and _before(key, q, t, order[s - 1]):
-                order[s] = order[s - 1]
-                s -= 1
-            order[s] = t
-        for t in range(w0):
-            r = sel[order[t]]
-            if normals[i, r, 0] == 0.0 and normals[i, r, 1] == 0.0 and normals[i, r, 2] == 0.0:
-                continue
-            if t > 0:
-                u = order[t - 1]
-                v = order[t]
-                if key[u] == key[v] and q[u, 0] == q[v, 0] and q[u, 1] == q[v, 1] \
-                        and q[u, 2] == q[v, 2]:
-                    continue
-            rows[i, kept[i], 0] = normals[i, r, 0]
-            rows[i, kept[i], 1] = normals[i, r, 1]
-            rows[i, kept[i], 2] = normals[i, r, 2]
-            kept[i] += 1
+        kept[i] = _compact(normals[i], w0, rows[i], sel, key, q, order)
     w = 1
     for i in range(p):
         w = max(w, kept[i])
@@ -535,3 +568,164 @@ def open_hits(cones: np.ndarray, d: np.ndarray, pos: np.ndarray, end: np.ndarray
                 hit[k] = True
                 break
     return hit
+
+
+@njit(cache=True)
+def _box_covered(sat: np.ndarray, lo0: float, lo1: float, hi0: float, hi1: float,
+                 h: float) -> bool:
+    """Whether every raster cell meeting the chart box ``lo..hi`` (clipped to the face) is
+    covered: one lookup in the summed-area table ``sat`` ``(r + 1, r + 1)`` (cells ``h``
+    chart units wide from -1)."""
+    top = sat.shape[0] - 2
+    x0 = int(min(max(np.floor((lo0 + 1.0) / h), 0.0), top))
+    y0 = int(min(max(np.floor((lo1 + 1.0) / h), 0.0), top))
+    x1 = int(min(max(np.floor((hi0 + 1.0) / h), 0.0), top))
+    y1 = int(min(max(np.floor((hi1 + 1.0) / h), 0.0), top))
+    got = sat[y1 + 1, x1 + 1] - sat[y0, x1 + 1] - sat[y1 + 1, x0] + sat[y0, x0]
+    return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+
+
+@njit(cache=True)
+def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
+                  rects: np.ndarray, sats: np.ndarray, h: float, coef: np.ndarray,
+                  cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
+    """Whether the closed cone ``cone`` ``(k, 3)`` lies in covered cells on every window
+    face it meets (see :func:`covers`; ``coef`` ``(k, 3)``, ``cur``, ``buf``, ``f``: work
+    arrays). Returns ``(covered, cur, buf, f)``."""
+    k = cone.shape[0]
+    for w in range(len(faces)):
+        fc = faces[w]
+        # quick test: a half-space with the window's four corners strictly outside
+        missed = False
+        for r in range(k):
+            allout = True
+            for c in range(4):
+                if not dot_matmul(cone[r, 0], cone[r, 1], cone[r, 2], corners[w, c, 0],
+                                  corners[w, c, 1], corners[w, c, 2]) < 0.0:
+                    allout = False
+                    break
+            if allout:
+                missed = True
+                break
+        if missed:
+            continue
+        e, u, v = _FACES[fc, 0], _FACES[fc, 1], _FACES[fc, 2]
+        for r in range(k):
+            m0, m1, m2 = cone[r, 0], cone[r, 1], cone[r, 2]
+            coef[r, 0] = dot_matvec(m0, m1, m2, u[0], u[1], u[2])
+            coef[r, 1] = dot_matvec(m0, m1, m2, v[0], v[1], v[2])
+            coef[r, 2] = dot_matvec(m0, m1, m2, e[0], e[1], e[2])
+        x0, y0, x1, y1 = rects[w, 0], rects[w, 1], rects[w, 2], rects[w, 3]
+        sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        n, _, cur, buf, f = _clip(coef[:k], sq, cur, buf, f)
+        if n < 3:
+            continue
+        lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
+        for j in range(n):
+            lo0 = min(lo0, cur[j, 0])
+            lo1 = min(lo1, cur[j, 1])
+            hi0 = max(hi0, cur[j, 0])
+            hi1 = max(hi1, cur[j, 1])
+        if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+            return False, cur, buf, f
+    return True, cur, buf, f
+
+
+@njit(cache=True)
+def covers(cones: np.ndarray, faces: np.ndarray, corners: np.ndarray, rects: np.ndarray,
+           sats: np.ndarray, h: float) -> np.ndarray:
+    """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every face
+    it meets (:meth:`ndbg_cli.cover.Cover.covers`). Only the faces ``faces`` ``(w,)`` with a
+    window count (elsewhere every cell is covered): window ``w`` has corner directions
+    ``corners[w]`` ``(4, 3)`` and chart rectangle ``rects[w]`` (``x0, y0, x1, y1``). A cone
+    with a half-space that has the four corners strictly outside misses the window; else its
+    polygon clipped to the rectangle, when it has 3 vertices or more, must have its bounding
+    box in covered cells (summed-area tables ``sats`` ``(6, r + 1, r + 1)``, cells ``h``
+    chart units wide)."""
+    p, k, _ = cones.shape
+    ok = np.ones(p, dtype=np.bool_)
+    coef = np.empty((k, 3))
+    cur = np.empty((8 + 2 * k, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    for i in range(p):
+        ok[i], cur, buf, f = _cone_covered(cones[i], faces, corners, rects, sats, h, coef,
+                                           cur, buf, f)
+    return ok
+
+
+@njit(cache=True)
+def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.ndarray,
+                   corners: np.ndarray, rects: np.ndarray, sats: np.ndarray, h: float
+                   ) -> np.ndarray:
+    """``(p,)`` whether each closed cone spanned by ``gens`` ``(p, g, 3)`` lies in covered
+    cells on every window face it meets (:meth:`ndbg_cli.cover.Cover.covers_spanned`;
+    ``faces``, ``corners``, ``rects``, ``sats``, ``h`` as :func:`covers` takes them). A cone
+    with every generator in front of a window face's plane (``g . e > 0``) or behind it on
+    every window face is tested by the bounding box of its generators' chart points; one
+    with generators on both sides of some window face's plane by its facets (candidates
+    through the generator pairs ``pa``, ``pb``; :func:`_cone_normals`, :func:`_compact`)
+    as :func:`covers` tests a cone."""
+    p, g, _ = gens.shape
+    q = len(pa)
+    nf = len(faces)
+    ok = np.ones(p, dtype=np.bool_)
+    normals = np.zeros((2 * q, 3))
+    scale = np.empty(g)
+    rows = np.empty((2 * q, 3))
+    sel = np.empty(2 * q, dtype=np.int64)
+    key = np.empty(2 * q)
+    qq = np.empty((2 * q, 3))
+    order = np.empty(2 * q, dtype=np.int64)
+    coef = np.empty((2 * q, 3))
+    cur = np.empty((8 + 4 * q, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    front = np.empty((g, nf), dtype=np.bool_)
+    for i in range(p):
+        mixed = False
+        for w in range(nf):
+            e = _FACES[faces[w], 0]
+            some, every = False, True
+            for k in range(g):
+                front[k, w] = dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
+                                         e[0], e[1], e[2]) > 0.0
+                some |= front[k, w]
+                every &= front[k, w]
+            if some and not every:
+                mixed = True
+        if mixed:
+            normals[:] = 0.0
+            rows_in = q
+            if _cone_normals(gens[i], pa, pb, 1e-9, normals, scale):
+                rows_in = 2 * q
+            nz = 0
+            for r in range(rows_in):
+                if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
+                    nz += 1
+            kept = _compact(normals[:rows_in], max(nz, 1), rows, sel, key, qq, order)
+            ok[i], cur, buf, f = _cone_covered(rows[:kept], faces, corners, rects, sats, h,
+                                               coef, cur, buf, f)
+            continue
+        for w in range(nf):
+            every = True
+            for k in range(g):
+                every &= front[k, w]
+            if not every:
+                continue
+            fc = faces[w]
+            e, u, v = _FACES[fc, 0], _FACES[fc, 1], _FACES[fc, 2]
+            lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
+            for k in range(g):
+                x0, x1, x2 = gens[i, k, 0], gens[i, k, 1], gens[i, k, 2]
+                de = dot_matmul(x0, x1, x2, e[0], e[1], e[2])
+                s = dot_matvec(x0, x1, x2, u[0], u[1], u[2]) / de
+                t = dot_matvec(x0, x1, x2, v[0], v[1], v[2]) / de
+                lo0, hi0 = min(lo0, s), max(hi0, s)
+                lo1, hi1 = min(lo1, t), max(hi1, t)
+            if not (hi0 >= -1.0 and hi1 >= -1.0 and lo0 <= 1.0 and lo1 <= 1.0):
+                continue
+            if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+                ok[i] = False
+                break
+    return ok
