@@ -21,15 +21,9 @@ import numpy as np
 
 from . import kernels
 
-#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array.
-FACES = np.array([
-    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
-    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
-    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
-    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
-    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
-    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
-], dtype=float)
+#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array (defined with the
+#: compiled kernels, which use them).
+FACES = kernels.FACES
 
 #: Slight enlargement of the chart square so that directions on a cube edge are covered on
 #: both faces (chart units).

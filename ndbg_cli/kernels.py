@@ -25,8 +25,9 @@ from numba.extending import intrinsic
 # comparison exactly at its threshold could see).
 
 
-#: The cube faces (axis e, chart u, chart v), as :data:`ndbg_cli.cubemap.FACES`.
-_FACES = np.array([
+#: The six cube faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array
+#: (:data:`ndbg_cli.cubemap.FACES`; frozen into the kernels when they compile).
+FACES = np.array([
     [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
     [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
     [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
@@ -478,7 +479,7 @@ def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
                     f, best = g, val
             if not faces[f]:
                 continue
-            e, u, v = _FACES[f, 0], _FACES[f, 1], _FACES[f, 2]
+            e, u, v = FACES[f, 0], FACES[f, 1], FACES[f, 2]
             de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
             s = dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de
             tt = dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de
@@ -609,7 +610,7 @@ def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
                 break
         if missed:
             continue
-        e, u, v = _FACES[fc, 0], _FACES[fc, 1], _FACES[fc, 2]
+        e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
         for r in range(k):
             m0, m1, m2 = cone[r, 0], cone[r, 1], cone[r, 2]
             coef[r, 0] = dot_matvec(m0, m1, m2, u[0], u[1], u[2])
@@ -685,7 +686,7 @@ def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.n
     for i in range(p):
         mixed = False
         for w in range(nf):
-            e = _FACES[faces[w], 0]
+            e = FACES[faces[w], 0]
             some, every = False, True
             for k in range(g):
                 front[k, w] = dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
@@ -714,7 +715,7 @@ def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.n
             if not every:
                 continue
             fc = faces[w]
-            e, u, v = _FACES[fc, 0], _FACES[fc, 1], _FACES[fc, 2]
+            e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
             lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
             for k in range(g):
                 x0, x1, x2 = gens[i, k, 0], gens[i, k, 1], gens[i, k, 2]
