@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
+from . import kernels
 from .blocking_cones import GRID
 from .cubemap import FACES, SQUARE_MARGIN, direction_of
 
@@ -270,8 +271,8 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     with ``domain`` (per face chart geometry or ``None``), inside it. Crossings closer than
     ``eta`` are merged (the first kept), as the nearly concurrent circles of a tessellated
     cylinder's facets all are near its axis."""
-    n = normals
-    a, b = np.triu_indices(len(n), k=1)
+    n = np.ascontiguousarray(normals, dtype=float)
+    npairs = len(n) * (len(n) - 1) // 2
     found: list[list[np.ndarray]] = [[] for _ in range(6)]
 
     def first(pts: np.ndarray) -> np.ndarray:
@@ -286,7 +287,9 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     # With a domain, each antipodal pair of faces takes only the circles that meet its domain
     # box (a crossing lies on both circles), chunk by chunk of the same pairs, so that the
     # crossings come in the same order and the same ones are kept first.
-    groups: list[tuple[np.ndarray | None, tuple[int, ...]]] = [(None, tuple(range(6)))]
+    groups: list[tuple[np.ndarray, tuple[int, ...]]] = [(np.ones(len(n), dtype=bool),
+                                                         tuple(range(6)))]
+    boxes = np.tile([-np.inf, -np.inf, np.inf, np.inf], (6, 1))
     if domain is not None and len(n):
         groups = []
         for f in range(0, 6, 2):
@@ -295,27 +298,20 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
                 meets = np.zeros(len(n), dtype=bool)
                 for g in faces:
                     e, u, v = FACES[g]
-                    x0, y0, x1, y1 = domain[g].bounds
+                    x0, y0, x1, y1 = boxes[g] = domain[g].bounds
                     at = np.stack([n @ u * x + n @ v * y + n @ e
                                    for x in (x0, x1) for y in (y0, y1)])
                     # rounding slack: a pair too many only adds crossings outside
                     meets |= (at.min(axis=0) <= 1e-12) & (at.max(axis=0) >= -1e-12)
                 groups.append((meets, faces))
-    for s0, (meets, faces) in itertools.product(range(0, len(a), CROSS_CHUNK), groups):
-        ca, cb = a[s0:s0 + CROSS_CHUNK], b[s0:s0 + CROSS_CHUNK]
-        if meets is not None:
-            both = meets[ca] & meets[cb]
-            ca, cb = ca[both], cb[both]
-        d = np.cross(n[ca], n[cb])
-        ln = np.linalg.norm(d, axis=1)
-        d = d[ln > 1e-12] / ln[ln > 1e-12, None]
-        d = np.concatenate([d, -d])
-        owner = np.argmax(d @ FACES[:, 0].T, axis=1)  # the one face a direction can be on
+    for s0, (meets, faces) in itertools.product(range(0, npairs, CROSS_CHUNK), groups):
+        # the crossings of the chunk's pairs on these faces, outside the domain's boxes
+        # left out (contains_xy would drop them)
+        flags = np.isin(np.arange(6), faces)
+        pts, lab = kernels.circle_crossings(n, s0, min(s0 + CROSS_CHUNK, npairs), meets,
+                                            flags, _INSIDE, boxes)
         for face in faces:
-            e, u, v = FACES[face]
-            df = d[owner == face]
-            st = np.stack([(df @ u) / (df @ e), (df @ v) / (df @ e)], axis=1)
-            st = st[(np.abs(st) < _INSIDE).all(axis=1)]
+            st = pts[lab == face]
             if domain is not None and len(st):
                 st = st[shapely.contains_xy(domain[face], st[:, 0], st[:, 1])]
             if len(st):

@@ -60,6 +60,7 @@ import numpy as np
 import shapely
 import trimesh
 
+from . import kernels
 from .assembly import Assembly
 from .cover import Cover, run_offsets
 from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, clip_halfplanes, compact, cone_normals
@@ -126,20 +127,12 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     if not len(ia):
         return _EMPTY
     # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
-    # of t_j's plane (lenient by 2 eps; an empty cone is harmless).
-    keep = []
-    for s in range(0, len(ia), 4 * CHUNK):
-        a, b = ia[s:s + 4 * CHUNK], jb[s:s + 4 * CHUNK]
-        fj = np.einsum("pk,pvk->pv", ni[a], tj[b]) - np.einsum("pk,pk->p", ni[a], ti[a, 0])[:, None]
-        fi = np.einsum("pk,pvk->pv", nj[b], ti[a]) - np.einsum("pk,pk->p", nj[b], tj[b, 0])[:, None]
-        keep.append((fj.max(axis=1) > -2 * eps) & (fi.max(axis=1) > -2 * eps))
-    ok = np.concatenate(keep)
-    ia, jb = ia[ok], jb[ok]
+    # of t_j's plane (lenient by 2 eps; an empty cone is harmless). Near: boxes within 4 eps.
+    lo_i, hi_i, lo_j, hi_j = boxes if boxes is not None else triangle_boxes(ti, tj)
+    ok, near = kernels.facing_pairs(ti, ni, tj, nj, ia, jb, eps, lo_i, hi_i, lo_j, hi_j)
+    ia, jb, near = ia[ok], jb[ok], near[ok]
     if not len(ia):
         return _EMPTY
-    lo_i, hi_i, lo_j, hi_j = boxes if boxes is not None else triangle_boxes(ti, tj)
-    gap = np.maximum(lo_j[jb] - hi_i[ia], lo_i[ia] - hi_j[jb]).max(axis=1)
-    near = gap <= 4 * eps
     parts = []
     for sel, is_near in ((np.nonzero(~near)[0], False), (np.nonzero(near)[0], True)):
         for s in range(0, len(sel), CHUNK):
@@ -186,8 +179,7 @@ def flat(cones: np.ndarray) -> np.ndarray:
     all terms, and being lines across a whole face, the cover could never prune them."""
     if not len(cones):
         return np.zeros(0, dtype=bool)
-    dots = np.einsum("pak,pbk->pab", cones, cones)
-    return (dots <= -1.0 + FLAT).any(axis=(1, 2))
+    return kernels.flat(np.ascontiguousarray(cones, dtype=float), FLAT)
 
 
 def _stack(parts: list[np.ndarray]) -> np.ndarray:
@@ -208,8 +200,13 @@ def unique_circles(normals: np.ndarray) -> np.ndarray:
     first = np.argmax(np.abs(n) > 1e-12, axis=1)
     sign = np.sign(n[np.arange(len(n)), first])
     n = n * sign[:, None]
-    _, idx = np.unique(np.round(n, 9), axis=0, return_index=True)
-    return n[np.sort(idx)]
+    # each rounded row's first occurrence, as np.unique(axis=0, return_index=True) finds it
+    # (a stable sort on the three columns; unique's structured-row sort is slower)
+    q = np.round(n, 9)
+    order = np.lexsort((q[:, 2], q[:, 1], q[:, 0]))
+    qs = q[order]
+    new = np.r_[True, np.any(qs[1:] != qs[:-1], axis=1)]
+    return n[np.sort(order[new])]
 
 
 # --------------------------------------------------------------------------------------------

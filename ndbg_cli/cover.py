@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes, compact, cone_normals
+from . import kernels
+from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes
 
 #: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
 #: direction is at least this far inside a kept cone, far above the 1e-6 of the open test.
@@ -38,6 +39,20 @@ def cells_window(cells: np.ndarray) -> tuple[float, float, float, float] | None:
     return lo[0], lo[1], hi[0], hi[1]
 
 
+_last_raster: list = [None, None, None]  # (domain bytes and shape, raster, cells) made last
+
+
+def _outside_raster(domain: np.ndarray, raster: int) -> np.ndarray:
+    """The cells ``(6, raster, raster)`` outside ``domain`` (``(6, c, c)``, ``c`` dividing
+    ``raster``). Every pair's walk (two covers each) starts from the same domain: the last
+    one is kept (do not write to it)."""
+    key = (domain.tobytes(), domain.shape)
+    if _last_raster[0] != key or _last_raster[1] != raster:
+        k = raster // domain.shape[1]
+        _last_raster[:] = key, raster, ~domain.repeat(k, axis=1).repeat(k, axis=2)
+    return _last_raster[2]
+
+
 class Cover:
     """An inner approximation of the union of the kept terms, for the pruning test: per cube
     face, a raster of :data:`RASTER` x :data:`RASTER` chart cells, a cell being *covered* when
@@ -55,15 +70,17 @@ class Cover:
         self.r = raster
         self.h = 2.0 / raster
         self.covered = np.zeros((6, raster, raster), dtype=bool)
-        self.sat: list[np.ndarray | None] = [None] * 6  # summed-area tables, built lazily
+        # summed-area tables (6, r + 1, r + 1), made when first needed, then brought up to
+        # date from the first row marked since
+        self.sat: np.ndarray | None = None
+        self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
         self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
         self.empty = True
         if domain is not None:
             # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
             # count as covered from the start, so whatever lies only there is pruned.
-            k = raster // domain.shape[1]
-            self.covered = ~domain.repeat(k, axis=1).repeat(k, axis=2)
+            self.covered = _outside_raster(domain, raster).copy()
             self.empty = not self.covered.any()
 
     def window(self, face: int) -> tuple[float, float, float, float] | None:
@@ -151,16 +168,17 @@ class Cover:
             - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
         inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
         self.covered[face, rows] |= inside
-        self.sat[face] = None
+        self.stale[face] = min(self.stale[face], int(rows[0]))
         self.win[face] = False
         self.empty = False
 
     def _table(self, face: int) -> np.ndarray:
-        if self.sat[face] is None:
-            sat = np.zeros((self.r + 1, self.r + 1), dtype=np.int32)
-            np.cumsum(self.covered[face], axis=0, dtype=np.int32, out=sat[1:, 1:])
-            np.cumsum(sat[1:, 1:], axis=1, out=sat[1:, 1:])
-            self.sat[face] = sat
+        """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""
+        if self.sat is None:
+            self.sat = np.zeros((6, self.r + 1, self.r + 1), dtype=np.int32)
+        if self.stale[face] < self.r:
+            kernels.update_sat(self.covered[face], self.sat[face], self.stale[face])
+            self.stale[face] = self.r
         return self.sat[face]
 
     def covers_spanned(self, gens: np.ndarray,
@@ -175,38 +193,23 @@ class Cover:
         takes them)."""
         if self.empty:
             return np.zeros(len(gens), dtype=bool)
-        se = gens @ FACES[:, 0].T  # (p, g, 6)
-        front = se > 0.0
-        # only the faces with open cells matter (elsewhere everything is covered)
-        faces = [f for f in range(6) if self.window(f) is not None]
-        fw = front[:, :, faces]
-        mixed = (fw.any(axis=1) & ~fw.all(axis=1)).any(axis=1)
-        ok = np.ones(len(gens), dtype=bool)
-        if mixed.any():
-            ok[mixed] = self.covers(compact(cone_normals(gens[mixed], pairs=pairs)))
-        for face in faces:
-            e, u, v = FACES[face]
-            sel = np.nonzero(~mixed & front[:, :, face].all(axis=1))[0]
-            if not len(sel):
-                continue
-            g, w = gens[sel], se[sel, :, face]
-            st = np.stack([(g @ u) / w, (g @ v) / w], axis=2)
-            lo, hi = st.min(axis=1), st.max(axis=1)
-            meet = np.all(hi >= -1.0, axis=1) & np.all(lo <= 1.0, axis=1)
-            sel, lo, hi = sel[meet], lo[meet], hi[meet]
-            ok[sel[~self._box_covered(face, lo, hi)]] = False
-        return ok
+        a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
+        return kernels.covers_spanned(np.ascontiguousarray(gens, dtype=float),
+                                      np.asarray(a, dtype=np.int64),
+                                      np.asarray(b, dtype=np.int64), *self._windows())
 
-    def _box_covered(self, face: int, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Whether every cell meeting the chart boxes ``lo..hi`` (``(p, 2)``, clipped to the
-        face) is covered."""
-        r, h = self.r, self.h
-        c0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(np.int64)
-        c1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(np.int64)
-        s = self._table(face)
-        x0, y0, x1, y1 = c0[:, 0], c0[:, 1], c1[:, 0], c1[:, 1]
-        got = s[y1 + 1, x1 + 1] - s[y0, x1 + 1] - s[y1 + 1, x0] + s[y0, x0]
-        return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+    def _windows(self) -> tuple:
+        """The faces with a window ``(w,)``, their corner directions ``(w, 4, 3)``, chart
+        rectangles ``(w, 4)``, the summed-area tables (up to date) and the cell width: what
+        the compiled tests (:func:`ndbg_cli.kernels.covers`) take."""
+        faces = [f for f in range(6) if self.window(f) is not None]
+        for f in faces:
+            self._table(f)
+        sat = self.sat if self.sat is not None else np.zeros((6, 2, 2), dtype=np.int32)
+        return (np.array(faces, dtype=np.int64),
+                np.array([self._window_pyramid(f)[0] for f in faces]).reshape(-1, 4, 3),
+                np.array([self.window(f) for f in faces], dtype=float).reshape(-1, 4),
+                sat, self.h)
 
     def _outside(self, cones: np.ndarray, face: int) -> np.ndarray | None:
         """``(p,)`` whether each open cone ``(p, k, 3)`` misses the window of ``face``
@@ -216,8 +219,7 @@ class Cover:
         pyr = self._window_pyramid(face)
         if pyr is None:
             return None
-        val = cones @ pyr[0].T  # (p, k, 4); zero rows give 0: never outside
-        return (val < 0.0).all(axis=2).any(axis=1)
+        return kernels.outside(np.ascontiguousarray(cones, dtype=float), pyr[0])
 
     def _window_pyramid(self, face: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The window of ``face`` as a cone: its four corner directions ``(4, 3)`` (in turn
@@ -243,16 +245,12 @@ class Cover:
         (so every cell not yet covered), by two quick tests per window, no facet computed:
         every generator strictly outside one side of the window's cone, or the four corners
         outside one of the half-spaces."""
-        out = np.ones(len(gens), dtype=bool)
-        for face in range(6):
-            pyr = self._window_pyramid(face)
-            if pyr is None:
-                continue
-            corners, sides = pyr
-            miss = (gens @ sides.T < 0.0).all(axis=1).any(axis=1)
-            miss |= (facing @ corners.T <= 0.0).all(axis=2).any(axis=1)
-            out &= miss
-        return out
+        pyrs = [p for p in map(self._window_pyramid, range(6)) if p is not None]
+        corners = np.array([p[0] for p in pyrs]).reshape(-1, 4, 3)
+        sides = np.array([p[1] for p in pyrs]).reshape(-1, 4, 3)
+        return kernels.misses_spanned_open(np.ascontiguousarray(gens, dtype=float),
+                                           np.ascontiguousarray(facing, dtype=float),
+                                           corners, sides)
 
     def misses_open(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each open cone ``(p, k, 3)`` (zero rows allowed) misses every
@@ -270,20 +268,4 @@ class Cover:
         face it meets."""
         if self.empty:
             return np.zeros(len(cones), dtype=bool)
-        ok = np.ones(len(cones), dtype=bool)
-        for face in range(6):
-            miss = self._outside(cones, face)
-            if miss is None or miss.all():  # every cell of the face covered, or missed
-                continue
-            some = np.flatnonzero(~miss)
-            poly, cnt = clip_halfplanes(cones[some], face, rect=self.window(face))
-            hit = cnt >= 3
-            if not hit.any():
-                continue
-            idx = some[hit]
-            poly, cnt = poly[hit], cnt[hit]
-            valid = (np.arange(poly.shape[1])[None, :] < cnt[:, None])[:, :, None]
-            lo = np.where(valid, poly, np.inf).min(axis=1)
-            hi = np.where(valid, poly, -np.inf).max(axis=1)
-            ok[idx[~self._box_covered(face, lo, hi)]] = False
-        return ok
+        return kernels.covers(np.ascontiguousarray(cones, dtype=float), *self._windows())

@@ -19,15 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array.
-FACES = np.array([
-    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
-    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
-    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
-    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
-    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
-    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
-], dtype=float)
+from . import kernels
+
+#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array (defined with the
+#: compiled kernels, which use them).
+FACES = kernels.FACES
 
 #: Slight enlargement of the chart square so that directions on a cube edge are covered on
 #: both faces (chart units).
@@ -66,27 +62,10 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
     empty, as it should be. ``pairs`` (two index arrays) restricts the candidates to those
     generator pairs (:data:`DIFFERENCE_PAIRS` for the 9 vertex differences of two triangles).
     """
-    gens = np.asarray(gens, dtype=float)
-    p, g, _ = gens.shape
-    a, b = np.triu_indices(g, k=1) if pairs is None else pairs
-    n = np.cross(gens[:, a], gens[:, b])  # (p, q, 3)
-    norm = np.linalg.norm(n, axis=2, keepdims=True)
-    scale = np.linalg.norm(gens, axis=2)  # (p, g)
-    big = scale.max(axis=1)[:, None, None]
-    valid = norm > 1e-12 * big * big
-    n = np.where(valid, n / np.where(valid, norm, 1.0), 0.0)
-    dots = np.einsum("pqk,pgk->pqg", n, gens)  # (p, q, g)
-    lim = rel_tol * scale[:, None, :]
-    pos = np.all(dots >= -lim, axis=2)
-    neg = np.all(dots <= lim, axis=2)
-    sign = np.where(pos, 1.0, np.where(neg, -1.0, 0.0))
-    out = n * sign[:, :, None]
-    # When both orientations are valid (all generators in the plane) keep both: +n and -n.
-    both = pos & neg & valid[:, :, 0]
-    if both.any():
-        extra = np.where(both[:, :, None], -n, 0.0)
-        out = np.concatenate([out, extra], axis=1)
-    return out
+    gens = np.ascontiguousarray(gens, dtype=float)
+    a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
+    return kernels.cone_normals(gens, np.asarray(a, dtype=np.int64),
+                                np.asarray(b, dtype=np.int64), rel_tol)
 
 
 def _difference_pairs() -> tuple[np.ndarray, np.ndarray]:
@@ -125,8 +104,8 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     of the square (a window: cones missing it are skipped at the cost of four corner tests).
 
     Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
-    ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face). Vectorised
-    Sutherland-Hodgman over all cones at once, one half-plane at a time.
+    ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face): see
+    :func:`ndbg_cli.kernels.clip_square`.
     """
     e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
@@ -135,76 +114,10 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
     if shrink > 0.0:
         coef[:, :, 2] -= shrink * np.hypot(coef[:, :, 0], coef[:, :, 1])
-    # A half-plane that excludes the four corners excludes the square (it is convex): most
-    # cones meet one or two faces, so this spares the clipping of the others.
-    at_corners = coef[:, :, :1] * sq[:, 0] + coef[:, :, 1:2] * sq[:, 1] + coef[:, :, 2:3]
-    miss = np.any(np.all(at_corners < 0.0, axis=2), axis=1)
-    if miss.any():
-        hit = np.nonzero(~miss)[0]
-        sub, cnt = _clip_square(coef[hit], sq, max_vertices)
-        poly = np.zeros((len(normals), sub.shape[1], 2))
-        count = np.zeros(len(normals), dtype=np.int64)
-        poly[hit], count[hit] = sub, cnt
-        return poly, count
-    return _clip_square(coef, sq, max_vertices)
-
-
-def _clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`clip_halfplanes` on chart half-plane coefficients ``coef`` ``(p, k, 3)``."""
-    p = coef.shape[0]
-    poly = np.broadcast_to(sq, (p, 4, 2)).copy()
-    count = np.full(p, 4, dtype=np.int64)
-    for k in range(coef.shape[1]):
-        c = coef[:, k]
-        active = np.any(c != 0.0, axis=1) & (count >= 3)
-        if not active.any():
-            continue
-        idx = np.nonzero(active)[0]
-        # only polygons with vertices on both sides are cut; wholly outside ones vanish
-        pi, ci = poly[idx], c[idx]
-        f = pi[:, :, 0] * ci[:, :1] + pi[:, :, 1] * ci[:, 1:2] + ci[:, 2:3]
-        valid = np.arange(pi.shape[1])[None, :] < count[idx][:, None]
-        out = ~np.any(valid & (f >= 0), axis=1)
-        count[idx[out]] = 0
-        cut = ~out & np.any(valid & (f < 0), axis=1)
-        if not cut.any():
-            continue
-        sub, cnt = _clip_one(pi[cut], count[idx[cut]], ci[cut], f[cut])
-        idx = idx[cut]
-        m = sub.shape[1]
-        if m > poly.shape[1]:
-            poly = np.concatenate([poly, np.zeros((p, m - poly.shape[1], 2))], axis=1)
-        poly[idx, :m] = sub
-        poly[idx, m:] = 0.0
-        count[idx] = cnt
-        if poly.shape[1] > max_vertices:
-            poly = poly[:, :max_vertices]
-    return poly, count
-
-
-def _clip_one(poly: np.ndarray, count: np.ndarray, coef: np.ndarray, fa: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """Clip padded convex polygons ``(p, m, 2)`` by ``a s + b t + c >= 0`` (``coef`` (p, 3);
-    ``fa`` ``(p, m)``: its value at each vertex)."""
-    p, m, _ = poly.shape
-    k = np.arange(m)[None, :]
-    valid = k < count[:, None]
-    nxt = np.where(k + 1 < count[:, None], k + 1, 0)
-    q = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
-    fb = np.take_along_axis(fa, nxt, axis=1)
-    keep_a = valid & (fa >= 0)
-    cross = valid & (((fa >= 0) & (fb < 0)) | ((fa < 0) & (fb >= 0)))
-    denom = np.where(cross, fa - fb, 1.0)
-    w = np.where(cross, fa / denom, 0.0)
-    x = poly + w[:, :, None] * (q - poly)
-    cand = np.stack([poly, x], axis=2).reshape(p, 2 * m, 2)
-    ok = np.stack([keep_a, cross], axis=2).reshape(p, 2 * m)
-    order = np.argsort(~ok, axis=1, kind="stable")
-    cand = np.take_along_axis(cand, order[:, :, None].repeat(2, axis=2), axis=1)
-    cnt = ok.sum(axis=1)
-    width = max(int(cnt.max()) if p else 0, 1)
-    return cand[:, :width], cnt
+    # Sutherland-Hodgman per cone, compiled; a half-plane that excludes the four corners
+    # excludes the square (it is convex): most cones meet one or two faces, so that test,
+    # made first, spares the clipping of the others.
+    return kernels.clip_square(np.ascontiguousarray(coef), sq, max_vertices)
 
 
 def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
@@ -216,31 +129,9 @@ def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
 
 def compact(normals: np.ndarray) -> np.ndarray:
     """Drop zero rows and duplicates (rows equal when rounded to 1e-9) per cone, trimming
-    the padding ``(p, k, 3)``."""
+    the padding ``(p, k, 3)``: :func:`ndbg_cli.kernels.compact`. Two different facets can
+    share the sort number (a circle of unit normals does): only equal rows are duplicates
+    (dropping a different facet would enlarge the cone)."""
     if not len(normals):
         return normals
-    # zero rows out first (stably): the sort below then runs on the few facets only
-    nonzero = np.any(normals != 0.0, axis=2)
-    width = max(int(nonzero.sum(axis=1).max()), 1)
-    if width < normals.shape[1]:
-        first = np.argsort(~nonzero, axis=1, kind="stable")[:, :width]
-        normals = np.take_along_axis(normals, first[:, :, None].repeat(3, axis=2), axis=1)
-    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
-    # sorted by that number, ties by the rounded rows themselves: two different facets can
-    # share the number (a circle of unit normals does), and only equal rows are duplicates
-    # (dropping a different facet would enlarge the cone)
-    q = np.round(normals * 1e9)
-    order = np.lexsort((q[:, :, 2], q[:, :, 1], q[:, :, 0], key), axis=1)
-    key = np.take_along_axis(key, order, axis=1)
-    q = np.take_along_axis(q, order[:, :, None].repeat(3, axis=2), axis=1)
-    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
-    dup = np.zeros_like(key, dtype=bool)
-    dup[:, 1:] = (key[:, 1:] == key[:, :-1]) & np.all(q[:, 1:] == q[:, :-1], axis=2)
-    zero = ~np.any(nm != 0.0, axis=2)
-    drop = dup | zero
-    order = np.argsort(drop, axis=1, kind="stable")
-    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
-    width = max(int((~drop).sum(axis=1).max()), 1)
-    nm = nm[:, :width]
-    keepmask = np.take_along_axis(~drop, order, axis=1)[:, :width]
-    return np.where(keepmask[:, :, None], nm, 0.0)
+    return kernels.compact(np.ascontiguousarray(normals, dtype=float))

@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from . import equator
+from . import equator, kernels
 from .arrangement import Cell, arrangement_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
@@ -173,13 +173,12 @@ class BlockedSets:
         superset); returns the sorted indices of those inside one.
 
         A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices:
-        each direction's candidates are tested in batches growing 4x, and it drops out at its
-        first hit. Only the directions in no open cone (seams, boundaries) test all their
-        candidates."""
+        each direction's candidates are tested in turn up to its first hit
+        (:func:`ndbg_cli.kernels.open_hits`). Only the directions in no open cone (seams,
+        boundaries) test all their candidates."""
         out = np.zeros(len(d), dtype=bool)
         f, st = face_of(d[sel])
         cones = self.cones[(i, j)]
-        zero = ~np.any(cones != 0.0, axis=2)
         for face in np.unique(f):
             entry = self.trees[face].get((i, j))
             if entry is None:
@@ -198,21 +197,8 @@ class BlockedSets:
             pos = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]])  # each direction's run
             end = np.r_[pos[1:], len(pt)]
             who = rows[pt[pos]]
-            live = np.ones(len(pos), dtype=bool)
-            width = 1
-            while live.any():
-                k = np.flatnonzero(live)
-                take = np.minimum(end[k] - pos[k], width)
-                rep = np.repeat(k, take)
-                h = pos[rep] + np.arange(len(rep)) - np.repeat(np.cumsum(take) - take, take)
-                c = index[item[h]]
-                v = np.einsum("hkx,hx->hk", cones[c], d[who[rep]])
-                hit = np.unique(rep[np.all((v > OPEN_TOL) | zero[c], axis=1)])
-                out[who[hit]] = True
-                live[hit] = False
-                pos[k] += take
-                live &= pos < end
-                width *= 4
+            out[who[kernels.open_hits(cones, np.ascontiguousarray(d[who]), pos, end,
+                                      np.ascontiguousarray(index[item]), OPEN_TOL)]] = True
         return np.flatnonzero(out)
 
 

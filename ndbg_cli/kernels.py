@@ -1,0 +1,732 @@
+"""Compiled kernels (numba, ``@njit(cache=True)``) of the hot loops of the infinite-translation
+NDBG: per-item loops that the numpy versions ran as padded, masked array passes.
+
+Each kernel computes, operation by operation, what the numpy code it replaces computed
+(same expressions, same evaluation order, no fast-math, no fused multiply-add), so the
+results are bit-identical; only the padding of the outputs (entries past a count) may differ,
+and no caller reads it. The first call of a kernel in a fresh environment compiles it (the
+cache then lives in ``__pycache__`` beside this file).
+"""
+
+from __future__ import annotations
+
+import llvmlite.ir as llir
+import numpy as np
+from numba import njit, types
+from numba.extending import intrinsic
+
+# --------------------------------------------------------------------------------------------
+# Dot products of 3-vectors, rounded as numpy rounds them
+# --------------------------------------------------------------------------------------------
+# numpy's matmul (OpenBLAS, with fused multiply-adds) and einsum (its own sum-of-products
+# loops) each sum three products in their own order; to give the same bits the kernels
+# repeat that order (measured on this stack for every shape the callers use; a matmul of
+# fewer than about 8 rows may take another order, a last-bit difference that only a
+# comparison exactly at its threshold could see).
+
+
+#: The six cube faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array
+#: (:data:`ndbg_cli.cubemap.FACES`; frozen into the kernels when they compile).
+FACES = np.array([
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
+    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
+    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
+    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+], dtype=np.float64)
+
+
+@intrinsic
+def _fma(typingctx, a, b, c):
+    """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        d = llir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [d], llir.FunctionType(d, [d, d, d]))
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+@njit(cache=True, inline="always")
+def dot_matmul(x0, x1, x2, y0, y1, y2):
+    """``x . y`` as numpy's matmul of ``(n, 3) @ (3, m)`` rounds it:
+    ``fma(x2, y2, fma(x1, y1, x0 y0))``."""
+    return _fma(x2, y2, _fma(x1, y1, x0 * y0))
+
+
+@njit(cache=True, inline="always")
+def dot_matvec(x0, x1, x2, y0, y1, y2):
+    """``x . y`` as numpy's matmul of ``(..., 3) @ (3,)`` (OpenBLAS's gemv) rounds it:
+    ``fma(x2, y2, (0 + x0 y0) + x1 y1)`` (from ``+0``: a zero result is never ``-0``)."""
+    return _fma(x2, y2, (0.0 + x0 * y0) + x1 * y1)
+
+
+@njit(cache=True, inline="always")
+def dot_einsum(x0, x1, x2, y0, y1, y2):
+    """``x . y`` as ``np.einsum`` contracting an axis of length 3 rounds it:
+    ``(x0 y0 + x2 y2) + x1 y1``."""
+    return (x0 * y0 + x2 * y2) + x1 * y1
+
+
+@njit(cache=True)
+def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
+    """Clip the quadrilateral ``sq`` ``(4, 2)`` by the half-planes ``coef`` ``(k, 3)`` of one
+    cone (see :func:`clip_square`), in the work arrays ``cur``, ``buf`` ``(c, 2)`` and ``f``
+    ``(c,)`` (``c >= 4``; replaced by larger ones when a step needs more room). Returns
+    ``(n, widest, cur, buf, f)``: the polygon is ``cur[:n]``; ``widest`` is the largest vertex
+    count a cut produced (-1 without a cut)."""
+    k = coef.shape[0]
+    widest = -1
+    # a half-plane with the four corners strictly outside excludes the square (convex)
+    for r in range(k):
+        a, b, c = coef[r, 0], coef[r, 1], coef[r, 2]
+        out = True
+        for j in range(4):
+            if not sq[j, 0] * a + sq[j, 1] * b + c < 0.0:
+                out = False
+                break
+        if out:
+            return 0, widest, cur, buf, f
+    for j in range(4):
+        cur[j, 0] = sq[j, 0]
+        cur[j, 1] = sq[j, 1]
+    n = 4
+    for r in range(k):
+        a, b, c = coef[r, 0], coef[r, 1], coef[r, 2]
+        if (a == 0.0 and b == 0.0 and c == 0.0) or n < 3:
+            continue
+        some_in = False
+        some_out = False
+        for j in range(n):
+            f[j] = cur[j, 0] * a + cur[j, 1] * b + c
+            if f[j] >= 0.0:
+                some_in = True
+            if f[j] < 0.0:
+                some_out = True
+        if not some_in:
+            n = 0
+            continue
+        if not some_out:
+            continue
+        if 2 * n > len(buf):  # more crossings than a convex polygon has: room for all
+            buf = np.empty((2 * n, 2))
+        m = 0
+        for j in range(n):
+            nx = j + 1 if j + 1 < n else 0
+            fa, fb = f[j], f[nx]
+            if fa >= 0.0:
+                buf[m, 0] = cur[j, 0]
+                buf[m, 1] = cur[j, 1]
+                m += 1
+            if (fa >= 0.0 and fb < 0.0) or (fa < 0.0 and fb >= 0.0):
+                w = fa / (fa - fb)
+                buf[m, 0] = cur[j, 0] + w * (cur[nx, 0] - cur[j, 0])
+                buf[m, 1] = cur[j, 1] + w * (cur[nx, 1] - cur[j, 1])
+                m += 1
+        cur, buf = buf, cur
+        if len(f) < len(cur):
+            f = np.empty(len(cur))
+        n = m
+        widest = max(widest, m)
+    return n, widest, cur, buf, f
+
+
+@njit(cache=True)
+def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Clip the convex quadrilateral ``sq`` ``(4, 2)`` (counter-clockwise, chart units) by the
+    half-planes ``a s + b t + c >= 0`` of each cone: ``coef`` ``(p, k, 3)`` rows ``(a, b, c)``,
+    an all-zero row being no constraint (padding).
+
+    Returns ``(poly, count)``: ``poly`` ``(p, w, 2)`` vertices (counter-clockwise; the entries
+    past ``count[i]`` are zero) and ``count`` ``(p,)``; ``count[i] < 3`` when cone ``i``
+    misses the quadrilateral (0 when one half-plane has all four corners strictly outside,
+    tested before any clipping). ``w`` is the largest count produced (at least 4), capped at
+    ``max_vertices``. Sutherland-Hodgman, one half-plane at a time in row order, skipping a
+    polygon once it has fewer than 3 vertices; a vertex is inside when its value is ``>= 0``
+    and a crossing of edge ``p -> q`` is ``p + w (q - p)``, ``w = f(p) / (f(p) - f(q))``.
+    """
+    p, k, _ = coef.shape
+    keep = max(4, max_vertices)  # no output row is wider
+    store = np.zeros((p, keep, 2))
+    count = np.zeros(p, dtype=np.int64)
+    cur = np.empty((8 + 2 * k, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    width = 4
+    grown = False
+    for i in range(p):
+        n, widest, cur, buf, f = _clip(coef[i], sq, cur, buf, f)
+        if widest >= 0:
+            grown = True
+            width = max(width, widest)
+        count[i] = n
+        for j in range(min(n, keep)):
+            store[i, j, 0] = cur[j, 0]
+            store[i, j, 1] = cur[j, 1]
+    if grown and width > max_vertices:
+        width = max_vertices
+    return store[:, :width].copy(), count
+
+
+@njit(cache=True)
+def _cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: float,
+                  out: np.ndarray, scale: np.ndarray) -> bool:
+    """:func:`cone_normals` of one generator set ``gens`` ``(g, 3)`` into ``out`` ``(2 q, 3)``
+    (zeroed by the caller; ``scale``: work array ``(g,)``). Returns whether some candidate
+    has every generator in its plane (its ``-n`` written to row ``q + c``)."""
+    g = gens.shape[0]
+    q = len(pa)
+    any_both = False
+    big = 0.0
+    for k in range(g):
+        x0, x1, x2 = gens[k, 0], gens[k, 1], gens[k, 2]
+        scale[k] = np.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
+        if k == 0 or scale[k] > big:
+            big = scale[k]
+    for c in range(q):
+        a0, a1, a2 = gens[pa[c], 0], gens[pa[c], 1], gens[pa[c], 2]
+        b0, b1, b2 = gens[pb[c], 0], gens[pb[c], 1], gens[pb[c], 2]
+        n0 = a1 * b2 - a2 * b1
+        n1 = a2 * b0 - a0 * b2
+        n2 = a0 * b1 - a1 * b0
+        norm = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+        valid = norm > 1e-12 * big * big
+        if valid:
+            n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
+        else:
+            n0, n1, n2 = 0.0, 0.0, 0.0
+        pos = True
+        neg = True
+        for k in range(g):
+            d = dot_einsum(n0, n1, n2, gens[k, 0], gens[k, 1], gens[k, 2])
+            lim = rel_tol * scale[k]
+            if not d >= -lim:
+                pos = False
+            if not d <= lim:
+                neg = False
+        sign = 1.0 if pos else (-1.0 if neg else 0.0)
+        out[c, 0] = n0 * sign
+        out[c, 1] = n1 * sign
+        out[c, 2] = n2 * sign
+        if pos and neg and valid:
+            any_both = True
+            out[q + c, 0] = -n0
+            out[q + c, 1] = -n1
+            out[q + c, 2] = -n2
+    return any_both
+
+
+@njit(cache=True)
+def cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: float
+                 ) -> np.ndarray:
+    """Candidate facets of the conic hulls of generator sets (see
+    :func:`ndbg_cli.cubemap.cone_normals`): ``gens`` ``(p, g, 3)``, candidate planes through
+    generators ``pa[c]``, ``pb[c]`` (``(q,)`` each). Returns ``(p, q, 3)`` signed unit normals
+    (zero where the candidate is not a facet), or ``(p, 2 q, 3)`` when some candidate of the
+    batch has every generator in its plane within tolerance: its ``-n`` is then in row
+    ``q + c`` (zero rows elsewhere). A candidate is valid when ``|n| > 1e-12 big^2`` (``big``
+    the longest generator) and a side holds every generator within ``rel_tol`` times its
+    length."""
+    p, g, _ = gens.shape
+    q = len(pa)
+    out = np.zeros((p, 2 * q, 3))
+    scale = np.empty(g)
+    any_both = False
+    for i in range(p):
+        if _cone_normals(gens[i], pa, pb, rel_tol, out[i], scale):
+            any_both = True
+    if any_both:
+        return out
+    return out[:, :q].copy()
+
+
+@njit(cache=True)
+def _before(key, q, a, b):
+    """Row ``a`` sorts before row ``b``: by ``key``, then the rounded components in order."""
+    if key[a] != key[b]:
+        return key[a] < key[b]
+    for t in range(3):
+        if q[a, t] != q[b, t]:
+            return q[a, t] < q[b, t]
+    return False
+
+
+@njit(cache=True)
+def _compact(normals: np.ndarray, w0: int, rows: np.ndarray, sel: np.ndarray,
+             key: np.ndarray, q: np.ndarray, order: np.ndarray) -> int:
+    """:func:`compact` of one cone ``normals`` ``(k, 3)``, sorting the first ``w0`` rows of
+    its stable partition nonzero-first; the kept rows go to ``rows`` (``(>= w0, 3)``), their
+    number is returned (``sel`` ``(k,)``, ``key``, ``q``, ``order``: work arrays of ``w0``
+    rows)."""
+    k = normals.shape[0]
+    m = 0
+    for r in range(k):
+        if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
+            sel[m] = r
+            m += 1
+    for r in range(k):
+        if not (normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0):
+            sel[m] = r
+            m += 1
+    for t in range(w0):
+        x0, x1, x2 = normals[sel[t], 0], normals[sel[t], 1], normals[sel[t], 2]
+        key[t] = np.rint(dot_matvec(x0, x1, x2, 1.0, np.pi, np.e) * 1e9)
+        q[t, 0] = np.rint(x0 * 1e9)
+        q[t, 1] = np.rint(x1 * 1e9)
+        q[t, 2] = np.rint(x2 * 1e9)
+        # stable insertion sort
+        s = t
+        while s > 0 and _before(key, q, t, order[s - 1]):
+            order[s] = order[s - 1]
+            s -= 1
+        order[s] = t
+    kept = 0
+    for t in range(w0):
+        r = sel[order[t]]
+        if normals[r, 0] == 0.0 and normals[r, 1] == 0.0 and normals[r, 2] == 0.0:
+            continue
+        if t > 0:
+            u = order[t - 1]
+            v = order[t]
+            if key[u] == key[v] and q[u, 0] == q[v, 0] and q[u, 1] == q[v, 1] \
+                    and q[u, 2] == q[v, 2]:
+                continue
+        rows[kept, 0] = normals[r, 0]
+        rows[kept, 1] = normals[r, 1]
+        rows[kept, 2] = normals[r, 2]
+        kept += 1
+    return kept
+
+
+@njit(cache=True)
+def compact(normals: np.ndarray) -> np.ndarray:
+    """Drop zero rows and duplicates per cone (see :func:`ndbg_cli.cubemap.compact`):
+    ``normals`` ``(p, k, 3)`` to ``(p, w, 3)``, ``w`` the most rows kept (at least 1), the
+    kept rows first, zero rows after. Within a cone the first ``w0`` rows of the stable
+    partition nonzero-first (``w0`` the most nonzero rows of a cone of the batch) are sorted
+    stably by ``key = round(1e9 n . (1, pi, e))``, then by the rows rounded to ``1e-9``;
+    a row equal to the previous one in both is a duplicate."""
+    p, k, _ = normals.shape
+    w0 = 1
+    for i in range(p):
+        nz = 0
+        for r in range(k):
+            if normals[i, r, 0] != 0.0 or normals[i, r, 1] != 0.0 or normals[i, r, 2] != 0.0:
+                nz += 1
+        w0 = max(w0, nz)
+    w0 = min(w0, k)
+    rows = np.empty((p, w0, 3))
+    kept = np.zeros(p, dtype=np.int64)
+    sel = np.empty(k, dtype=np.int64)
+    key = np.empty(w0)
+    q = np.empty((w0, 3))
+    order = np.empty(w0, dtype=np.int64)
+    for i in range(p):
+        kept[i] = _compact(normals[i], w0, rows[i], sel, key, q, order)
+    w = 1
+    for i in range(p):
+        w = max(w, kept[i])
+    out = np.zeros((p, w, 3))
+    for i in range(p):
+        for t in range(kept[i]):
+            out[i, t, 0] = rows[i, t, 0]
+            out[i, t, 1] = rows[i, t, 1]
+            out[i, t, 2] = rows[i, t, 2]
+    return out
+
+
+@njit(cache=True)
+def flat(cones: np.ndarray, tol: float) -> np.ndarray:
+    """``(p,)`` whether some two rows ``m``, ``m'`` of each cone ``(p, k, 3)`` have
+    ``m . m' <= -1 + tol`` (a row with itself included, as the einsum of the numpy version
+    had it)."""
+    p, k, _ = cones.shape
+    out = np.zeros(p, dtype=np.bool_)
+    lim = -1.0 + tol
+    for i in range(p):
+        for a in range(k):
+            for b in range(k):
+                if dot_einsum(cones[i, a, 0], cones[i, a, 1], cones[i, a, 2],
+                              cones[i, b, 0], cones[i, b, 1], cones[i, b, 2]) <= lim:
+                    out[i] = True
+                    break
+            if out[i]:
+                break
+    return out
+
+
+@njit(cache=True)
+def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarray,
+                        sides: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether each term (cone spanned by ``gens`` ``(p, g, 3)`` cut by the open
+    half-spaces ``facing`` ``(p, f, 3)``) misses every window ``w`` (its corner directions
+    ``corners[w]`` ``(4, 3)``, the inward normals of its sides ``sides[w]`` ``(4, 3)``): on
+    each, every generator strictly outside one side (``< 0``) or the four corners outside
+    one facing half-space (``<= 0``). With no window, every term misses."""
+    p, g, _ = gens.shape
+    nw = corners.shape[0]
+    out = np.ones(p, dtype=np.bool_)
+    for i in range(p):
+        for w in range(nw):
+            miss = False
+            for s in range(4):
+                allout = True
+                for k in range(g):
+                    if not dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
+                                      sides[w, s, 0], sides[w, s, 1], sides[w, s, 2]) < 0.0:
+                        allout = False
+                        break
+                if allout:
+                    miss = True
+                    break
+            if not miss:
+                for f in range(facing.shape[1]):
+                    allout = True
+                    for c in range(4):
+                        if not dot_matmul(facing[i, f, 0], facing[i, f, 1], facing[i, f, 2],
+                                          corners[w, c, 0], corners[w, c, 1],
+                                          corners[w, c, 2]) <= 0.0:
+                            allout = False
+                            break
+                    if allout:
+                        miss = True
+                        break
+            if not miss:
+                out[i] = False
+                break
+    return out
+
+
+@njit(cache=True)
+def outside(cones: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether one half-space ``m . d > 0`` of each open cone ``(p, k, 3)`` has the
+    four ``corners`` ``(4, 3)`` (a window's corner directions) strictly outside
+    (``m . c < 0``); a zero row never has."""
+    p, k, _ = cones.shape
+    out = np.zeros(p, dtype=np.bool_)
+    for i in range(p):
+        for r in range(k):
+            allout = True
+            for c in range(4):
+                if not dot_matmul(cones[i, r, 0], cones[i, r, 1], cones[i, r, 2],
+                                  corners[c, 0], corners[c, 1], corners[c, 2]) < 0.0:
+                    allout = False
+                    break
+            if allout:
+                out[i] = True
+                break
+    return out
+
+
+@njit(cache=True)
+def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
+                     faces: np.ndarray, inside: float, boxes: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Crossings of great circles (unit normals ``n`` ``(c, 3)``) on the cube faces, for the
+    circle pairs ``start <= t < stop`` of the row-major order of ``i < j`` (that of
+    ``np.triu_indices(c, 1)``) whose circles both have ``meets`` ``(c,)``.
+
+    Each pair gives ``d = n_i x n_j / |n_i x n_j|`` (skipped when ``|n_i x n_j| <= 1e-12``)
+    and ``-d``; a direction lies on the face whose axis has the largest ``d . e`` (the first
+    of equals), and is kept when that face is flagged in ``faces`` ``(6,)``, its chart point
+    has ``|s|, |t| < inside`` and lies in the face's closed box ``boxes[f]``
+    ``(x0, y0, x1, y1)`` (chart units). Returns chart points ``(m, 2)`` and their faces
+    ``(m,)``: all the ``+d`` of the pairs in order, then all the ``-d``."""
+    c = n.shape[0]
+    # the pair at position start
+    i, t = 0, 0
+    while i < c - 1 and t + (c - 1 - i) <= start:
+        t += c - 1 - i
+        i += 1
+    j = i + 1 + (start - t)
+    npairs = max(stop - start, 0)
+    dirs = np.empty((npairs, 3))
+    m = 0
+    for _ in range(npairs):
+        if i >= c - 1:
+            break
+        if meets[i] and meets[j]:
+            a0, a1, a2 = n[i, 0], n[i, 1], n[i, 2]
+            b0, b1, b2 = n[j, 0], n[j, 1], n[j, 2]
+            d0 = a1 * b2 - a2 * b1
+            d1 = a2 * b0 - a0 * b2
+            d2 = a0 * b1 - a1 * b0
+            ln = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+            if ln > 1e-12:
+                dirs[m, 0] = d0 / ln
+                dirs[m, 1] = d1 / ln
+                dirs[m, 2] = d2 / ln
+                m += 1
+        j += 1
+        if j >= c:
+            i += 1
+            j = i + 1
+    pts = np.empty((2 * m, 2))
+    lab = np.empty(2 * m, dtype=np.int64)
+    k = 0
+    for sgn in (1.0, -1.0):
+        for r in range(m):
+            d0, d1, d2 = dirs[r, 0], dirs[r, 1], dirs[r, 2]
+            if sgn < 0.0:
+                d0, d1, d2 = -d0, -d1, -d2
+            f, best = 0, d0
+            for g, val in ((1, -d0), (2, d1), (3, -d1), (4, d2), (5, -d2)):
+                if val > best:
+                    f, best = g, val
+            if not faces[f]:
+                continue
+            e, u, v = FACES[f, 0], FACES[f, 1], FACES[f, 2]
+            de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
+            s = dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de
+            tt = dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de
+            if not (abs(s) < inside and abs(tt) < inside):
+                continue
+            if not (boxes[f, 0] <= s <= boxes[f, 2] and boxes[f, 1] <= tt <= boxes[f, 3]):
+                continue
+            pts[k, 0] = s
+            pts[k, 1] = tt
+            lab[k] = f
+            k += 1
+    return pts[:k].copy(), lab[:k].copy()
+
+
+@njit(cache=True)
+def update_sat(covered: np.ndarray, sat: np.ndarray, r0: int) -> None:
+    """Bring the summed-area table ``sat`` ``(r + 1, r + 1)`` (int32; ``sat[y, x]`` the
+    number of set cells of ``covered`` ``(r, r)`` in rows ``< y`` and columns ``< x``, zero
+    first row and column) up to date for rows ``>= r0`` of ``covered`` (the rows above
+    unchanged since it was last right). In place; integer sums, so exact."""
+    r = covered.shape[0]
+    for y in range(r0, r):
+        run = 0
+        for x in range(r):
+            run += covered[y, x]
+            sat[y + 1, x + 1] = sat[y, x + 1] + run
+
+
+@njit(cache=True)
+def facing_pairs(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray,
+                 ia: np.ndarray, jb: np.ndarray, eps: float, lo_i: np.ndarray,
+                 hi_i: np.ndarray, lo_j: np.ndarray, hi_j: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """For the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` (triangles ``(n, 3, 3)``, unit
+    normals ``(n, 3)``, model units): ``(p,)`` whether they can face each other (some vertex
+    of each in front of the other's plane by more than ``-2 eps``) and ``(p,)`` whether their
+    bounding boxes (``lo_*``, ``hi_*`` ``(n, 3)``) are within ``4 eps`` (gap: the largest
+    separation along an axis)."""
+    p = len(ia)
+    keep = np.zeros(p, dtype=np.bool_)
+    near = np.zeros(p, dtype=np.bool_)
+    lim = -2 * eps
+    for k in range(p):
+        a, b = ia[k], jb[k]
+        na0, na1, na2 = ni[a, 0], ni[a, 1], ni[a, 2]
+        nb0, nb1, nb2 = nj[b, 0], nj[b, 1], nj[b, 2]
+        oi = dot_einsum(na0, na1, na2, ti[a, 0, 0], ti[a, 0, 1], ti[a, 0, 2])
+        oj = dot_einsum(nb0, nb1, nb2, tj[b, 0, 0], tj[b, 0, 1], tj[b, 0, 2])
+        fj = False
+        fi = False
+        for v in range(3):
+            if dot_einsum(na0, na1, na2, tj[b, v, 0], tj[b, v, 1], tj[b, v, 2]) - oi > lim:
+                fj = True
+            if dot_einsum(nb0, nb1, nb2, ti[a, v, 0], ti[a, v, 1], ti[a, v, 2]) - oj > lim:
+                fi = True
+        keep[k] = fj and fi
+        gap = -np.inf
+        for x in range(3):
+            gap = max(gap, max(lo_j[b, x] - hi_i[a, x], lo_i[a, x] - hi_j[b, x]))
+        near[k] = gap <= 4 * eps
+    return keep, near
+
+
+@njit(cache=True)
+def open_hits(cones: np.ndarray, d: np.ndarray, pos: np.ndarray, end: np.ndarray,
+              cand: np.ndarray, tol: float) -> np.ndarray:
+    """``(r,)`` whether direction ``d[k]`` ``(r, 3)`` (unit) lies in one of its candidate open
+    cones: ``cand[pos[k]:end[k]]`` (indices into ``cones`` ``(P, K, 3)``, unit or zero
+    rows), inside meaning ``m . d > tol`` for every nonzero row ``m``. Candidates are tried in
+    order up to the first hit."""
+    r = len(pos)
+    hit = np.zeros(r, dtype=np.bool_)
+    K = cones.shape[1]
+    for k in range(r):
+        d0, d1, d2 = d[k, 0], d[k, 1], d[k, 2]
+        for h in range(pos[k], end[k]):
+            c = cand[h]
+            inside = True
+            for t in range(K):
+                m0, m1, m2 = cones[c, t, 0], cones[c, t, 1], cones[c, t, 2]
+                if m0 == 0.0 and m1 == 0.0 and m2 == 0.0:
+                    continue
+                if not dot_einsum(m0, m1, m2, d0, d1, d2) > tol:
+                    inside = False
+                    break
+            if inside:
+                hit[k] = True
+                break
+    return hit
+
+
+@njit(cache=True)
+def _box_covered(sat: np.ndarray, lo0: float, lo1: float, hi0: float, hi1: float,
+                 h: float) -> bool:
+    """Whether every raster cell meeting the chart box ``lo..hi`` (clipped to the face) is
+    covered: one lookup in the summed-area table ``sat`` ``(r + 1, r + 1)`` (cells ``h``
+    chart units wide from -1)."""
+    top = sat.shape[0] - 2
+    x0 = int(min(max(np.floor((lo0 + 1.0) / h), 0.0), top))
+    y0 = int(min(max(np.floor((lo1 + 1.0) / h), 0.0), top))
+    x1 = int(min(max(np.floor((hi0 + 1.0) / h), 0.0), top))
+    y1 = int(min(max(np.floor((hi1 + 1.0) / h), 0.0), top))
+    got = sat[y1 + 1, x1 + 1] - sat[y0, x1 + 1] - sat[y1 + 1, x0] + sat[y0, x0]
+    return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+
+
+@njit(cache=True)
+def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
+                  rects: np.ndarray, sats: np.ndarray, h: float, coef: np.ndarray,
+                  cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
+    """Whether the closed cone ``cone`` ``(k, 3)`` lies in covered cells on every window
+    face it meets (see :func:`covers`; ``coef`` ``(k, 3)``, ``cur``, ``buf``, ``f``: work
+    arrays). Returns ``(covered, cur, buf, f)``."""
+    k = cone.shape[0]
+    for w in range(len(faces)):
+        fc = faces[w]
+        # quick test: a half-space with the window's four corners strictly outside
+        missed = False
+        for r in range(k):
+            allout = True
+            for c in range(4):
+                if not dot_matmul(cone[r, 0], cone[r, 1], cone[r, 2], corners[w, c, 0],
+                                  corners[w, c, 1], corners[w, c, 2]) < 0.0:
+                    allout = False
+                    break
+            if allout:
+                missed = True
+                break
+        if missed:
+            continue
+        e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
+        for r in range(k):
+            m0, m1, m2 = cone[r, 0], cone[r, 1], cone[r, 2]
+            coef[r, 0] = dot_matvec(m0, m1, m2, u[0], u[1], u[2])
+            coef[r, 1] = dot_matvec(m0, m1, m2, v[0], v[1], v[2])
+            coef[r, 2] = dot_matvec(m0, m1, m2, e[0], e[1], e[2])
+        x0, y0, x1, y1 = rects[w, 0], rects[w, 1], rects[w, 2], rects[w, 3]
+        sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        n, _, cur, buf, f = _clip(coef[:k], sq, cur, buf, f)
+        if n < 3:
+            continue
+        lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
+        for j in range(n):
+            lo0 = min(lo0, cur[j, 0])
+            lo1 = min(lo1, cur[j, 1])
+            hi0 = max(hi0, cur[j, 0])
+            hi1 = max(hi1, cur[j, 1])
+        if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+            return False, cur, buf, f
+    return True, cur, buf, f
+
+
+@njit(cache=True)
+def covers(cones: np.ndarray, faces: np.ndarray, corners: np.ndarray, rects: np.ndarray,
+           sats: np.ndarray, h: float) -> np.ndarray:
+    """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every face
+    it meets (:meth:`ndbg_cli.cover.Cover.covers`). Only the faces ``faces`` ``(w,)`` with a
+    window count (elsewhere every cell is covered): window ``w`` has corner directions
+    ``corners[w]`` ``(4, 3)`` and chart rectangle ``rects[w]`` (``x0, y0, x1, y1``). A cone
+    with a half-space that has the four corners strictly outside misses the window; else its
+    polygon clipped to the rectangle, when it has 3 vertices or more, must have its bounding
+    box in covered cells (summed-area tables ``sats`` ``(6, r + 1, r + 1)``, cells ``h``
+    chart units wide)."""
+    p, k, _ = cones.shape
+    ok = np.ones(p, dtype=np.bool_)
+    coef = np.empty((k, 3))
+    cur = np.empty((8 + 2 * k, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    for i in range(p):
+        ok[i], cur, buf, f = _cone_covered(cones[i], faces, corners, rects, sats, h, coef,
+                                           cur, buf, f)
+    return ok
+
+
+@njit(cache=True)
+def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.ndarray,
+                   corners: np.ndarray, rects: np.ndarray, sats: np.ndarray, h: float
+                   ) -> np.ndarray:
+    """``(p,)`` whether each closed cone spanned by ``gens`` ``(p, g, 3)`` lies in covered
+    cells on every window face it meets (:meth:`ndbg_cli.cover.Cover.covers_spanned`;
+    ``faces``, ``corners``, ``rects``, ``sats``, ``h`` as :func:`covers` takes them). A cone
+    with every generator in front of a window face's plane (``g . e > 0``) or behind it on
+    every window face is tested by the bounding box of its generators' chart points; one
+    with generators on both sides of some window face's plane by its facets (candidates
+    through the generator pairs ``pa``, ``pb``; :func:`_cone_normals`, :func:`_compact`)
+    as :func:`covers` tests a cone."""
+    p, g, _ = gens.shape
+    q = len(pa)
+    nf = len(faces)
+    ok = np.ones(p, dtype=np.bool_)
+    normals = np.zeros((2 * q, 3))
+    scale = np.empty(g)
+    rows = np.empty((2 * q, 3))
+    sel = np.empty(2 * q, dtype=np.int64)
+    key = np.empty(2 * q)
+    qq = np.empty((2 * q, 3))
+    order = np.empty(2 * q, dtype=np.int64)
+    coef = np.empty((2 * q, 3))
+    cur = np.empty((8 + 4 * q, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    front = np.empty((g, nf), dtype=np.bool_)
+    for i in range(p):
+        mixed = False
+        for w in range(nf):
+            e = FACES[faces[w], 0]
+            some, every = False, True
+            for k in range(g):
+                front[k, w] = dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
+                                         e[0], e[1], e[2]) > 0.0
+                some |= front[k, w]
+                every &= front[k, w]
+            if some and not every:
+                mixed = True
+        if mixed:
+            normals[:] = 0.0
+            rows_in = q
+            if _cone_normals(gens[i], pa, pb, 1e-9, normals, scale):
+                rows_in = 2 * q
+            nz = 0
+            for r in range(rows_in):
+                if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
+                    nz += 1
+            kept = _compact(normals[:rows_in], max(nz, 1), rows, sel, key, qq, order)
+            ok[i], cur, buf, f = _cone_covered(rows[:kept], faces, corners, rects, sats, h,
+                                               coef, cur, buf, f)
+            continue
+        for w in range(nf):
+            every = True
+            for k in range(g):
+                every &= front[k, w]
+            if not every:
+                continue
+            fc = faces[w]
+            e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
+            lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
+            for k in range(g):
+                x0, x1, x2 = gens[i, k, 0], gens[i, k, 1], gens[i, k, 2]
+                de = dot_matmul(x0, x1, x2, e[0], e[1], e[2])
+                s = dot_matvec(x0, x1, x2, u[0], u[1], u[2]) / de
+                t = dot_matvec(x0, x1, x2, v[0], v[1], v[2]) / de
+                lo0, hi0 = min(lo0, s), max(hi0, s)
+                lo1, hi1 = min(lo1, t), max(hi1, t)
+            if not (hi0 >= -1.0 and hi1 >= -1.0 and lo0 <= 1.0 and lo1 <= 1.0):
+                continue
+            if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+                ok[i] = False
+                break
+    return ok

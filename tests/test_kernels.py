@@ -1,0 +1,300 @@
+"""The compiled kernels (:mod:`ndbg_cli.kernels`) against the numpy code they replaced, kept
+here as the reference: the same counts, flags and bits (vertices up to each polygon's count;
+sign bits of zeros included where the values are outputs)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ndbg_cli import kernels
+from ndbg_cli.arrangement import circle_crossings
+from ndbg_cli.blocking_cones import unique_circles
+from ndbg_cli.cover import Cover
+from ndbg_cli.cubemap import (
+    BOX_EDGE_PAIRS,
+    DIFFERENCE_PAIRS,
+    FACES,
+    SQUARE_MARGIN,
+    clip_halfplanes,
+    compact,
+    cone_normals,
+)
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and np.array_equal(a, b) and \
+        np.array_equal(np.signbit(a), np.signbit(b))
+
+
+# --- the numpy references -------------------------------------------------------------------
+
+def _ref_clip(normals, face, max_vertices=48, shrink=0.0, rect=None):
+    e, u, v = FACES[face]
+    r = 1.0 + SQUARE_MARGIN
+    x0, y0, x1, y1 = (-r, -r, r, r) if rect is None else rect
+    sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)
+    if shrink > 0.0:
+        coef[:, :, 2] -= shrink * np.hypot(coef[:, :, 0], coef[:, :, 1])
+    at = coef[:, :, :1] * sq[:, 0] + coef[:, :, 1:2] * sq[:, 1] + coef[:, :, 2:3]
+    hit = np.nonzero(~np.any(np.all(at < 0.0, axis=2), axis=1))[0]
+    coef = coef[hit]
+    p = len(coef)
+    poly = np.broadcast_to(sq, (p, 4, 2)).copy()
+    count = np.full(p, 4, dtype=np.int64)
+    for k in range(coef.shape[1]):
+        c = coef[:, k]
+        idx = np.nonzero(np.any(c != 0.0, axis=1) & (count >= 3))[0]
+        pi, ci = poly[idx], c[idx]
+        f = pi[:, :, 0] * ci[:, :1] + pi[:, :, 1] * ci[:, 1:2] + ci[:, 2:3]
+        valid = np.arange(pi.shape[1])[None, :] < count[idx][:, None]
+        out = ~np.any(valid & (f >= 0), axis=1)
+        count[idx[out]] = 0
+        cut = ~out & np.any(valid & (f < 0), axis=1)
+        if not cut.any():
+            continue
+        pc, cc, fa = pi[cut], count[idx[cut]], f[cut]
+        m = pc.shape[1]
+        kk = np.arange(m)[None, :]
+        ok_v = kk < cc[:, None]
+        nxt = np.where(kk + 1 < cc[:, None], kk + 1, 0)
+        q = np.take_along_axis(pc, nxt[:, :, None].repeat(2, axis=2), axis=1)
+        fb = np.take_along_axis(fa, nxt, axis=1)
+        keep_a = ok_v & (fa >= 0)
+        cross = ok_v & (((fa >= 0) & (fb < 0)) | ((fa < 0) & (fb >= 0)))
+        w = np.where(cross, fa / np.where(cross, fa - fb, 1.0), 0.0)
+        x = pc + w[:, :, None] * (q - pc)
+        cand = np.stack([pc, x], axis=2).reshape(len(pc), 2 * m, 2)
+        ok = np.stack([keep_a, cross], axis=2).reshape(len(pc), 2 * m)
+        order = np.argsort(~ok, axis=1, kind="stable")
+        cand = np.take_along_axis(cand, order[:, :, None].repeat(2, axis=2), axis=1)
+        cnt = ok.sum(axis=1)
+        sub = cand[:, :max(int(cnt.max()), 1)]
+        i2 = idx[cut]
+        if sub.shape[1] > poly.shape[1]:
+            poly = np.concatenate([poly, np.zeros((p, sub.shape[1] - poly.shape[1], 2))], 1)
+        poly[i2, :sub.shape[1]] = sub
+        poly[i2, sub.shape[1]:] = 0.0
+        count[i2] = cnt
+        poly = poly[:, :max_vertices]
+    full = np.zeros((len(normals), poly.shape[1], 2))
+    cnt_full = np.zeros(len(normals), dtype=np.int64)
+    full[hit], cnt_full[hit] = poly, count
+    return full, cnt_full
+
+
+def _ref_cone_normals(gens, pairs):
+    a, b = pairs
+    n = np.cross(gens[:, a], gens[:, b])
+    norm = np.linalg.norm(n, axis=2, keepdims=True)
+    scale = np.linalg.norm(gens, axis=2)
+    big = scale.max(axis=1)[:, None, None]
+    valid = norm > 1e-12 * big * big
+    n = np.where(valid, n / np.where(valid, norm, 1.0), 0.0)
+    dots = np.einsum("pqk,pgk->pqg", n, gens)
+    lim = 1e-9 * scale[:, None, :]
+    pos, neg = np.all(dots >= -lim, axis=2), np.all(dots <= lim, axis=2)
+    out = n * np.where(pos, 1.0, np.where(neg, -1.0, 0.0))[:, :, None]
+    both = pos & neg & valid[:, :, 0]
+    if both.any():
+        out = np.concatenate([out, np.where(both[:, :, None], -n, 0.0)], axis=1)
+    return out
+
+
+def _ref_compact(normals):
+    nonzero = np.any(normals != 0.0, axis=2)
+    width = max(int(nonzero.sum(axis=1).max()), 1)
+    if width < normals.shape[1]:
+        first = np.argsort(~nonzero, axis=1, kind="stable")[:, :width]
+        normals = np.take_along_axis(normals, first[:, :, None].repeat(3, axis=2), axis=1)
+    key = np.round(normals @ np.array([1.0, np.pi, np.e]) * 1e9)
+    q = np.round(normals * 1e9)
+    order = np.lexsort((q[:, :, 2], q[:, :, 1], q[:, :, 0], key), axis=1)
+    key = np.take_along_axis(key, order, axis=1)
+    q = np.take_along_axis(q, order[:, :, None].repeat(3, axis=2), axis=1)
+    nm = np.take_along_axis(normals, order[:, :, None].repeat(3, axis=2), axis=1)
+    dup = np.zeros_like(key, dtype=bool)
+    dup[:, 1:] = (key[:, 1:] == key[:, :-1]) & np.all(q[:, 1:] == q[:, :-1], axis=2)
+    drop = dup | ~np.any(nm != 0.0, axis=2)
+    order = np.argsort(drop, axis=1, kind="stable")
+    nm = np.take_along_axis(nm, order[:, :, None].repeat(3, axis=2), axis=1)
+    width = max(int((~drop).sum(axis=1).max()), 1)
+    keep = np.take_along_axis(~drop, order, axis=1)[:, :width]
+    return np.where(keep[:, :, None], nm[:, :width], 0.0)
+
+
+def _gens(rng: np.random.Generator, p: int, flat_share: bool) -> np.ndarray:
+    """Generators of triangle-pair terms ``(p, 9, 3)``; with ``flat_share`` integer-valued
+    and partly coplanar (the degenerate facets of an axis-aligned assembly)."""
+    ti = rng.normal(size=(p, 3, 3))
+    tj = rng.normal(size=(p, 3, 3)) + 2.0 * rng.normal(size=3)
+    if flat_share:
+        ti, tj = np.round(ti), np.round(tj)
+        ti[:, :, 2] = 0.0
+        tj[:, :, 2] = np.where(rng.random((p, 1)) < 0.5, 0.0, 1.0)
+    return (tj[:, :, None, :] - ti[:, None, :, :]).reshape(p, 9, 3)
+
+
+# --- the tests --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("seed", range(4))
+def test_clip_matches_numpy(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    for trial in range(30):
+        p, k = int(rng.integers(1, 150)), int(rng.integers(1, 12))
+        n = rng.normal(size=(p, k, 3))
+        n /= np.linalg.norm(n, axis=2, keepdims=True)
+        n[rng.random((p, k)) < 0.2] = 0.0
+        if trial % 3 == 0:  # repeated and opposite rows, rounded: degenerate cuts
+            n[:, 1:] = np.where(rng.random((p, k - 1, 1)) < 0.3, -n[:, :1], n[:, 1:])
+            n = np.round(n, 3)
+        kw = {"max_vertices": [48, k + 4][trial % 2], "shrink": [0.0, 1e-5][trial % 2],
+              "rect": None if trial % 4 else (-0.3, -1.0, 0.7, 0.2)}
+        face = int(rng.integers(6))
+        a, ca = _ref_clip(n, face, **kw)
+        b, cb = clip_halfplanes(n, face, **kw)
+        assert a.shape == b.shape and np.array_equal(ca, cb)
+        for i in np.flatnonzero(ca):
+            assert np.array_equal(a[i, :ca[i]], b[i, :cb[i]])
+
+
+@pytest.mark.parametrize("flat_share", [False, True])
+def test_cone_normals_and_compact_match_numpy(flat_share: bool) -> None:
+    rng = np.random.default_rng(int(flat_share))
+    for _ in range(10):
+        gens = _gens(rng, int(rng.integers(1, 2000)), flat_share)
+        m = cone_normals(gens, pairs=DIFFERENCE_PAIRS)
+        assert _same(m, _ref_cone_normals(gens, DIFFERENCE_PAIRS))
+        assert _same(compact(m), _ref_compact(m))
+
+
+def test_cover_tests_match_numpy() -> None:
+    """covers, covers_spanned and misses_spanned_open against their numpy versions on a
+    cover filled step by step (the flags that decide which terms the walk keeps)."""
+    rng = np.random.default_rng(7)
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], bool)
+    seen = [0, 0]
+    for t in range(12):
+        cover = Cover(domain=rng.random((6, 8, 8)) < rng.random() if t % 2 else None)
+        for _ in range(4):
+            gens = _gens(rng, int(rng.integers(1, 300)), False)
+            cones = compact(cone_normals(gens, pairs=DIFFERENCE_PAIRS))
+            if not cover.empty:
+                ref = np.ones(len(cones), dtype=bool)
+                for face in range(6):
+                    if cover.window(face) is None:
+                        continue
+                    poly, cnt = _ref_clip(cones, face, rect=cover.window(face))
+                    for i in np.flatnonzero(cnt >= 3):
+                        lo, hi = poly[i, :cnt[i]].min(axis=0), poly[i, :cnt[i]].max(axis=0)
+                        ref[i] &= _box_ref(cover, face, lo, hi)
+                got = cover.covers(cones)
+                assert np.array_equal(got, ref)
+                seen[0] += got.sum()
+                lo = rng.normal(size=(len(cones), 3)) * 3
+                hi = lo + rng.random((len(cones), 3)) * rng.random() * 3
+                box = np.where(corners[None], hi[:, None], lo[:, None])
+                got = cover.covers_spanned(box, pairs=BOX_EDGE_PAIRS)
+                assert np.array_equal(got, _ref_spanned(cover, box))
+                seen[1] += got.sum()
+                facing = rng.normal(size=(len(gens), 2, 3))
+                ref = np.ones(len(gens), dtype=bool)
+                for face in range(6):
+                    pyr = cover._window_pyramid(face)
+                    if pyr is not None:
+                        miss = (gens @ pyr[1].T < 0.0).all(axis=1).any(axis=1)
+                        ref &= miss | (facing @ pyr[0].T <= 0.0).all(axis=2).any(axis=1)
+                assert np.array_equal(cover.misses_spanned_open(gens, facing), ref)
+            cover.add(cones)
+    assert min(seen) > 0  # some cones are covered: the tests can fail
+
+
+def _box_ref(cover: Cover, face: int, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Every raster cell meeting the chart box is covered (direct scan)."""
+    r, h = cover.r, cover.h
+    c0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(int)
+    c1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(int)
+    return bool(cover.covered[face, c0[1]:c1[1] + 1, c0[0]:c1[0] + 1].all())
+
+
+def _ref_spanned(cover: Cover, gens: np.ndarray) -> np.ndarray:
+    se = gens @ FACES[:, 0].T
+    front = se > 0.0
+    faces = [f for f in range(6) if cover.window(f) is not None]
+    fw = front[:, :, faces]
+    mixed = (fw.any(axis=1) & ~fw.all(axis=1)).any(axis=1)
+    ok = np.ones(len(gens), dtype=bool)
+    if mixed.any():
+        m = _ref_compact(_ref_cone_normals(gens[mixed], BOX_EDGE_PAIRS))
+        sub = np.ones(len(m), dtype=bool)
+        for face in faces:
+            poly, cnt = _ref_clip(m, face, rect=cover.window(face))
+            for i in np.flatnonzero(cnt >= 3):
+                lo, hi = poly[i, :cnt[i]].min(axis=0), poly[i, :cnt[i]].max(axis=0)
+                sub[i] &= _box_ref(cover, face, lo, hi)
+        ok[mixed] = sub
+    for face in faces:
+        e, u, v = FACES[face]
+        for i in np.flatnonzero(~mixed & front[:, :, face].all(axis=1)):
+            st = np.stack([gens[i] @ u, gens[i] @ v], axis=1) / se[i, :, face, None]
+            lo, hi = st.min(axis=0), st.max(axis=0)
+            if (hi >= -1.0).all() and (lo <= 1.0).all():
+                ok[i] &= _box_ref(cover, face, lo, hi)
+    return ok
+
+
+def test_sat_updates_in_place() -> None:
+    rng = np.random.default_rng(3)
+    cov = rng.random((64, 64)) < 0.7
+    sat = np.zeros((65, 65), dtype=np.int32)
+    kernels.update_sat(cov, sat, 0)
+    cov[40:] = rng.random((24, 64)) < 0.5
+    kernels.update_sat(cov, sat, 40)
+    ref = np.zeros_like(sat)
+    ref[1:, 1:] = cov.cumsum(axis=0).cumsum(axis=1)
+    assert np.array_equal(sat, ref)
+
+
+def test_circle_crossings_match_numpy() -> None:
+    """The crossings of axis-aligned and nearly concurrent circles against the numpy
+    computation: the same points in the same order, zeros' signs included."""
+    import shapely
+
+    rng = np.random.default_rng(2)
+    n = rng.normal(size=(200, 3))
+    n[:60] = np.round(n[:60])
+    ang = rng.random(60) * 6.28
+    n[60:120] = np.stack([np.cos(ang), np.sin(ang), 1e-3 * rng.normal(size=60)], axis=1)
+    n = n[np.linalg.norm(n, axis=1) > 0]
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    dom = [shapely.Point(0.1 * f - 0.2, 0.05).buffer(0.5) for f in range(6)]
+    for domain in (None, dom):
+        got = circle_crossings(n, 0.01, domain)
+        a, b = np.triu_indices(len(n), k=1)
+        d = np.cross(n[a], n[b])
+        ln = np.linalg.norm(d, axis=1)
+        d = d[ln > 1e-12] / ln[ln > 1e-12, None]
+        d = np.concatenate([d, -d])
+        owner = np.argmax(d @ FACES[:, 0].T, axis=1)
+        for face in range(6):
+            e, u, v = FACES[face]
+            df = d[owner == face]
+            st = np.stack([(df @ u) / (df @ e), (df @ v) / (df @ e)], axis=1)
+            st = st[(np.abs(st) < 1.0 - 1e-7).all(axis=1)]
+            if domain is not None:
+                st = st[shapely.contains_xy(domain[face], st[:, 0], st[:, 1])]
+            _, idx = np.unique(np.round(st / 0.01), axis=0, return_index=True)
+            assert _same(got[face], st[np.sort(idx)])
+
+
+def test_unique_circles_first_occurrences() -> None:
+    rng = np.random.default_rng(4)
+    base = np.round(rng.normal(size=(20, 3)))
+    base = base[np.abs(base).sum(axis=1) > 0]
+    x = base[rng.integers(0, len(base), 500)] * np.where(rng.random((500, 1)) < 0.5, -1, 1)
+    n = x / np.linalg.norm(x, axis=1, keepdims=True)
+    first = np.argmax(np.abs(n) > 1e-12, axis=1)
+    n = n * np.sign(n[np.arange(len(n)), first])[:, None]
+    _, idx = np.unique(np.round(n, 9), axis=0, return_index=True)
+    assert _same(unique_circles(x), n[np.sort(idx)])
