@@ -15,7 +15,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
-from . import kernels
 from .blocking_cones import GRID
 from .cubemap import FACES, SQUARE_MARGIN, direction_of
 
@@ -271,6 +270,7 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     with ``domain`` (per face chart geometry or ``None``), inside it. Crossings closer than
     ``eta`` are merged (the first kept), as the nearly concurrent circles of a tessellated
     cylinder's facets all are near its axis."""
+    from . import kernels
     n = np.ascontiguousarray(normals, dtype=float)
     npairs = len(n) * (len(n) - 1) // 2
     found: list[list[np.ndarray]] = [[] for _ in range(6)]

@@ -60,7 +60,6 @@ import numpy as np
 import shapely
 import trimesh
 
-from . import kernels
 from .assembly import Assembly
 from .cover import Cover, run_offsets
 from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, clip_halfplanes, compact, cone_normals
@@ -124,6 +123,7 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     that miss every cell it leaves open are left out early, by its quick tests on the
     generators (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open`) before the facets are
     computed, then on the facets (:meth:`~ndbg_cli.cover.Cover.misses_open`)."""
+    from . import kernels
     if not len(ia):
         return _EMPTY
     # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
@@ -177,6 +177,7 @@ def flat(cones: np.ndarray) -> np.ndarray:
     within :data:`FLAT`: an empty open set. Coplanar faces of two parts make such terms (the
     generators of ``t_j - t_i`` in one plane, or ``n_i = n_j``); on AS1 they are about half of
     all terms, and being lines across a whole face, the cover could never prune them."""
+    from . import kernels
     if not len(cones):
         return np.zeros(0, dtype=bool)
     return kernels.flat(np.ascontiguousarray(cones, dtype=float), FLAT)

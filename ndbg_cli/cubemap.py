@@ -19,11 +19,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kernels
-
-#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array (defined with the
-#: compiled kernels, which use them).
-FACES = kernels.FACES
+#: The six faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array (the compiled
+#: kernels, :mod:`ndbg_cli.kernels`, freeze it when they compile).
+FACES = np.array([
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
+    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
+    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
+    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
+    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+], dtype=np.float64)
 
 #: Slight enlargement of the chart square so that directions on a cube edge are covered on
 #: both faces (chart units).
@@ -62,6 +67,7 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
     empty, as it should be. ``pairs`` (two index arrays) restricts the candidates to those
     generator pairs (:data:`DIFFERENCE_PAIRS` for the 9 vertex differences of two triangles).
     """
+    from . import kernels
     gens = np.ascontiguousarray(gens, dtype=float)
     a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
     return kernels.cone_normals(gens, np.asarray(a, dtype=np.int64),
@@ -107,6 +113,7 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face): see
     :func:`ndbg_cli.kernels.clip_square`.
     """
+    from . import kernels
     e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
     x0, y0, x1, y1 = (-r, -r, r, r) if rect is None else rect
@@ -132,6 +139,7 @@ def compact(normals: np.ndarray) -> np.ndarray:
     the padding ``(p, k, 3)``: :func:`ndbg_cli.kernels.compact`. Two different facets can
     share the sort number (a circle of unit normals does): only equal rows are duplicates
     (dropping a different facet would enlarge the cone)."""
+    from . import kernels
     if not len(normals):
         return normals
     return kernels.compact(np.ascontiguousarray(normals, dtype=float))

@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from . import equator, kernels
+from . import equator
 from .arrangement import Cell, arrangement_cells
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
@@ -176,6 +176,7 @@ class BlockedSets:
         each direction's candidates are tested in turn up to its first hit
         (:func:`ndbg_cli.kernels.open_hits`). Only the directions in no open cone (seams,
         boundaries) test all their candidates."""
+        from . import kernels
         out = np.zeros(len(d), dtype=bool)
         f, st = face_of(d[sel])
         cones = self.cones[(i, j)]

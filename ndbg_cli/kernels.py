@@ -15,6 +15,8 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
+from .cubemap import FACES as _FACES
+
 # --------------------------------------------------------------------------------------------
 # Dot products of 3-vectors, rounded as numpy rounds them
 # --------------------------------------------------------------------------------------------
@@ -25,16 +27,9 @@ from numba.extending import intrinsic
 # comparison exactly at its threshold could see).
 
 
-#: The six cube faces: (axis e, chart u, chart v), rows of a (6, 3, 3) array
-#: (:data:`ndbg_cli.cubemap.FACES`; frozen into the kernels when they compile).
-FACES = np.array([
-    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
-    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
-    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
-    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
-    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
-    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
-], dtype=np.float64)
+#: The six cube faces (:data:`ndbg_cli.cubemap.FACES`; frozen into the kernels when they
+#: compile).
+FACES = _FACES
 
 
 @intrinsic
