@@ -592,3 +592,79 @@ def test_an_arrangement_too_large_to_hold_is_skipped_with_its_size(monkeypatch):
     sec = rep["ndbg"]["infinite_translation"]
     assert sec["skipped"] and "regions over 3 parts" in sec["why"]
     assert rep["plan"]["found"]  # the other families still plan
+
+
+def pocket_2d(left: float, right: float, clearance: float = 0.0,
+              theta: float = 0.0, scale: float = 1.0) -> Assembly:
+    """A plate 10 x 1 (mm) with a pocket under a 2 mm block standing in it (to y = 2): the
+    pocket's floor is at ``y = 1 - right``, its left wall ``left`` high, its right wall
+    ``right`` high and ``clearance`` right of the block (which touches the left wall). The
+    whole turned by ``theta`` (radians) about the origin after scaling by ``scale``."""
+    from ndbg_cli.validate import make_polygon_part
+
+    c, s = np.cos(theta), np.sin(theta)
+    t = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    floor, x1 = 1.0 - right, 6.0 + clearance
+    base = make_polygon_part("base", [(0, 0), (10, 0), (10, 1), (x1, 1), (x1, floor),
+                                      (4, floor), (4, floor + left), (0, floor + left)],
+                             transform=t, scale=scale)[0]
+    block = make_polygon_part("block", [(4, floor), (6, floor), (6, 2), (4, 2)],
+                              transform=t, scale=scale)[0]
+    return Assembly("pocket2d", (base, block), dimension=2)
+
+
+@pytest.mark.parametrize("theta,scale", [(0.0, 1.0), (np.radians(30.0), 1000.0),
+                                         (2.0, 0.01)])
+def test_2d_short_pocket_is_left_along_its_walls(theta, scale):
+    """The block of :func:`pocket_2d` with walls 0.1 and 0.3 high, no clearance (hand answer):
+    it comes out only straight up (the walls' sliding direction): turned right of +y its
+    right side meets the right wall, left of it its left side the left wall. Eroded by
+    ``3 eps`` (``eps`` = 1e-4 x the diagonal, 1.02e-3 mm), the free band runs from
+    ``3 eps / 0.3`` rad right of +y to ``3 eps / 0.1`` left of it: 0.041 rad, 8 ``eta``
+    (5e-3 rad), a 1-dimensional region whose middle, 0.010 rad left of +y, sinks the block's
+    corner ``eps`` into the left wall: the direct test blocks it there. The region is
+    represented by +y itself (still 1-dimensional), where the direct test frees the block;
+    the same, turned and scaled, for the base coming out along -y."""
+    from ndbg_cli.equator import equator_extents, sliding_angles
+
+    asm = pocket_2d(0.1, 0.3, theta=theta, scale=scale)
+    nd = build_infinite(asm)
+    eps, eta = asm.length_tolerance, nd.stats["angular_tolerance"]
+    assert eta == pytest.approx(5e-3)
+    sc = SweepChecker(asm)
+    for moved, up in (("block", np.pi / 2), ("base", -np.pi / 2)):
+        free = [r for r in nd.regions if r.dbg.is_free(nd.mask([moved]))]
+        assert len(free) == 1 and free[0].dimension == 1
+        want = np.array([np.cos(up + theta), np.sin(up + theta)])
+        assert np.allclose(free[0].direction, want, atol=1e-12)
+        assert sc.dbg(np.array(free[0].direction)).succ == free[0].dbg.succ
+        assert free[0].sliding == 1  # along both walls (one contact circle, normal x)
+    # the band's extent, by hand: 3 eps / 0.3 and 3 eps / 0.1 (scaled) either side of +y
+    bs = nd.geometry
+    ext = equator_extents(bs.arcs, bs.n, bs.eta, sliding_angles(bs.circles))
+    (lo, hi, lo_closed, hi_closed), = [e[3] for e in ext
+                                       if e[2].is_free(nd.mask(["block"]))]
+    rel = eps / scale  # eps in the unscaled mm
+    up = np.mod(np.pi / 2 + theta - lo, 2 * np.pi)
+    assert up == pytest.approx(np.arctan(3 * rel / 0.3), rel=1e-3)
+    assert (hi - lo) - up == pytest.approx(np.arctan(3 * rel / 0.1), rel=1e-3)
+    assert lo_closed and hi_closed and hi - lo > 8 * eta
+    # every region's representative gets the direct test's DBG
+    for r in nd.regions:
+        assert sc.dbg(np.array(r.direction)).succ == r.dbg.succ, r
+
+
+def test_2d_wide_region_keeps_its_middle():
+    """The block of :func:`pocket_2d` against the left wall (0.3 high) with 0.5 clearance on
+    the right (wall 0.3 high; hand answer): it comes out between straight up (sliding on the
+    left wall) and atan(0.5 / 0.3) = 59 deg right of it, its lower right corner passing over
+    the right wall's top. That region (widened a little by the erosion) is wide: its direction
+    stays its middle, about 60.8 deg, not the sliding direction +y at its end (the rule for
+    the thin bands, :data:`ndbg_cli.equator.SNAP_ETA`, does not reach it)."""
+    asm = pocket_2d(0.3, 0.3, clearance=0.5)
+    nd = build_infinite(asm)
+    free = [r for r in nd.regions if r.dbg.is_free(nd.mask(["block"]))]
+    assert len(free) == 1 and free[0].dimension == 1
+    ang = np.degrees(np.arctan2(free[0].direction[1], free[0].direction[0]))
+    assert ang == pytest.approx(90.0 - np.degrees(np.arctan(0.5 / 0.3)) / 2, abs=0.5)
+    assert SweepChecker(asm).dbg(np.array(free[0].direction)).is_free(nd.mask(["block"]))
