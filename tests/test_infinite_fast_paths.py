@@ -12,7 +12,7 @@ import shapely
 import trimesh
 
 import ndbg_cli
-from ndbg_cli import arrangement, infinite
+from ndbg_cli import arrangement, blocked_sets, infinite
 from ndbg_cli import blocking_cones as bc
 from ndbg_cli.assembly import Assembly
 from ndbg_cli.contacts import analyze_contacts
@@ -149,7 +149,7 @@ def test_grid_of_boxes_fast_paths_agree_with_the_general_route(monkeypatch):
     for k in range(0, len(d), 50):
         assert got[k].succ == sweep.dbg(d[k]).succ
     # the general route: every pair through its terms, the linework noded unmerged
-    monkeypatch.setattr(infinite, "convex_pairs", lambda *a, **k: {})
+    monkeypatch.setattr(blocked_sets, "convex_pairs", lambda *a, **k: {})
     monkeypatch.setattr(arrangement, "merged_segments", lambda lines: lines)
     slow = infinite.build_infinite(asm)
     assert slow.geometry.stats["convex_pairs"] == 0
