@@ -173,7 +173,7 @@ class Cover:
 
     def _table(self, face: int) -> np.ndarray:
         """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""
-        from . import kernels
+        from . import cover_kernels as kernels
         if self.sat is None:
             self.sat = np.zeros((6, self.r + 1, self.r + 1), dtype=np.int32)
         if self.stale[face] < self.r:
@@ -191,7 +191,7 @@ class Cover:
         face's plane is clipped (:meth:`covers` of its H-representation; ``pairs``: the
         generator pairs that can span its facets, as :func:`~ndbg_cli.cubemap.cone_normals`
         takes them)."""
-        from . import kernels
+        from . import cover_kernels as kernels
         if self.empty:
             return np.zeros(len(gens), dtype=bool)
         a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
@@ -202,7 +202,7 @@ class Cover:
     def _windows(self) -> tuple:
         """The faces with a window ``(w,)``, their corner directions ``(w, 4, 3)``, chart
         rectangles ``(w, 4)``, the summed-area tables (up to date) and the cell width: what
-        the compiled tests (:func:`ndbg_cli.kernels.covers`) take."""
+        the compiled tests (:func:`ndbg_cli.cover_kernels.covers`) take."""
         faces = [f for f in range(6) if self.window(f) is not None]
         for f in faces:
             self._table(f)
@@ -217,7 +217,7 @@ class Cover:
         (:meth:`window`): one of its half-spaces has the window's four corner directions
         strictly outside (a quick test, no clipping); ``None`` when the face has no
         window."""
-        from . import kernels
+        from . import cover_kernels as kernels
         pyr = self._window_pyramid(face)
         if pyr is None:
             return None
@@ -247,7 +247,7 @@ class Cover:
         (so every cell not yet covered), by two quick tests per window, no facet computed:
         every generator strictly outside one side of the window's cone, or the four corners
         outside one of the half-spaces."""
-        from . import kernels
+        from . import cover_kernels as kernels
         pyrs = [p for p in map(self._window_pyramid, range(6)) if p is not None]
         corners = np.array([p[0] for p in pyrs]).reshape(-1, 4, 3)
         sides = np.array([p[1] for p in pyrs]).reshape(-1, 4, 3)
@@ -269,7 +269,7 @@ class Cover:
     def covers(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every
         face it meets."""
-        from . import kernels
+        from . import cover_kernels as kernels
         if self.empty:
             return np.zeros(len(cones), dtype=bool)
         return kernels.covers(np.ascontiguousarray(cones, dtype=float), *self._windows())

@@ -1,13 +1,14 @@
-"""The compiled kernels (:mod:`ndbg_cli.kernels`) against the numpy code they replaced, kept
-here as the reference: the same counts, flags and bits (vertices up to each polygon's count;
-sign bits of zeros included where the values are outputs)."""
+"""The compiled kernels (:mod:`ndbg_cli.kernels`, :mod:`ndbg_cli.cover_kernels`) against the
+numpy code they replaced, kept here as the reference: the same counts, flags and bits
+(vertices up to each polygon's count; sign bits of zeros included where the values are
+outputs)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ndbg_cli import kernels
+from ndbg_cli import cover_kernels
 from ndbg_cli.arrangement import circle_crossings
 from ndbg_cli.blocking_cones import unique_circles
 from ndbg_cli.cover import Cover
@@ -248,9 +249,9 @@ def test_sat_updates_in_place() -> None:
     rng = np.random.default_rng(3)
     cov = rng.random((64, 64)) < 0.7
     sat = np.zeros((65, 65), dtype=np.int32)
-    kernels.update_sat(cov, sat, 0)
+    cover_kernels.update_sat(cov, sat, 0)
     cov[40:] = rng.random((24, 64)) < 0.5
-    kernels.update_sat(cov, sat, 40)
+    cover_kernels.update_sat(cov, sat, 40)
     ref = np.zeros_like(sat)
     ref[1:, 1:] = cov.cumsum(axis=0).cumsum(axis=1)
     assert np.array_equal(sat, ref)

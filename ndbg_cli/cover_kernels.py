@@ -1,0 +1,251 @@
+"""Compiled kernels (numba) of the raster cover's tests (:class:`ndbg_cli.cover.Cover`): the
+window tests on a term's generators or facets, the summed-area tables and the fused
+"inside the covered cells" tests of a cone. The same conventions as :mod:`ndbg_cli.kernels`
+(whose dot products and per-cone clip and facet helpers they use): numpy's rounding repeated,
+so the results are bit-identical to the numpy code they replace.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .kernels import FACES, _clip, _compact, _cone_normals, dot_matmul, dot_matvec
+
+
+@njit(cache=True)
+def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarray,
+                        sides: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether each term (cone spanned by ``gens`` ``(p, g, 3)`` cut by the open
+    half-spaces ``facing`` ``(p, f, 3)``) misses every window ``w`` (its corner directions
+    ``corners[w]`` ``(4, 3)``, the inward normals of its sides ``sides[w]`` ``(4, 3)``): on
+    each, every generator strictly outside one side (``< 0``) or the four corners outside
+    one facing half-space (``<= 0``). With no window, every term misses."""
+    p, g, _ = gens.shape
+    nw = corners.shape[0]
+    out = np.ones(p, dtype=np.bool_)
+    for i in range(p):
+        for w in range(nw):
+            miss = False
+            for s in range(4):
+                allout = True
+                for k in range(g):
+                    if not dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
+                                      sides[w, s, 0], sides[w, s, 1], sides[w, s, 2]) < 0.0:
+                        allout = False
+                        break
+                if allout:
+                    miss = True
+                    break
+            if not miss:
+                for f in range(facing.shape[1]):
+                    allout = True
+                    for c in range(4):
+                        if not dot_matmul(facing[i, f, 0], facing[i, f, 1], facing[i, f, 2],
+                                          corners[w, c, 0], corners[w, c, 1],
+                                          corners[w, c, 2]) <= 0.0:
+                            allout = False
+                            break
+                    if allout:
+                        miss = True
+                        break
+            if not miss:
+                out[i] = False
+                break
+    return out
+
+
+@njit(cache=True)
+def outside(cones: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether one half-space ``m . d > 0`` of each open cone ``(p, k, 3)`` has the
+    four ``corners`` ``(4, 3)`` (a window's corner directions) strictly outside
+    (``m . c < 0``); a zero row never has."""
+    p, k, _ = cones.shape
+    out = np.zeros(p, dtype=np.bool_)
+    for i in range(p):
+        for r in range(k):
+            allout = True
+            for c in range(4):
+                if not dot_matmul(cones[i, r, 0], cones[i, r, 1], cones[i, r, 2],
+                                  corners[c, 0], corners[c, 1], corners[c, 2]) < 0.0:
+                    allout = False
+                    break
+            if allout:
+                out[i] = True
+                break
+    return out
+
+
+@njit(cache=True)
+def update_sat(covered: np.ndarray, sat: np.ndarray, r0: int) -> None:
+    """Bring the summed-area table ``sat`` ``(r + 1, r + 1)`` (int32; ``sat[y, x]`` the
+    number of set cells of ``covered`` ``(r, r)`` in rows ``< y`` and columns ``< x``, zero
+    first row and column) up to date for rows ``>= r0`` of ``covered`` (the rows above
+    unchanged since it was last right). In place; integer sums, so exact."""
+    r = covered.shape[0]
+    for y in range(r0, r):
+        run = 0
+        for x in range(r):
+            run += covered[y, x]
+            sat[y + 1, x + 1] = sat[y, x + 1] + run
+
+
+@njit(cache=True)
+def _box_covered(sat: np.ndarray, lo0: float, lo1: float, hi0: float, hi1: float,
+                 h: float) -> bool:
+    """Whether every raster cell meeting the chart box ``lo..hi`` (clipped to the face) is
+    covered: one lookup in the summed-area table ``sat`` ``(r + 1, r + 1)`` (cells ``h``
+    chart units wide from -1)."""
+    top = sat.shape[0] - 2
+    x0 = int(min(max(np.floor((lo0 + 1.0) / h), 0.0), top))
+    y0 = int(min(max(np.floor((lo1 + 1.0) / h), 0.0), top))
+    x1 = int(min(max(np.floor((hi0 + 1.0) / h), 0.0), top))
+    y1 = int(min(max(np.floor((hi1 + 1.0) / h), 0.0), top))
+    got = sat[y1 + 1, x1 + 1] - sat[y0, x1 + 1] - sat[y1 + 1, x0] + sat[y0, x0]
+    return got == (y1 - y0 + 1) * (x1 - x0 + 1)
+
+
+@njit(cache=True)
+def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
+                  rects: np.ndarray, sats: np.ndarray, h: float, coef: np.ndarray,
+                  cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
+    """Whether the closed cone ``cone`` ``(k, 3)`` lies in covered cells on every window
+    face it meets (see :func:`covers`; ``coef`` ``(k, 3)``, ``cur``, ``buf``, ``f``: work
+    arrays). Returns ``(covered, cur, buf, f)``."""
+    k = cone.shape[0]
+    for w in range(len(faces)):
+        fc = faces[w]
+        # quick test: a half-space with the window's four corners strictly outside
+        missed = False
+        for r in range(k):
+            allout = True
+            for c in range(4):
+                if not dot_matmul(cone[r, 0], cone[r, 1], cone[r, 2], corners[w, c, 0],
+                                  corners[w, c, 1], corners[w, c, 2]) < 0.0:
+                    allout = False
+                    break
+            if allout:
+                missed = True
+                break
+        if missed:
+            continue
+        e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
+        for r in range(k):
+            m0, m1, m2 = cone[r, 0], cone[r, 1], cone[r, 2]
+            coef[r, 0] = dot_matvec(m0, m1, m2, u[0], u[1], u[2])
+            coef[r, 1] = dot_matvec(m0, m1, m2, v[0], v[1], v[2])
+            coef[r, 2] = dot_matvec(m0, m1, m2, e[0], e[1], e[2])
+        x0, y0, x1, y1 = rects[w, 0], rects[w, 1], rects[w, 2], rects[w, 3]
+        sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        n, _, cur, buf, f = _clip(coef[:k], sq, cur, buf, f)
+        if n < 3:
+            continue
+        lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
+        for j in range(n):
+            lo0 = min(lo0, cur[j, 0])
+            lo1 = min(lo1, cur[j, 1])
+            hi0 = max(hi0, cur[j, 0])
+            hi1 = max(hi1, cur[j, 1])
+        if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+            return False, cur, buf, f
+    return True, cur, buf, f
+
+
+@njit(cache=True)
+def covers(cones: np.ndarray, faces: np.ndarray, corners: np.ndarray, rects: np.ndarray,
+           sats: np.ndarray, h: float) -> np.ndarray:
+    """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every face
+    it meets (:meth:`ndbg_cli.cover.Cover.covers`). Only the faces ``faces`` ``(w,)`` with a
+    window count (elsewhere every cell is covered): window ``w`` has corner directions
+    ``corners[w]`` ``(4, 3)`` and chart rectangle ``rects[w]`` (``x0, y0, x1, y1``). A cone
+    with a half-space that has the four corners strictly outside misses the window; else its
+    polygon clipped to the rectangle, when it has 3 vertices or more, must have its bounding
+    box in covered cells (summed-area tables ``sats`` ``(6, r + 1, r + 1)``, cells ``h``
+    chart units wide)."""
+    p, k, _ = cones.shape
+    ok = np.ones(p, dtype=np.bool_)
+    coef = np.empty((k, 3))
+    cur = np.empty((8 + 2 * k, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    for i in range(p):
+        ok[i], cur, buf, f = _cone_covered(cones[i], faces, corners, rects, sats, h, coef,
+                                           cur, buf, f)
+    return ok
+
+
+@njit(cache=True)
+def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.ndarray,
+                   corners: np.ndarray, rects: np.ndarray, sats: np.ndarray, h: float
+                   ) -> np.ndarray:
+    """``(p,)`` whether each closed cone spanned by ``gens`` ``(p, g, 3)`` lies in covered
+    cells on every window face it meets (:meth:`ndbg_cli.cover.Cover.covers_spanned`;
+    ``faces``, ``corners``, ``rects``, ``sats``, ``h`` as :func:`covers` takes them). A cone
+    with every generator in front of a window face's plane (``g . e > 0``) or behind it on
+    every window face is tested by the bounding box of its generators' chart points; one
+    with generators on both sides of some window face's plane by its facets (candidates
+    through the generator pairs ``pa``, ``pb``; :func:`_cone_normals`, :func:`_compact`)
+    as :func:`covers` tests a cone."""
+    p, g, _ = gens.shape
+    q = len(pa)
+    nf = len(faces)
+    ok = np.ones(p, dtype=np.bool_)
+    normals = np.zeros((2 * q, 3))
+    scale = np.empty(g)
+    rows = np.empty((2 * q, 3))
+    sel = np.empty(2 * q, dtype=np.int64)
+    key = np.empty(2 * q)
+    qq = np.empty((2 * q, 3))
+    order = np.empty(2 * q, dtype=np.int64)
+    coef = np.empty((2 * q, 3))
+    cur = np.empty((8 + 4 * q, 2))
+    buf = np.empty_like(cur)
+    f = np.empty(len(cur))
+    front = np.empty((g, nf), dtype=np.bool_)
+    for i in range(p):
+        mixed = False
+        for w in range(nf):
+            e = FACES[faces[w], 0]
+            some, every = False, True
+            for k in range(g):
+                front[k, w] = dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
+                                         e[0], e[1], e[2]) > 0.0
+                some |= front[k, w]
+                every &= front[k, w]
+            if some and not every:
+                mixed = True
+        if mixed:
+            normals[:] = 0.0
+            rows_in = q
+            if _cone_normals(gens[i], pa, pb, 1e-9, normals, scale):
+                rows_in = 2 * q
+            nz = 0
+            for r in range(rows_in):
+                if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
+                    nz += 1
+            kept = _compact(normals[:rows_in], max(nz, 1), rows, sel, key, qq, order)
+            ok[i], cur, buf, f = _cone_covered(rows[:kept], faces, corners, rects, sats, h,
+                                               coef, cur, buf, f)
+            continue
+        for w in range(nf):
+            every = True
+            for k in range(g):
+                every &= front[k, w]
+            if not every:
+                continue
+            fc = faces[w]
+            e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
+            lo0, lo1, hi0, hi1 = np.inf, np.inf, -np.inf, -np.inf
+            for k in range(g):
+                x0, x1, x2 = gens[i, k, 0], gens[i, k, 1], gens[i, k, 2]
+                de = dot_matmul(x0, x1, x2, e[0], e[1], e[2])
+                s = dot_matvec(x0, x1, x2, u[0], u[1], u[2]) / de
+                t = dot_matvec(x0, x1, x2, v[0], v[1], v[2]) / de
+                lo0, hi0 = min(lo0, s), max(hi0, s)
+                lo1, hi1 = min(lo1, t), max(hi1, t)
+            if not (hi0 >= -1.0 and hi1 >= -1.0 and lo0 <= 1.0 and lo1 <= 1.0):
+                continue
+            if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+                ok[i] = False
+                break
+    return ok
