@@ -301,3 +301,21 @@ def test_text_shows_what_the_verified_plan_proves():
     failed = dict(rep["plan"], verified={"value": False, "steps": 21, "why": "step 3 blocked"})
     assert plan_proves(failed) is None
     assert "proven by the verified plan" not in render(dict(rep, plan=failed))
+
+
+def test_one_blas_thread_unless_the_caller_chose():
+    # ndbg's matrices are tiny: BLAS threads only spin on a busy machine (ndbg_cli/__init__)
+    import os
+    import subprocess
+    import sys
+
+    code = "import ndbg_cli, os; print(os.environ['OPENBLAS_NUM_THREADS'])"
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True).stdout.strip()
+    assert out == "1"
+    env["OPENBLAS_NUM_THREADS"] = "3"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, check=True).stdout.strip()
+    assert out == "3"
