@@ -2,10 +2,13 @@
 NDBG: per-item loops that the numpy versions ran as padded, masked array passes.
 
 Each kernel computes, operation by operation, what the numpy code it replaces computed
-(same expressions, same evaluation order, no fast-math, no fused multiply-add), so the
-results are bit-identical; only the padding of the outputs (entries past a count) may differ,
-and no caller reads it. The first call of a kernel in a fresh environment compiles it (the
-cache then lives in ``__pycache__`` beside this file).
+(same expressions, same evaluation order, no fast-math; a fused multiply-add exactly where
+numpy's matmul uses one, see the dot products below), so the results are bit-identical; only
+the padding of the outputs (entries past a count) may differ, and no caller reads it. The
+first call of a kernel in a fresh environment compiles it (about 10 s for all of them and
+:mod:`ndbg_cli.cover_kernels`; the cache then lives in ``__pycache__`` beside this file, or in
+the user's cache folder when that is not writable). Numba freezes module globals
+(:data:`FACES`) into the compiled code.
 """
 
 from __future__ import annotations
