@@ -18,7 +18,7 @@ pieces with the same DBG are one region (:func:`equator_regions`).
 Dimension and representative direction
 --------------------------------------
 A region shorter than the angular tolerance ``eta`` (radians, ``ANGULAR_FACTOR * eps /
-diagonal`` of :mod:`ndbg_cli.infinite`: 5e-3 rad at the default tolerance) is 0-dimensional;
+diagonal`` of :mod:`ndbg_cli.blocked_sets`: 5e-3 rad at the default tolerance) is 0-dimensional;
 longer regions are 1-dimensional. A region's direction is its middle, except near the sliding
 directions of the contacts (perpendicular to a contact normal), where the erosion (both parts
 moved ``1.5 eps`` inward, :mod:`ndbg_cli.infinite`) widens the single free direction of a

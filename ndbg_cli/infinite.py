@@ -32,9 +32,10 @@ never blocks by itself: a part blocks only if the sweep penetrates it deeper tha
 ``eps``, sliding along a contact face is free, tessellation overlaps below ``eps`` are
 ignored, and the directions through a zero-clearance slot or bore form a thin free region of
 angular width about ``eps / L`` (``L`` the contact length). Regions whose width in the chart is
-below the angular tolerance ``eta = ANGULAR_FACTOR * eps / diagonal`` are reported as
-1-dimensional, those smaller than ``eta`` in every direction as 0-dimensional, with the
-representative direction inside them; for such a thin region round a bore's axis, the point
+below the angular tolerance ``eta = ANGULAR_FACTOR * eps / diagonal``
+(:data:`ndbg_cli.blocked_sets.ANGULAR_FACTOR`) are reported as 1-dimensional, those smaller
+than ``eta`` in every direction as 0-dimensional, with the representative direction inside
+them; for such a thin region round a bore's axis, the point
 where the contacts' circles meet, if its DBG is the region's (:func:`_snap_to_circles`: the
 direction the direct sweep test, which erodes nothing, finds free too). *Far* pairs use the
 exact triangles, with closed polygons: a direction grazing a distant part with exactly zero
@@ -60,20 +61,8 @@ import shapely
 from . import equator
 from .arrangement import Cell, arrangement_cells
 from .assembly import Assembly
-from .blocked_sets import (  # noqa: F401 (BlockedSets and the rest: part of this API)
-    ANGULAR_FACTOR,
-    CONVEX_DIFFERENCES_PER_PAIR,
-    CONVEX_PAIR_COST,
-    OPEN_TOL,
-    BlockedSets,
-    antipodal_symmetric,
-    blocked_sets,
-    closed_parts,
-    reverse_entries,
-    succ_from_bits,
-    triangle_pairs,
-)
-from .blocking_cones import pair_cones  # noqa: F401 (part of this API)
+from .blocked_sets import OPEN_TOL, BlockedSets, blocked_sets, triangle_pairs
+from .blocking_cones import pair_cones
 from .cache import PairCache
 from .cubemap import face_of
 from .dbg import DBG

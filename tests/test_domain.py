@@ -140,7 +140,7 @@ def test_domain_windows_bound_the_domain_cells():
 def test_an_asymmetric_domain_is_refused():
     """The blocked sets make B_ji from B_ij on the opposite face, so a domain must be
     symmetric under d -> -d (free_domain's always is); one that is not is an error."""
-    from ndbg_cli.infinite import antipodal_symmetric, blocked_sets
+    from ndbg_cli.blocked_sets import antipodal_symmetric, blocked_sets
 
     asm, _, _, dom = _domain("peg-37")
     assert antipodal_symmetric(dom)

@@ -431,7 +431,7 @@ def test_reversed_pair_is_the_antipodal_image(name):
     import shapely
 
     from ndbg_cli import blocking_cones as bc
-    from ndbg_cli.infinite import blocked_sets, reverse_entries
+    from ndbg_cli.blocked_sets import blocked_sets, reverse_entries
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     tris = bc.part_triangles(asm)
