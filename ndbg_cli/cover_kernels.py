@@ -13,6 +13,23 @@ from numba import njit
 from .kernels import FACES, _clip, _compact, _cone_normals, dot_matmul, dot_matvec
 
 
+@njit(cache=True, inline="always")
+def _separates(rows: np.ndarray, pts: np.ndarray, strict: bool) -> bool:
+    """Whether some row ``m`` of ``rows`` ``(k, 3)`` has every point ``q`` of ``pts``
+    ``(n, 3)`` on its negative side: ``m . q < 0`` (``strict``) or ``<= 0``. The dot product
+    as numpy's matmul rounds it, which is symmetric in its two vectors."""
+    for r in range(rows.shape[0]):
+        allout = True
+        for c in range(pts.shape[0]):
+            d = dot_matmul(rows[r, 0], rows[r, 1], rows[r, 2], pts[c, 0], pts[c, 1], pts[c, 2])
+            if not (d < 0.0 if strict else d <= 0.0):
+                allout = False
+                break
+        if allout:
+            return True
+    return False
+
+
 @njit(cache=True)
 def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarray,
                         sides: np.ndarray) -> np.ndarray:
@@ -21,35 +38,14 @@ def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarra
     ``corners[w]`` ``(4, 3)``, the inward normals of its sides ``sides[w]`` ``(4, 3)``): on
     each, every generator strictly outside one side (``< 0``) or the four corners outside
     one facing half-space (``<= 0``). With no window, every term misses."""
-    p, g, _ = gens.shape
+    p = gens.shape[0]
     nw = corners.shape[0]
     out = np.ones(p, dtype=np.bool_)
     for i in range(p):
         for w in range(nw):
-            miss = False
-            for s in range(4):
-                allout = True
-                for k in range(g):
-                    if not dot_matmul(gens[i, k, 0], gens[i, k, 1], gens[i, k, 2],
-                                      sides[w, s, 0], sides[w, s, 1], sides[w, s, 2]) < 0.0:
-                        allout = False
-                        break
-                if allout:
-                    miss = True
-                    break
-            if not miss:
-                for f in range(facing.shape[1]):
-                    allout = True
-                    for c in range(4):
-                        if not dot_matmul(facing[i, f, 0], facing[i, f, 1], facing[i, f, 2],
-                                          corners[w, c, 0], corners[w, c, 1],
-                                          corners[w, c, 2]) <= 0.0:
-                            allout = False
-                            break
-                    if allout:
-                        miss = True
-                        break
-            if not miss:
+            # every generator strictly outside one side, or the corners outside a facing one
+            if not (_separates(sides[w], gens[i], True)
+                    or _separates(facing[i], corners[w], False)):
                 out[i] = False
                 break
     return out
@@ -60,19 +56,10 @@ def outside(cones: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """``(p,)`` whether one half-space ``m . d > 0`` of each open cone ``(p, k, 3)`` has the
     four ``corners`` ``(4, 3)`` (a window's corner directions) strictly outside
     (``m . c < 0``); a zero row never has."""
-    p, k, _ = cones.shape
+    p = cones.shape[0]
     out = np.zeros(p, dtype=np.bool_)
     for i in range(p):
-        for r in range(k):
-            allout = True
-            for c in range(4):
-                if not dot_matmul(cones[i, r, 0], cones[i, r, 1], cones[i, r, 2],
-                                  corners[c, 0], corners[c, 1], corners[c, 2]) < 0.0:
-                    allout = False
-                    break
-            if allout:
-                out[i] = True
-                break
+        out[i] = _separates(cones[i], corners, True)
     return out
 
 
@@ -116,18 +103,7 @@ def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
     for w in range(len(faces)):
         fc = faces[w]
         # quick test: a half-space with the window's four corners strictly outside
-        missed = False
-        for r in range(k):
-            allout = True
-            for c in range(4):
-                if not dot_matmul(cone[r, 0], cone[r, 1], cone[r, 2], corners[w, c, 0],
-                                  corners[w, c, 1], corners[w, c, 2]) < 0.0:
-                    allout = False
-                    break
-            if allout:
-                missed = True
-                break
-        if missed:
+        if _separates(cone, corners[w], True):
             continue
         e, u, v = FACES[fc, 0], FACES[fc, 1], FACES[fc, 2]
         for r in range(k):
