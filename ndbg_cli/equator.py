@@ -30,10 +30,10 @@ there. So:
 
 * a 0-dimensional region takes the sliding direction within its extent (ends included) nearest
   its middle, when there is one;
-* a 1-dimensional region at most :data:`SNAP_ETA` ``eta`` wide takes the sliding direction
+* a 1-dimensional region at most :data:`BAND_ETA` ``eta`` wide takes the sliding direction
   nearest its middle among those *in* it (strictly inside, or at a closed end: its DBG there,
   read from the arcs, is the region's); it stays 1-dimensional and its DBG is unchanged. That
-  covers the bands of contacts down to ``0.12 / SNAP_ETA`` of the diagonal (0.24 %, 24
+  covers the bands of contacts down to ``0.12 / BAND_ETA`` of the diagonal (0.24 %, 24
   ``eps``) long. A wider region keeps its middle: it is wide because the parts leave a real range of
   directions free there (a block against one wall of a wide pocket comes out anywhere between
   along that wall and over the far wall's top), and its middle is the direction farthest from
@@ -70,7 +70,7 @@ TWO_PI = 2.0 * np.pi
 #: holding a sliding direction whose middle the direct sweep test blocked was wider than 37
 #: ``eta``; without a bound, 8 times as many regions whose middle it freed moved too (e.g. out
 #: of a wide pocket, to along its wall, near the region's end).
-SNAP_ETA = 50.0
+BAND_ETA = 50.0  # not infinite.SNAP_ETA (3D: how far from a thin cell circles are sought)
 
 
 def cone_arcs(cones: np.ndarray, shrink: float) -> np.ndarray:
@@ -189,7 +189,7 @@ def _representative(arcs: Mapping[tuple[int, int], np.ndarray], n: int, sliding:
     from ``lo`` to ``hi`` (counter-clockwise, radians): its middle, or a sliding direction of
     ``sliding`` in it (see the module docstring)."""
     mid, length = 0.5 * (lo + hi), hi - lo
-    if dim == 0 or length <= SNAP_ETA * eta:
+    if dim == 0 or length <= BAND_ETA * eta:
         t = np.mod(sliding - lo, TWO_PI)
         within = sliding[(t >= 0) & (t <= length)]
         if len(within):

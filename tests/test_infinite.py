@@ -660,7 +660,7 @@ def test_2d_wide_region_keeps_its_middle():
     left wall) and atan(0.5 / 0.3) = 59 deg right of it, its lower right corner passing over
     the right wall's top. That region (widened a little by the erosion) is wide: its direction
     stays its middle, about 60.8 deg, not the sliding direction +y at its end (the rule for
-    the thin bands, :data:`ndbg_cli.equator.SNAP_ETA`, does not reach it)."""
+    the thin bands, :data:`ndbg_cli.equator.BAND_ETA`, does not reach it)."""
     asm = pocket_2d(0.3, 0.3, clearance=0.5)
     nd = build_infinite(asm)
     free = [r for r in nd.regions if r.dbg.is_free(nd.mask(["block"]))]
