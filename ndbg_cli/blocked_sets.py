@@ -24,7 +24,7 @@ from .blocking_cones import (
     far_convex,
     part_triangles,
     unique_circles,
-    with_trees,
+    with_boxes,
 )
 from .cache import PairCache
 from .cubemap import face_of
@@ -51,7 +51,9 @@ class BlockedSets:
     geoms: list[dict[tuple[int, int], object]]
     eta: float
     cones: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
-    trees: list[dict[tuple[int, int], tuple]] = field(default_factory=list)
+    #: Per face, each pair's ``(boxes, index)``: its chart pieces' bounding boxes ``(q, 4)``
+    #: (``None``: one piece, the whole face) and the cone of each (``cones[(i, j)]`` rows).
+    boxes: list[dict[tuple[int, int], tuple]] = field(default_factory=list)
     circles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     space_dimension: int = 3
     stats: dict = field(default_factory=dict)
@@ -120,37 +122,34 @@ class BlockedSets:
 
     def _exact(self, sel: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
         """Re-test the directions ``d[sel]`` (indices) against the open cones of pair
-        ``(i, j)`` whose chart polygons may contain them (STR-tree, by bounding box: a
-        superset); returns the sorted indices of those inside one.
+        ``(i, j)`` whose chart pieces' bounding boxes hold them (a superset); returns the
+        sorted indices of those inside one.
 
         A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices:
-        each direction's candidates are tested in turn up to its first hit
-        (:func:`ndbg_cli.kernels.open_hits`). Only the directions in no open cone (seams,
-        boundaries) test all their candidates."""
+        each direction's pieces are scanned up to its first hit
+        (:func:`ndbg_cli.kernels.open_hits`; a compiled scan of the boxes, where an STR-tree
+        query listed 48 million candidates on AS1). Only the directions in no open cone
+        (seams, boundaries) scan every piece."""
         from . import kernels
         out = np.zeros(len(d), dtype=bool)
         f, st = face_of(d[sel])
         cones = self.cones[(i, j)]
         for face in np.unique(f):
-            entry = self.trees[face].get((i, j))
+            entry = self.boxes[face].get((i, j))
             if entry is None:
                 continue
-            tree, index = entry
-            rows = sel[np.nonzero(f == face)[0]]
-            if tree is None:  # one piece (convex parts): every direction is a candidate
-                pt, item = np.arange(len(rows)), np.zeros(len(rows), dtype=np.int64)
-            else:
-                pt, item = tree.query(shapely.points(st[f == face]))
-            if not len(pt):
-                continue
-            if np.any(pt[1:] < pt[:-1]):  # shapely lists them by point already
-                order = np.argsort(pt, kind="stable")
-                pt, item = pt[order], item[order]
-            pos = np.flatnonzero(np.r_[True, pt[1:] != pt[:-1]])  # each direction's run
-            end = np.r_[pos[1:], len(pt)]
-            who = rows[pt[pos]]
-            out[who[kernels.open_hits(cones, np.ascontiguousarray(d[who]), pos, end,
-                                      np.ascontiguousarray(index[item]), OPEN_TOL)]] = True
+            boxes, index = entry
+            if boxes is None:  # one piece (convex parts): every direction is a candidate
+                boxes = np.array([[-np.inf, -np.inf, np.inf, np.inf]])
+            on = f == face
+            rows = sel[np.nonzero(on)[0]]
+            pts = st[on]
+            out[rows[kernels.open_hits(cones, np.ascontiguousarray(d[rows]),
+                                       np.ascontiguousarray(pts[:, 0]),
+                                       np.ascontiguousarray(pts[:, 1]),
+                                       np.ascontiguousarray(boxes, dtype=float),
+                                       np.ascontiguousarray(index, dtype=np.int64),
+                                       OPEN_TOL)]] = True
         return np.flatnonzero(out)
 
 
@@ -240,7 +239,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     npieces = 0
     t_cones = t_union = 0.0
     all_cones: dict[tuple[int, int], np.ndarray] = {}
-    trees: list[dict[tuple[int, int], tuple]] = [{} for _ in range(6)]
+    boxes: list[dict[tuple[int, int], tuple]] = [{} for _ in range(6)]
     circles: list[np.ndarray] = []
     # content hashes of the triangles actually used (validated, placed, 2D extruded)
     gkeys = [content_hash(t, nrm) for t, nrm in tris] if cache is not None else []
@@ -256,7 +255,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
             for face, entry in enumerate(ent):
                 if entry is not None:
                     geoms[face][pair] = entry[0]
-                    trees[face][pair] = entry[1:]
+                    boxes[face][pair] = entry[1:]
 
     # convex parts far apart: one cone per pair, made and clipped all at once
     tc = time.perf_counter()
@@ -275,9 +274,10 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for a, b in order:
         if (a, b) in fast or cache is None:
             continue
-        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-3":
-        # unions checked for lost area (blocking_cones.robust_union); older entries may lack some
-        keys[(a, b)] = cache.key("infinite", "pruned-3", gkeys[a], gkeys[b], eps,
+        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-4":
+        # the pieces' boxes instead of the pieces (older entries: "pruned-3", and unions not
+        # checked for lost area before that)
+        keys[(a, b)] = cache.key("infinite", "pruned-4", gkeys[a], gkeys[b], eps,
                                  asm.dimension, asm.diagonal if asm.dimension == 2 else None,
                                  *extra)
         got = cache.get("infinite", keys[(a, b)], _thaw)
@@ -289,7 +289,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     done = pair_sets(tris, todo, eps, domain, workers)
     for k, (cones, circ, faces, dt_cones, dt_union) in bar(done, len(todo), "part pairs",
                                                            quiet=not progress):
-        entries = with_trees(faces)
+        entries = with_boxes(faces)
         found[todo[k]] = (cones, circ, entries)
         t_cones += dt_cones
         t_union += dt_union
@@ -322,7 +322,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
              "time_blocked_sets_s": time.perf_counter() - t0}
     circ = unique_circles(np.concatenate(circles)) if circles else np.zeros((0, 3))
     stats["contact_circles"] = len(circ)
-    return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, trees=trees, circles=circ,
+    return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, boxes=boxes, circles=circ,
                        space_dimension=asm.dimension, stats=stats, domain=dom)
 
 
@@ -352,22 +352,15 @@ def reverse_entries(entries: list) -> list:
     for face, e in enumerate(entries):
         if e is None:
             continue
-        union, tree, index = e
-        out[face ^ 1] = (flip(union),
-                         None if tree is None else shapely.STRtree(flip(tree.geometries)), index)
+        union, boxes, index = e
+        # the box (x0, y0, x1, y1) of the image is (-y1, -x1, -y0, -x0), exactly
+        out[face ^ 1] = (flip(union), None if boxes is None else -boxes[:, ::-1], index)
     return out
 
 
 def _freeze(cones: np.ndarray, circ: np.ndarray, entries: list) -> tuple:
     """A pair's result in cacheable form: arrays and WKB (exact double coordinates)."""
-    faces = []
-    for e in entries:
-        if e is None:
-            faces.append(None)
-            continue
-        union, tree, index = e
-        faces.append((shapely.to_wkb(union), [shapely.to_wkb(g) for g in tree.geometries],
-                      index))
+    faces = [None if e is None else (shapely.to_wkb(e[0]), e[1], e[2]) for e in entries]
     return cones, circ, faces
 
 
@@ -382,7 +375,9 @@ def _thaw(value: tuple) -> tuple[np.ndarray, np.ndarray, list]:
         if f is None:
             entries.append(None)
             continue
-        union, polys, index = f
-        polys = shapely.from_wkb(np.array(polys, dtype=object))
-        entries.append((shapely.from_wkb(union), shapely.STRtree(polys), index))
+        union, boxes, index = f
+        if not (boxes is None or (isinstance(boxes, np.ndarray) and boxes.ndim == 2
+                                  and boxes.shape[1] == 4 and len(boxes) == len(index))):
+            raise ValueError("malformed blocked-set entry")
+        entries.append((shapely.from_wkb(union), boxes, index))
     return cones, circ, entries

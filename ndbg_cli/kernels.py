@@ -465,18 +465,23 @@ def facing_pairs(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray,
 
 
 @njit(cache=True)
-def open_hits(cones: np.ndarray, d: np.ndarray, pos: np.ndarray, end: np.ndarray,
-              cand: np.ndarray, tol: float) -> np.ndarray:
-    """``(r,)`` whether direction ``d[k]`` ``(r, 3)`` (unit) lies in one of its candidate open
-    cones: ``cand[pos[k]:end[k]]`` (indices into ``cones`` ``(P, K, 3)``, unit or zero
-    rows), inside meaning ``m . d > tol`` for every nonzero row ``m``. Candidates are tried in
-    order up to the first hit."""
-    r = len(pos)
+def open_hits(cones: np.ndarray, d: np.ndarray, x: np.ndarray, y: np.ndarray,
+              boxes: np.ndarray, cand: np.ndarray, tol: float) -> np.ndarray:
+    """``(r,)`` whether direction ``d[k]`` ``(r, 3)`` (unit; chart point ``(x[k], y[k])``)
+    lies in the open cone ``cones[cand[p]]`` (``(P, K, 3)``, unit or zero rows; inside
+    meaning ``m . d > tol`` for every nonzero row ``m``) of some piece ``p`` whose chart
+    bounding box ``boxes[p]`` (``x0, y0, x1, y1``) holds the point, ends included (what an
+    STR-tree query by the point's envelope returns). Pieces are tried in order up to the
+    first hit."""
+    r = len(d)
     hit = np.zeros(r, dtype=np.bool_)
     K = cones.shape[1]
     for k in range(r):
         d0, d1, d2 = d[k, 0], d[k, 1], d[k, 2]
-        for h in range(pos[k], end[k]):
+        px, py = x[k], y[k]
+        for h in range(len(cand)):
+            if px < boxes[h, 0] or px > boxes[h, 2] or py < boxes[h, 1] or py > boxes[h, 3]:
+                continue
             c = cand[h]
             inside = True
             for t in range(K):

@@ -668,3 +668,66 @@ def test_2d_wide_region_keeps_its_middle():
     ang = np.degrees(np.arctan2(free[0].direction[1], free[0].direction[0]))
     assert ang == pytest.approx(90.0 - np.degrees(np.arctan(0.5 / 0.3)) / 2, abs=0.5)
     assert SweepChecker(asm).dbg(np.array(free[0].direction)).is_free(nd.mask(["block"]))
+
+
+def test_union_drops_points_along_its_clipping_rectangle():
+    """Pieces clipped to a window leave two points each on its sides; the union keeps the
+    same point set without those inside straight runs along a side (corners, points where
+    the boundary leaves a side, and holes stay)."""
+    import shapely
+
+    from ndbg_cli import blocking_cones as bc
+
+    rect = (-1.0, -1.0, 1.0, 1.0)
+    # four strips across the window (each touching both the left and right sides), then
+    # boxes leaving a notch that runs down from the middle of the top side
+    strips = [shapely.box(-1, -1, 1, -0.6), shapely.box(-1, -0.7, 1, -0.2),
+              shapely.box(-1, -0.3, 1, 0.2), shapely.box(-1, 0.1, 1, 0.6)]
+    around = [shapely.box(-1, 0.5, -0.1, 0.9), shapely.box(0.1, 0.5, 1, 0.9),
+              shapely.box(-1, 0.9, -0.5, 1), shapely.box(0.5, 0.9, 1, 1),
+              shapely.box(-1, 0.55, 1, 0.6)]
+    polys = np.array(strips + around, dtype=object)
+    plain = shapely.union_all(polys)
+    got = bc.off_rect_runs(plain, rect)
+    assert got.equals(plain)
+    # the left and right sides each keep only the two corners: (-1, -1), (-1, 1)... and the
+    # top side its corners and the notch's two ends
+    xy = shapely.get_coordinates(got.exterior)[:-1]
+    on_left = xy[xy[:, 0] == -1.0]
+    assert sorted(map(tuple, on_left)) == [(-1.0, -1.0), (-1.0, 1.0)]
+    assert sorted(map(tuple, xy[xy[:, 1] == 1.0])) == [(-1.0, 1.0), (-0.5, 1.0), (0.5, 1.0),
+                                                      (1.0, 1.0)]
+    assert len(shapely.get_coordinates(plain.exterior)) > len(xy) + 1
+    # and the union function gives that same set
+    assert bc.union(polys, seed=2, rect=rect).equals(plain)
+
+
+def test_open_hits_is_the_box_filtered_open_membership():
+    """The compiled scan (:func:`ndbg_cli.kernels.open_hits`) against the same test written
+    with an STR-tree query and numpy: a direction is hit when some piece's box holds its
+    chart point (ends included) and the piece's open cone holds the direction."""
+    import shapely
+
+    from ndbg_cli import kernels
+    from ndbg_cli.cubemap import direction_of
+
+    rng = np.random.default_rng(7)
+    cones = rng.normal(size=(60, 5, 3))
+    cones /= np.linalg.norm(cones, axis=2, keepdims=True)
+    cones[::7, 3:] = 0.0  # zero rows: not constraints
+    x0, y0 = rng.uniform(-1, 0.8, size=(2, 80))
+    boxes = np.column_stack([x0, y0, x0 + rng.uniform(0, 0.6, 80), y0 + rng.uniform(0, 0.6, 80)])
+    index = rng.integers(0, len(cones), size=80)
+    st = rng.uniform(-1, 1, size=(400, 2))
+    st[:40] = boxes[:40, :2]  # on a box's corner: held (ends included)
+    d = direction_of(0, st)
+    got = kernels.open_hits(cones, d, st[:, 0].copy(), st[:, 1].copy(), boxes, index, 1e-6)
+    pt, item = shapely.STRtree(shapely.box(*boxes.T)).query(shapely.points(st))
+    inside = np.ones(len(pt), dtype=bool)
+    for t in range(cones.shape[1]):
+        m = cones[index[item], t]
+        inside &= ~np.any(m != 0, axis=1) | ((m * d[pt]).sum(axis=1) > 1e-6)
+    want = np.zeros(len(st), dtype=bool)
+    want[pt[inside]] = True
+    assert np.array_equal(got, want)
+    assert 0 < want.sum() < len(st)
