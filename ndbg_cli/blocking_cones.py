@@ -62,8 +62,14 @@ import trimesh
 
 from .assembly import Assembly
 from .cover import Cover, run_offsets
-from .cubemap import (BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, SQUARE_MARGIN, clip_halfplanes, compact,
-                      cone_normals)
+from .cubemap import (
+    BOX_EDGE_PAIRS,
+    DIFFERENCE_PAIRS,
+    SQUARE_MARGIN,
+    clip_halfplanes,
+    compact,
+    cone_normals,
+)
 from .tritree import TriTree, tri_tree  # noqa: F401 (tri_tree: part of this API)
 
 #: Snapping grid of the arrangement linework, chart units.
