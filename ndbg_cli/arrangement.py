@@ -304,6 +304,12 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
                     # rounding slack: a pair too many only adds crossings outside
                     meets |= (at.min(axis=0) <= 1e-12) & (at.max(axis=0) >= -1e-12)
                 groups.append((meets, faces))
+    fused = _fused_inputs(groups, boxes, domain, max(eta, GRID), len(n))
+    if fused is not None:
+        meets, edges, nedges, key_lo, key_n = fused
+        pts, lab = kernels.first_crossings(n, meets, _INSIDE, boxes, edges, nedges,
+                                           max(eta, GRID), CROSS_CHUNK, key_lo, key_n)
+        return [pts[lab == f] for f in range(6)]
     for s0, (meets, faces) in itertools.product(range(0, npairs, CROSS_CHUNK), groups):
         # the crossings of the chunk's pairs on these faces, outside the domain's boxes
         # left out (contains_xy would drop them)
@@ -317,6 +323,50 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
             if len(st):
                 found[face].append(first(st))
     return [first(np.concatenate(f)) if f else np.zeros((0, 2)) for f in found]
+
+
+#: Most merge keys (``eta``-cells of the domain's boxes, over the six faces) for which
+#: :func:`circle_crossings` takes the one-pass kernel.
+FUSED_KEYS = 1 << 24
+
+
+def _fused_inputs(groups: list, boxes: np.ndarray, domain: list | None, q: float, c: int
+                  ) -> tuple | None:
+    """What :func:`ndbg_cli.kernels.first_crossings` takes besides the circles, or ``None``
+    when it cannot replace the chunked path: no domain, a domain polygon with an edge that
+    is not axis-parallel (domain polygons are unions of raster cells), or too many keys."""
+    if domain is None:
+        return None
+    meets = np.zeros((6, c), dtype=bool)
+    for m, faces in groups:
+        meets[list(faces)] = m
+    rings = []
+    for f in range(6):
+        if domain[f] is None or not meets[f].any():
+            meets[f] = False
+            rings.append(np.zeros((0, 4)))
+            continue
+        polys = shapely.get_parts(domain[f])
+        ring = shapely.get_rings(polys)
+        xy, idx = shapely.get_coordinates(ring, return_index=True)
+        same = idx[1:] == idx[:-1]
+        e = np.column_stack([xy[:-1][same], xy[1:][same]])
+        if not np.all((e[:, 0] == e[:, 2]) | (e[:, 1] == e[:, 3])):
+            return None
+        rings.append(e)
+    lo = np.zeros((6, 2), dtype=np.int64)
+    size = np.ones((6, 2), dtype=np.int64)
+    for f in range(6):
+        if meets[f].any():
+            x0, y0, x1, y1 = boxes[f]
+            lo[f] = np.floor(np.array([x0, y0]) / q) - 1
+            size[f] = np.ceil(np.array([x1, y1]) / q) - lo[f] + 2
+    if size.prod(axis=1).sum() > FUSED_KEYS:
+        return None
+    edges = np.zeros((6, max(len(r) for r in rings), 4))
+    for f, r in enumerate(rings):
+        edges[f, :len(r)] = r
+    return meets, edges, np.array([len(r) for r in rings], dtype=np.int64), lo, size
 
 
 def circle_lines(normals: np.ndarray, face: int) -> list[object]:

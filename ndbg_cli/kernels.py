@@ -495,3 +495,104 @@ def open_hits(cones: np.ndarray, d: np.ndarray, x: np.ndarray, y: np.ndarray,
                 hit[k] = True
                 break
     return hit
+
+
+@njit(cache=True)
+def _inside_rectilinear(x: float, y: float, edges: np.ndarray, m: int) -> bool:
+    """Whether ``(x, y)`` lies strictly inside the polygon of axis-parallel ``edges[:m]``
+    (``x0, y0, x1, y1`` each, every ring): on no edge, and left of an odd number of vertical
+    edges (half-open in ``y``). Exact: only comparisons."""
+    cross = 0
+    for k in range(m):
+        x0, y0, x1, y1 = edges[k, 0], edges[k, 1], edges[k, 2], edges[k, 3]
+        if x0 == x1:
+            lo, hi = min(y0, y1), max(y0, y1)
+            if x == x0 and lo <= y <= hi:
+                return False
+            if x0 > x and lo <= y < hi:
+                cross += 1
+        elif y == y0 and min(x0, x1) <= x <= max(x0, x1):
+            return False
+    return cross % 2 == 1
+
+
+@njit(cache=True)
+def first_crossings(n: np.ndarray, meets: np.ndarray, inside: float, boxes: np.ndarray,
+                    edges: np.ndarray, nedges: np.ndarray, q: float, chunk: int,
+                    key_lo: np.ndarray, key_n: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`circle_crossings` over all circle pairs, each face's points cut to the domain
+    and merged as :func:`ndbg_cli.arrangement.circle_crossings` does, in one pass.
+
+    A pair's crossing on face ``f`` counts when both circles have ``meets[f]`` (``(6, c)``),
+    it passes :func:`circle_crossings`'s tests (``inside``, ``boxes`` ``(6, 4)``) and lies
+    strictly inside the face's rectilinear domain polygon (``edges[f, :nedges[f]]``, see
+    :func:`_inside_rectilinear`). Points are visited in that function's order (chunks of
+    ``chunk`` pairs; in each, every ``+d``, then every ``-d``), and one is kept when no
+    earlier kept point of its face rounds to the same key ``rint(p / q)``: the first of
+    each key. Keys are offsets from ``key_lo[f]`` (``(6, 2)``) in a dense ``key_n[f]``
+    (``(6, 2)``) grid, which must hold every key of the face's box. Returns the kept points
+    ``(m, 2)`` and their faces ``(m,)``, in order per face."""
+    c = n.shape[0]
+    npairs = c * (c - 1) // 2
+    base = np.zeros(7, dtype=np.int64)
+    for f in range(6):
+        base[f + 1] = base[f] + key_n[f, 0] * key_n[f, 1]
+    seen = np.zeros(base[6], dtype=np.bool_)
+    pts = np.empty((base[6], 2))
+    lab = np.empty(base[6], dtype=np.int64)
+    k = 0
+    for s0 in range(0, npairs, chunk):
+        s1 = min(s0 + chunk, npairs)
+        for sgn in (1.0, -1.0):
+            i, t = 0, 0
+            while i < c - 1 and t + (c - 1 - i) <= s0:
+                t += c - 1 - i
+                i += 1
+            j = i + 1 + (s0 - t)
+            for _ in range(s1 - s0):
+                if i >= c - 1:
+                    break
+                a0, a1, a2 = n[i, 0], n[i, 1], n[i, 2]
+                b0, b1, b2 = n[j, 0], n[j, 1], n[j, 2]
+                ii, jj = i, j
+                j += 1
+                if j >= c:
+                    i += 1
+                    j = i + 1
+                d0 = a1 * b2 - a2 * b1
+                d1 = a2 * b0 - a0 * b2
+                d2 = a0 * b1 - a1 * b0
+                ln = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+                if not ln > 1e-12:
+                    continue
+                d0, d1, d2 = d0 / ln, d1 / ln, d2 / ln
+                if sgn < 0.0:
+                    d0, d1, d2 = -d0, -d1, -d2
+                f, best = 0, d0
+                for g, val in ((1, -d0), (2, d1), (3, -d1), (4, d2), (5, -d2)):
+                    if val > best:
+                        f, best = g, val
+                if not (meets[f, ii] and meets[f, jj]):
+                    continue
+                e, u, v = FACES[f, 0], FACES[f, 1], FACES[f, 2]
+                de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
+                s = dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de
+                tt = dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de
+                if not (abs(s) < inside and abs(tt) < inside):
+                    continue
+                if not (boxes[f, 0] <= s <= boxes[f, 2] and boxes[f, 1] <= tt <= boxes[f, 3]):
+                    continue
+                kx = np.int64(np.rint(s / q)) - key_lo[f, 0]
+                ky = np.int64(np.rint(tt / q)) - key_lo[f, 1]
+                slot = base[f] + kx * key_n[f, 1] + ky
+                if seen[slot]:
+                    continue
+                if not _inside_rectilinear(s, tt, edges[f], nedges[f]):
+                    continue
+                seen[slot] = True
+                pts[k, 0] = s
+                pts[k, 1] = tt
+                lab[k] = f
+                k += 1
+    return pts[:k].copy(), lab[:k].copy()

@@ -289,6 +289,70 @@ def test_circle_crossings_match_numpy() -> None:
             assert _same(got[face], st[np.sort(idx)])
 
 
+def _crossings_reference(n: np.ndarray, q: float, domain: list | None) -> list[np.ndarray]:
+    """Per face, the crossings of the circles ``n`` in pair order (``+d`` then ``-d``), inside
+    ``domain`` (shapely's ``contains_xy``), the first of each rounded key."""
+    import shapely
+
+    a, b = np.triu_indices(len(n), k=1)
+    d = np.cross(n[a], n[b])
+    ln = np.linalg.norm(d, axis=1)
+    d = d[ln > 1e-12] / ln[ln > 1e-12, None]
+    d = np.concatenate([d, -d])
+    owner = np.argmax(d @ FACES[:, 0].T, axis=1)
+    out = []
+    for face in range(6):
+        e, u, v = FACES[face]
+        df = d[owner == face]
+        st = np.stack([(df @ u) / (df @ e), (df @ v) / (df @ e)], axis=1)
+        st = st[(np.abs(st) < 1.0 - 1e-7).all(axis=1)]
+        if domain is not None:
+            if domain[face] is None:
+                out.append(np.zeros((0, 2)))
+                continue
+            st = st[shapely.contains_xy(domain[face], st[:, 0], st[:, 1])]
+        _, idx = np.unique(np.round(st / q), axis=0, return_index=True)
+        out.append(st[np.sort(idx)])
+    return out
+
+
+def test_first_crossings_on_a_raster_domain() -> None:
+    """The one-pass kernel (a domain made of raster cells) against the reference: the same
+    points in the same order, including crossings exactly on the cells' edges (the axes are
+    a corner of four cells: inside where all four are in the domain, outside where one is
+    missing), and the chunked path gives them too."""
+    from ndbg_cli import arrangement
+    from ndbg_cli.domain import domain_polygons
+
+    rng = np.random.default_rng(5)
+    axes = np.eye(3)
+    # circles through the axes and through points on the cells' edges (grid lines)
+    tilt = rng.normal(size=(40, 3)) * np.array([1.0, 1.0, 0.0]) + np.array([0.0, 0.0, 1.0])
+    n = np.concatenate([axes, np.round(rng.normal(size=(40, 3)) * 4), tilt,
+                        rng.normal(size=(60, 3))])
+    n = n[np.linalg.norm(n, axis=1) > 0]
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    r = 64
+    dom = np.zeros((6, r, r), dtype=bool)
+    dom[:, 20:44, 20:44] = True  # around every axis: its chart point (0, 0) a corner inside
+    dom[2:4, 32, 32] = False  # faces 2 and 3: one of the four cells round the axis missing
+    polys = domain_polygons(dom)
+    for q in (1e-3, 0.05):
+        assert arrangement._fused_inputs([(np.ones(len(n), dtype=bool), tuple(range(6)))],
+                                         np.array([p.bounds for p in polys]), polys, q,
+                                         len(n)) is not None
+        got = circle_crossings(n, q, polys)
+        want = _crossings_reference(n, q, polys)
+        for face in range(6):
+            assert _same(got[face], want[face]), (q, face)
+        centre = [bool(((got[f] == 0.0).all(axis=1)).any()) for f in range(6)]
+        assert centre == [True, True, False, False, True, True]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(arrangement, "_fused_inputs", lambda *a: None)
+        chunked = circle_crossings(n, 1e-3, polys)
+    assert all(_same(a, b) for a, b in zip(chunked, circle_crossings(n, 1e-3, polys)))
+
+
 def test_unique_circles_first_occurrences() -> None:
     rng = np.random.default_rng(4)
     base = np.round(rng.normal(size=(20, 3)))
