@@ -24,7 +24,8 @@ import trimesh
 import ndbg_cli
 from ndbg_cli.assembly import Assembly
 from ndbg_cli.batch import default_jobs
-from ndbg_cli.blocking_cones import cones_to_face_geoms, pair_cones, part_triangles
+from ndbg_cli.blocking_cones import pair_cones, part_triangles
+from ndbg_cli.chart_union import cones_to_face_geoms
 from ndbg_cli.infinite import TooLarge, build_infinite
 from ndbg_cli.validate import make_part
 

@@ -3,7 +3,7 @@ dimension 2, 1 and 0), face by face, from the chart geometry of
 :class:`ndbg_cli.infinite.BlockedSets`, and the seam candidates on the contact circles.
 
 Chart coordinates are those of :mod:`ndbg_cli.cubemap` (about radians near a face's centre);
-linework is snapped to :data:`~ndbg_cli.blocking_cones.GRID`.
+linework is snapped to :data:`~ndbg_cli.chart_union.GRID`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
-from .blocking_cones import GRID
+from .chart_union import GRID
 from .cubemap import FACES, SQUARE_MARGIN, direction_of
 
 if TYPE_CHECKING:

@@ -18,15 +18,14 @@ import shapely
 
 from .assembly import Assembly, content_hash
 from .blocking_cones import (
-    GRID,
     convex_entries,
     convex_pairs,
     far_convex,
     part_triangles,
     unique_circles,
-    with_boxes,
 )
 from .cache import PairCache
+from .chart_union import GRID, with_boxes
 from .cubemap import face_of
 from .dbg import DBG
 from .domain import domain_polygons
@@ -341,7 +340,7 @@ _ANTIPODAL = np.array([[0.0, -1.0], [-1.0, 0.0]])
 
 def reverse_entries(entries: list) -> list:
     """The per-face chart geometry of ``B_ji`` from that of ``B_ij``
-    (:func:`~ndbg_cli.blocking_cones.cones_to_face_geoms`): ``P_i`` moving along ``d`` meets
+    (:func:`~ndbg_cli.chart_union.cones_to_face_geoms`): ``P_i`` moving along ``d`` meets
     ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
     the antipodal map is a chart isometry onto the opposite cube face. The cone index of each
     piece is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""

@@ -57,23 +57,19 @@ inward by ``1.5 eps`` along their normals, so contact never blocks by itself (se
 from __future__ import annotations
 
 import numpy as np
-import shapely
 import trimesh
 
 from .assembly import Assembly
+from .chart_union import face_polygons
 from .cover import Cover, run_offsets
 from .cubemap import (
     BOX_EDGE_PAIRS,
     DIFFERENCE_PAIRS,
-    SQUARE_MARGIN,
-    clip_halfplanes,
     compact,
     cone_normals,
 )
 from .tritree import TriTree, tri_tree  # noqa: F401 (tri_tree: part of this API)
 
-#: Snapping grid of the arrangement linework, chart units.
-GRID = 1e-10
 #: Triangle pairs processed per vectorised chunk.
 CHUNK = 20000
 
@@ -331,9 +327,9 @@ def convex_pairs(tris: list[tuple[np.ndarray, np.ndarray]], sizes: list[int], ep
 
 
 def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
-    """:func:`cones_to_face_geoms` of many one-cone sets (``(1, k, 3)`` each), clipped all at
-    once. The union of one convex piece is the piece and needs no boxes: the entries are
-    ``(polygon, None, [0])``."""
+    """:func:`~ndbg_cli.chart_union.cones_to_face_geoms` of many one-cone sets
+    (``(1, k, 3)`` each), clipped all at once. The union of one convex piece is the piece and
+    needs no boxes: the entries are ``(polygon, None, [0])``."""
     out: list[list[tuple | None]] = [[None] * 6 for _ in cones]
     if not cones:
         return out
@@ -344,163 +340,6 @@ def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
         for g, k in zip(polys, index):
             out[k][face] = (g, None, np.zeros(1, dtype=np.int64))
     return out
-
-
-# --------------------------------------------------------------------------------------------
-# Chart polygons and their unions
-# --------------------------------------------------------------------------------------------
-
-def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48,
-                  rect: tuple[float, float, float, float] | None = None
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Chart polygons of ``cones`` ``(p, k, 3)`` on ``face`` (convex) and the index of the
-    cone of each; cones missing the face and pieces of area below ``GRID**2`` are left
-    out. ``max_vertices``, ``rect`` (clip to that chart rectangle of the face only): see
-    :func:`~ndbg_cli.cubemap.clip_halfplanes`."""
-    if not len(cones):
-        return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
-    poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
-    keep = cnt >= 3
-    if not keep.any():
-        return np.zeros(0, dtype=object), np.zeros(0, dtype=np.int64)
-    index = np.nonzero(keep)[0]
-    poly, cnt = poly[keep], cnt[keep]
-    k = np.arange(poly.shape[1])[None, :] < cnt[:, None]
-    rings = shapely.linearrings(poly[k], indices=np.repeat(np.arange(len(cnt)), cnt))
-    # The pieces are convex: their hull is the same polygon, and always valid.
-    polys = shapely.convex_hull(shapely.polygons(rings))
-    big = (shapely.area(polys) > GRID * GRID) & (shapely.get_type_id(polys) == 3)
-    return polys[big], index[big]
-
-
-def cones_to_face_geoms(cones: np.ndarray, windows: list | None = None
-                        ) -> list[tuple | None]:
-    """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
-    empty, else ``(union, boxes, index)``: the union (closed polygons in chart coordinates),
-    the pieces' bounding boxes ``(q, 4)`` (``x0, y0, x1, y1``) and the cone index of each
-    piece ``(q,)``. With ``windows`` (per face a chart rectangle or ``None``,
-    :func:`ndbg_cli.domain.domain_windows`) only the part inside each face's rectangle is
-    made, none where ``None``: the sets are then right inside the windows only."""
-    return with_boxes(face_unions(cones, windows))
-
-
-def face_unions(cones: np.ndarray, windows: list | None = None) -> list[tuple | None]:
-    """:func:`cones_to_face_geoms` with the pieces ``(union, pieces, index)`` instead of
-    their bounding boxes."""
-    out: list[tuple | None] = []
-    for face in range(6):
-        if windows is not None and windows[face] is None:
-            out.append(None)
-            continue
-        rect = None if windows is None else windows[face]
-        polys, index = face_polygons(cones, face, rect=rect)
-        if not len(polys):
-            out.append(None)
-            continue
-        g = union(polys, rect=rect)
-        out.append(None if g.is_empty else (g, polys, index))
-    return out
-
-
-def with_boxes(faces: list[tuple | None]) -> list[tuple | None]:
-    """The entries of :func:`cones_to_face_geoms` from those of :func:`face_unions`."""
-    return [None if f is None else (f[0], shapely.bounds(f[1]), f[2]) for f in faces]
-
-
-def union(polys: np.ndarray, seed: int = 64,
-          rect: tuple[float, float, float, float] | None = None) -> object:
-    """Union of many overlapping convex polygons: the largest first, then only those not
-    already covered (exact ``covers`` tests against the partial union), repeatedly.
-
-    ``rect`` (chart units; the chart square with its margin when ``None``) is the rectangle
-    the pieces were clipped to: the partial unions drop their points inside straight runs
-    along its sides (:func:`off_rect_runs`), which add nothing to the point set but make
-    every ``covers`` test against them slow."""
-    if rect is None:
-        r = 1.0 + SQUARE_MARGIN
-        rect = (-r, -r, r, r)
-    polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
-    acc = robust_union(polys[:seed], rect)
-    rest = polys[seed:]
-    while len(rest):
-        shapely.prepare(acc)
-        rest = rest[~shapely.covers(acc, rest)]
-        if not len(rest):
-            break
-        take = max(seed, len(rest) // 8)
-        acc = robust_union(np.concatenate([[acc], rest[:take]]), rect)
-        rest = rest[take:]
-    return acc
-
-
-def off_rect_runs(g: object, rect: tuple[float, float, float, float]) -> object:
-    """``g`` (polygonal, chart units) without the ring points lying, with both neighbours, on
-    the same side of ``rect`` (exactly: the pieces were clipped to it): the same point set.
-
-    Every piece clipped to a window's side leaves two points on it in the union, and GEOS
-    keeps them all: AS1's unions had 670 points on their windows' sides around a 75-point
-    hole, and a prepared ``covers`` test of a piece touching a side falls back to a full
-    relate over all of them (0.39 s for one pair's 2,327 pieces; 0.029 s without them)."""
-    x0, y0, x1, y1 = rect
-    polys = []
-    changed = False
-    for part in shapely.get_parts(g):
-        if shapely.get_type_id(part) != 3:
-            return g
-        rings = []
-        for ring in (part.exterior, *part.interiors):
-            xy = shapely.get_coordinates(ring)[:-1]
-            prev, nxt = np.roll(xy, 1, axis=0), np.roll(xy, -1, axis=0)
-            run = np.zeros(len(xy), dtype=bool)
-            for axis, v in ((0, x0), (0, x1), (1, y0), (1, y1)):
-                run |= (xy[:, axis] == v) & (prev[:, axis] == v) & (nxt[:, axis] == v)
-            changed |= bool(run.any())
-            rings.append(xy[~run])
-        polys.append(shapely.Polygon(rings[0], rings[1:]))
-    if not changed:
-        return g
-    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
-
-
-def robust_union(polys: np.ndarray, rect: tuple[float, float, float, float] | None = None
-                 ) -> object:
-    """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
-    overlay fails: GEOS topology exceptions on nearly coincident edges, a union smaller
-    than one of its pieces (GEOS 3.14 returns the smaller of two polygons one ulp apart at a
-    vertex, one inside the other, instead of the larger), or a union some piece sticks out
-    of (:func:`loses_area`: GEOS 3.14.1 drops faces of the overlay, 0.03 of 1.2 chart units
-    on 64 pieces of a box pair's set, where the first 63 pieces' union was right). With
-    ``rect`` (the pieces' clipping rectangle) the union leaves out the points inside
-    straight runs along its sides (:func:`off_rect_runs`)."""
-    try:
-        out = shapely.union_all(polys)
-    except shapely.errors.GEOSException:
-        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
-    if rect is not None:
-        out = off_rect_runs(out, rect)
-    biggest = float(shapely.area(polys).max()) if len(polys) else 0.0
-    if out.area < biggest * (1.0 - 1e-9) - GRID * GRID or loses_area(out, polys):
-        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
-    return out
-
-
-#: Area (chart units squared) of a piece outside the union of all the pieces above which
-#: the union is wrong (:func:`loses_area`). The bell's rounding slivers reach 1.3e-13; its
-#: two real losses were 5e-6 and 1e-4 (a patch 0.6 degrees across).
-LOST_AREA = 1e-12
-
-
-def loses_area(out: object, polys: np.ndarray) -> bool:
-    """Whether some of ``polys`` lies outside their union ``out`` by more than
-    :data:`LOST_AREA` (the pieces not covered exactly are measured: rounding leaves a few)."""
-    shapely.prepare(out)
-    out_of = polys[~shapely.covers(out, polys)]
-    if not len(out_of):
-        return False
-    try:
-        return bool((shapely.area(shapely.difference(out_of, out)) > LOST_AREA).any())
-    except shapely.errors.GEOSException:
-        return True
 
 
 def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.ndarray,

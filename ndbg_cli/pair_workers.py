@@ -22,7 +22,8 @@ from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 
-from .blocking_cones import face_unions, pruned_pair_cones
+from .blocking_cones import pruned_pair_cones
+from .chart_union import face_unions
 from .domain import domain_windows
 from .pools import end_pool
 from .tritree import LEAF, tri_tree
@@ -45,7 +46,7 @@ _STATE: dict = {}
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
              eps: float, domain: np.ndarray | None) -> tuple:
     """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union)``, ``faces`` as
-    :func:`~ndbg_cli.blocking_cones.face_unions` gives them. ``trees`` caches each part's
+    :func:`~ndbg_cli.chart_union.face_unions` gives them. ``trees`` caches each part's
     pruning tree (``None`` until built)."""
     t0 = time.perf_counter()
     for k in (a, b):

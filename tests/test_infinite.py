@@ -9,6 +9,7 @@ import trimesh
 from manifold3d import Manifold
 
 import ndbg_cli
+from ndbg_cli import chart_union as cu
 from ndbg_cli.assembly import Assembly
 from ndbg_cli.cubemap import random_directions
 from ndbg_cli.dbg import free_subsets
@@ -413,7 +414,7 @@ def test_pruned_terms_give_the_dense_blocked_sets(name):
             fewer += len(pruned) < len(dense)
             assert np.array_equal(_open_member(dense, d), _open_member(pruned, d)), (i, j)
             assert np.allclose(np.sort(dcirc, axis=0), np.sort(pcirc, axis=0)), (i, j)
-            for gd, gp in zip(bc.cones_to_face_geoms(dense), bc.cones_to_face_geoms(pruned)):
+            for gd, gp in zip(cu.cones_to_face_geoms(dense), cu.cones_to_face_geoms(pruned)):
                 assert (gd is None) == (gp is None)
                 if gd is not None:
                     assert shapely.symmetric_difference(gd[0], gp[0]).area < 1e-12
@@ -450,8 +451,8 @@ def test_reversed_pair_is_the_antipodal_image(name):
             other, _ = bc.pruned_pair_cones(tris[j][0], tris[j][1], trees[j],
                                             tris[i][0], tris[i][1], trees[i], eps)
             assert np.array_equal(_open_member(direct, d), _open_member(-other, d)), (i, j)
-            mine = bc.cones_to_face_geoms(direct)
-            flipped = reverse_entries(bc.cones_to_face_geoms(other))
+            mine = cu.cones_to_face_geoms(direct)
+            flipped = reverse_entries(cu.cones_to_face_geoms(other))
             for a, b in zip(mine, flipped):
                 assert (a is None) == (b is None), (i, j)
                 if a is not None:
@@ -534,7 +535,7 @@ def test_far_pair_keeps_every_blocked_direction():
     y in [0, 2] then overlaps bottom's box x in [1.5, 3.5], y in [2.5, 4.5] by 0.39 x 1.31,
     so bottom blocks top along ``d`` (and 0.02 rad round it). GEOS 3.14.1's union_all of the
     pair's 71 chart pieces on the +y face lost 0.03 chart units^2 round ``d``, and the NDBG
-    had no arc there (:func:`ndbg_cli.blocking_cones.robust_union` now checks the union)."""
+    had no arc there (:func:`ndbg_cli.chart_union.robust_union` now checks the union)."""
     top = boxes_part("top", [([0, 0, 2], [1.5, 2, 3.5]), ([1.5, 0, 2], [3.5, 2, 3.5]),
                              ([1.5, 2, 2], [3.5, 2.5, 3.5])])
     bottom = boxes_part("bottom", [([1.5, 0, 0], [3.5, 2, 0.5]),
@@ -552,13 +553,12 @@ def test_far_pair_keeps_every_blocked_direction():
 def test_a_union_that_loses_a_piece_is_redone():
     import shapely
 
-    from ndbg_cli import blocking_cones as bc
 
     polys = np.array([shapely.box(0, 0, 1, 1), shapely.box(0.5, 0, 2, 1),
                       shapely.box(0.2, 0.2, 0.4, 0.4)])
-    assert not bc.loses_area(shapely.union_all(polys), polys)
-    assert bc.loses_area(shapely.box(0, 0, 1.9, 1), polys)  # 0.1 of the second piece lost
-    assert not bc.loses_area(shapely.box(0, 0, 2 - 1e-16, 1), polys)  # rounding only
+    assert not cu.loses_area(shapely.union_all(polys), polys)
+    assert cu.loses_area(shapely.box(0, 0, 1.9, 1), polys)  # 0.1 of the second piece lost
+    assert not cu.loses_area(shapely.box(0, 0, 2 - 1e-16, 1), polys)  # rounding only
 
 
 def test_coplanar_triangles_make_no_term():
@@ -676,7 +676,6 @@ def test_union_drops_points_along_its_clipping_rectangle():
     the boundary leaves a side, and holes stay)."""
     import shapely
 
-    from ndbg_cli import blocking_cones as bc
 
     rect = (-1.0, -1.0, 1.0, 1.0)
     # four strips across the window (each touching both the left and right sides), then
@@ -688,7 +687,7 @@ def test_union_drops_points_along_its_clipping_rectangle():
               shapely.box(-1, 0.55, 1, 0.6)]
     polys = np.array(strips + around, dtype=object)
     plain = shapely.union_all(polys)
-    got = bc.off_rect_runs(plain, rect)
+    got = cu.off_rect_runs(plain, rect)
     assert got.equals(plain)
     # the left and right sides each keep only the two corners: (-1, -1), (-1, 1)... and the
     # top side its corners and the notch's two ends
@@ -699,7 +698,7 @@ def test_union_drops_points_along_its_clipping_rectangle():
                                                       (1.0, 1.0)]
     assert len(shapely.get_coordinates(plain.exterior)) > len(xy) + 1
     # and the union function gives that same set
-    assert bc.union(polys, seed=2, rect=rect).equals(plain)
+    assert cu.union(polys, seed=2, rect=rect).equals(plain)
 
 
 def test_open_hits_is_the_box_filtered_open_membership():

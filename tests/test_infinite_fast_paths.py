@@ -14,6 +14,7 @@ import trimesh
 import ndbg_cli
 from ndbg_cli import arrangement, blocked_sets, infinite
 from ndbg_cli import blocking_cones as bc
+from ndbg_cli import chart_union as cu
 from ndbg_cli.assembly import Assembly
 from ndbg_cli.contacts import analyze_contacts
 from ndbg_cli.cover import RASTER
@@ -117,7 +118,7 @@ def test_convex_cone_is_the_union_of_the_terms_on_random_pairs():
         terms, circles = bc.pair_cones(ta, na, tb, nb, 1e-3)
         assert not len(circles)
         np.testing.assert_array_equal(_inside(cone, d, 1e-6), _inside(terms, d, 1e-6))
-        fast, slow = bc.convex_entries([cone])[0], bc.cones_to_face_geoms(terms)
+        fast, slow = bc.convex_entries([cone])[0], cu.cones_to_face_geoms(terms)
         for f in range(6):
             assert (fast[f] is None) == (slow[f] is None)
             if fast[f] is not None:
@@ -184,7 +185,7 @@ def test_arrangement_cells_are_chains_between_true_nodes():
     # chains (1-dimensional cells, through the squares' corners) and 2 nodes
     a, b = shapely.box(0, 0, 2, 2), shapely.box(1, 1, 3, 3)
     noded = shapely.line_merge(shapely.union_all(
-        arrangement.merged_segments([a.boundary, b.boundary]), grid_size=bc.GRID))
+        arrangement.merged_segments([a.boundary, b.boundary]), grid_size=cu.GRID))
     parts = shapely.get_parts(noded)
     assert len(parts) == 4
     ends = {tuple(p) for g in parts for p in shapely.get_coordinates(g)[[0, -1]].tolist()}
@@ -247,7 +248,7 @@ def test_many_facet_cone_is_clipped_whole():
     terms, _ = bc.pair_cones(*_tris(a), *_tris(b), 1e-4)
     d = random_directions(4000, seed=9)
     np.testing.assert_array_equal(_inside(cone, d, 1e-6), _inside(terms, d, 1e-6))
-    fast, slow = bc.convex_entries([cone])[0], bc.cones_to_face_geoms(terms)
+    fast, slow = bc.convex_entries([cone])[0], cu.cones_to_face_geoms(terms)
     for f in range(6):
         assert (fast[f] is None) == (slow[f] is None)
         if fast[f] is not None:
@@ -294,7 +295,7 @@ def test_union_is_never_smaller_than_a_piece():
                          [0.32604473088553954, 1.000000001], [1.000000001, 1.000000001]])
     assert a.covers(b)
     for pieces in ([b, a], [a, b]):
-        got = bc.union(np.array(pieces, dtype=object))
+        got = cu.union(np.array(pieces, dtype=object))
         assert got.area == pytest.approx(a.area, rel=1e-9)
         assert got.buffer(1e-9).covers(a)  # snapped to GRID: within 1e-10
 
