@@ -373,23 +373,22 @@ def circle_lines(normals: np.ndarray, face: int) -> list[object]:
     """Chart segments of the great circles ``d . n = 0`` crossing ``face``'s square."""
     e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
-    out = []
-    for n in normals:
-        a, b, c = n @ u, n @ v, n @ e  # a s + b t + c = 0
-        if max(abs(a), abs(b)) < 1e-12:
-            continue
-        if abs(a) >= abs(b):
-            t = np.array([-r, r])
-            s_ = -(b * t + c) / a
-            pts = np.stack([s_, t], axis=1)
-        else:
-            s_ = np.array([-r, r])
-            t = -(a * s_ + c) / b
-            pts = np.stack([s_, t], axis=1)
-        seg = shapely.clip_by_rect(shapely.LineString(pts), -r, -r, r, r)
-        if not seg.is_empty and seg.length > 0:
-            out.append(seg)
-    return out
+    if not len(normals):
+        return []
+    # the same scalar products and arithmetic as one circle at a time, then one GEOS call
+    abc = np.array([(n @ u, n @ v, n @ e) for n in normals])
+    abc = abc[np.maximum(np.abs(abc[:, 0]), np.abs(abc[:, 1])) >= 1e-12]
+    a, b, c = abc[:, 0:1], abc[:, 1:2], abc[:, 2:3]
+    ends = np.array([-r, r])[None, :]
+    by_t = np.abs(a) >= np.abs(b)  # s as a function of t, else t of s
+    pts = np.where(by_t[:, :, None],
+                   np.stack([-(b * ends + c) / np.where(by_t, a, 1.0),
+                             np.broadcast_to(ends, (len(abc), 2))], axis=2),
+                   np.stack([np.broadcast_to(ends, (len(abc), 2)),
+                             -(a * ends + c) / np.where(by_t, 1.0, b)], axis=2))
+    segs = shapely.clip_by_rect(shapely.linestrings(pts), -r, -r, r, r)
+    keep = ~shapely.is_empty(segs) & (shapely.length(segs) > 0)
+    return list(segs[keep])
 
 
 def _edge_cells(noded: object, face: int, dom: object = None) -> list[Cell]:

@@ -126,8 +126,8 @@ def _regions_3d(bs: BlockedSets) -> tuple[list[Region], int]:
     sliding = counts[keep]
     lower = np.array([c.dimension < 2 for c in cells], dtype=bool)
     dirs, sliding = _snap_to_circles(bs, dirs, sliding, dbgs, lower)
-    regions = [Region(dimension=c.dimension, direction=tuple(float(x) for x in d),
-                      dbg=g, sliding=int(k)) for c, d, g, k in zip(cells, dirs, dbgs, sliding)]
+    regions = [Region(dimension=c.dimension, direction=tuple(d), dbg=g, sliding=k)
+               for c, d, g, k in zip(cells, dirs.tolist(), dbgs, sliding.tolist())]
     return regions, skipped
 
 
