@@ -75,6 +75,8 @@ class Cover:
         self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
         self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
+        self._args: tuple | None = None  # what _windows gave, until a cell is marked
+        self._pyrs: tuple | None = None  # the windows' corners and sides, until then too
         self.empty = True
         if domain is not None:
             # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
@@ -169,6 +171,7 @@ class Cover:
         self.covered[face, rows] |= inside
         self.stale[face] = min(self.stale[face], int(rows[0]))
         self.win[face] = False
+        self._args = self._pyrs = None
         self.empty = False
 
     def _table(self, face: int) -> np.ndarray:
@@ -203,14 +206,17 @@ class Cover:
         """The faces with a window ``(w,)``, their corner directions ``(w, 4, 3)``, chart
         rectangles ``(w, 4)``, the summed-area tables (up to date) and the cell width: what
         the compiled tests (:func:`ndbg_cli.cover_kernels.covers`) take."""
+        if self._args is not None:  # nothing marked since: the tables are up to date
+            return self._args
         faces = [f for f in range(6) if self.window(f) is not None]
         for f in faces:
             self._table(f)
         sat = self.sat if self.sat is not None else np.zeros((6, 2, 2), dtype=np.int32)
-        return (np.array(faces, dtype=np.int64),
-                np.array([self._window_pyramid(f)[0] for f in faces]).reshape(-1, 4, 3),
-                np.array([self.window(f) for f in faces], dtype=float).reshape(-1, 4),
-                sat, self.h)
+        self._args = (np.array(faces, dtype=np.int64),
+                      np.array([self._window_pyramid(f)[0] for f in faces]).reshape(-1, 4, 3),
+                      np.array([self.window(f) for f in faces], dtype=float).reshape(-1, 4),
+                      sat, self.h)
+        return self._args
 
     def _outside(self, cones: np.ndarray, face: int) -> np.ndarray | None:
         """``(p,)`` whether each open cone ``(p, k, 3)`` misses the window of ``face``
@@ -248,12 +254,13 @@ class Cover:
         every generator strictly outside one side of the window's cone, or the four corners
         outside one of the half-spaces."""
         from . import cover_kernels as kernels
-        pyrs = [p for p in map(self._window_pyramid, range(6)) if p is not None]
-        corners = np.array([p[0] for p in pyrs]).reshape(-1, 4, 3)
-        sides = np.array([p[1] for p in pyrs]).reshape(-1, 4, 3)
+        if self._pyrs is None:
+            pyrs = [p for p in map(self._window_pyramid, range(6)) if p is not None]
+            self._pyrs = (np.array([p[0] for p in pyrs]).reshape(-1, 4, 3),
+                          np.array([p[1] for p in pyrs]).reshape(-1, 4, 3))
         return kernels.misses_spanned_open(np.ascontiguousarray(gens, dtype=float),
                                            np.ascontiguousarray(facing, dtype=float),
-                                           corners, sides)
+                                           *self._pyrs)
 
     def misses_open(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each open cone ``(p, k, 3)`` (zero rows allowed) misses every
