@@ -65,8 +65,6 @@ from .cover import Cover, run_offsets
 from .cubemap import (
     BOX_EDGE_PAIRS,
     DIFFERENCE_PAIRS,
-    compact,
-    cone_normals,
 )
 from .tritree import TriTree, tri_tree  # noqa: F401 (tri_tree: part of this API)
 
@@ -136,30 +134,16 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     ia, jb, near = ia[ok], jb[ok], near[ok]
     if not len(ia):
         return _EMPTY
-    parts = []
-    for sel, is_near in ((np.nonzero(~near)[0], False), (np.nonzero(near)[0], True)):
-        for s in range(0, len(sel), CHUNK):
-            idx = sel[s:s + CHUNK]
-            a, b = ia[idx], jb[idx]
-            gens = (tj[b][:, :, None, :] - ti[a][:, None, :, :]).reshape(len(idx), 9, 3)
-            if is_near:
-                # Both triangles moved inward by 1.5 eps along their normals (erosion).
-                gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
-            facing = np.stack([ni[a], -nj[b]], axis=1)
-            if cover is not None:
-                fresh = ~cover.misses_spanned_open(gens, facing)
-                gens, facing = gens[fresh], facing[fresh]
-                if not len(gens):
-                    continue
-            m = cone_normals(gens, pairs=DIFFERENCE_PAIRS)
-            if cover is not None:
-                fresh = ~cover.misses_open(np.concatenate([m, facing], axis=1))
-                m, facing = m[fresh], facing[fresh]
-                if not len(m):
-                    continue
-            cone = np.concatenate([compact(m), facing], axis=1)
-            parts.append(cone[~flat(cone)])
-    cones = _stack(parts)
+    from . import term_kernels
+    # the far pairs first, then the near ones (the order the cones are listed in)
+    order = np.concatenate([np.nonzero(~near)[0], np.nonzero(near)[0]])
+    if cover is not None:
+        corners, sides = cover.pyramids()
+    else:
+        corners = sides = np.zeros((0, 4, 3))
+    pa, pb = DIFFERENCE_PAIRS
+    cones, _ = term_kernels.terms(ti, ni, tj, nj, ia[order], jb[order], near[order], eps,
+                                  pa, pb, 1e-9, FLAT, cover is not None, corners, sides)
     circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
     return cones, circles
 

@@ -254,13 +254,19 @@ class Cover:
         every generator strictly outside one side of the window's cone, or the four corners
         outside one of the half-spaces."""
         from . import cover_kernels as kernels
+        return kernels.misses_spanned_open(np.ascontiguousarray(gens, dtype=float),
+                                           np.ascontiguousarray(facing, dtype=float),
+                                           *self.pyramids())
+
+    def pyramids(self) -> tuple[np.ndarray, np.ndarray]:
+        """The windows as cones, face by face (those with a window): their corner directions
+        ``(w, 4, 3)`` and the inward normals of their sides ``(w, 4, 3)``
+        (:meth:`_window_pyramid`), kept until a cell is marked."""
         if self._pyrs is None:
             pyrs = [p for p in map(self._window_pyramid, range(6)) if p is not None]
             self._pyrs = (np.array([p[0] for p in pyrs]).reshape(-1, 4, 3),
                           np.array([p[1] for p in pyrs]).reshape(-1, 4, 3))
-        return kernels.misses_spanned_open(np.ascontiguousarray(gens, dtype=float),
-                                           np.ascontiguousarray(facing, dtype=float),
-                                           *self._pyrs)
+        return self._pyrs
 
     def misses_open(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each open cone ``(p, k, 3)`` (zero rows allowed) misses every

@@ -211,6 +211,76 @@ def test_cover_tests_match_numpy() -> None:
     assert min(seen) > 0  # some cones are covered: the tests can fail
 
 
+def _ref_terms(ti, ni, tj, nj, ia, jb, eps, near, cover):
+    """The batched path the fused term kernel replaced: generators, the cover's quick tests,
+    facets, compaction and the flat test, far pairs first; each cone's nonzero rows."""
+    from ndbg_cli.blocking_cones import FLAT, flat
+
+    out = []
+    for sel in (np.nonzero(~near)[0], np.nonzero(near)[0]):
+        if not len(sel):
+            continue
+        a, b = ia[sel], jb[sel]
+        gens = (tj[b][:, :, None, :] - ti[a][:, None, :, :]).reshape(len(sel), 9, 3)
+        if near[sel[0]]:
+            gens = gens + (1.5 * eps * (ni[a] - nj[b]))[:, None, :]
+        facing = np.stack([ni[a], -nj[b]], axis=1)
+        if cover is not None:
+            fresh = ~cover.misses_spanned_open(gens, facing)
+            gens, facing = gens[fresh], facing[fresh]
+        if not len(gens):
+            continue
+        m = cone_normals(gens, pairs=DIFFERENCE_PAIRS)
+        if cover is not None:
+            fresh = ~cover.misses_open(np.concatenate([m, facing], axis=1))
+            m, facing = m[fresh], facing[fresh]
+        if not len(m):
+            continue
+        cone = np.concatenate([compact(m), facing], axis=1)
+        cone = cone[~flat(cone)]
+        assert FLAT > 0
+        out.extend(c[np.any(c != 0.0, axis=1)] for c in cone)
+    return out
+
+
+@pytest.mark.parametrize("with_cover", [False, True])
+def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
+    """:func:`ndbg_cli.term_kernels.terms` against the batched kernels it replaced: the same
+    cones in the same order, each with the same nonzero rows, bit for bit (touching and
+    coplanar triangles included: flat terms and erosion)."""
+    from ndbg_cli import term_kernels
+
+    rng = np.random.default_rng(11 + with_cover)
+    kept = 0
+    for trial in range(6):
+        ti = rng.normal(size=(40, 3, 3))
+        tj = ti[rng.permutation(40)] + rng.normal(size=(40, 1, 3)) * [0.0, 0.5, 3.0][trial % 3]
+        tj[:10] = ti[:10] + np.array([0.0, 0.0, 1e-3])  # nearly coplanar, nearly touching
+        ni = np.cross(ti[:, 1] - ti[:, 0], ti[:, 2] - ti[:, 0])
+        ni /= np.linalg.norm(ni, axis=1, keepdims=True)
+        nj = np.cross(tj[:, 1] - tj[:, 0], tj[:, 2] - tj[:, 0])
+        nj /= np.linalg.norm(nj, axis=1, keepdims=True)
+        nj[:10] = -ni[:10]
+        ia, jb = np.nonzero(np.ones((40, 40), dtype=bool))
+        near = rng.random(len(ia)) < 0.3
+        near[:40] = True
+        cover = None
+        if with_cover:
+            cover = Cover(domain=rng.random((6, 8, 8)) < 0.4)
+            cover.add(compact(cone_normals(_gens(rng, 50, False), pairs=DIFFERENCE_PAIRS)))
+        want = _ref_terms(ti, ni, tj, nj, ia, jb, 1e-3, near, cover)
+        order = np.concatenate([np.nonzero(~near)[0], np.nonzero(near)[0]])
+        corners, sides = cover.pyramids() if cover is not None else (np.zeros((0, 4, 3)),) * 2
+        got, p = term_kernels.terms(ti, ni, tj, nj, ia[order], jb[order], near[order], 1e-3,
+                                    *DIFFERENCE_PAIRS, 1e-9, 1e-14, cover is not None,
+                                    corners, sides)
+        assert p == len(want) == len(got)
+        for g, w in zip(got, want):
+            assert _same(g[np.any(g != 0.0, axis=1)], w)
+        kept += p
+    assert kept > 0
+
+
 def _box_ref(cover: Cover, face: int, lo: np.ndarray, hi: np.ndarray) -> bool:
     """Every raster cell meeting the chart box is covered (direct scan)."""
     r, h = cover.r, cover.h

@@ -1,0 +1,122 @@
+"""Compiled kernel (numba) of the terms of ``B_ij`` (:func:`ndbg_cli.blocking_cones.terms`):
+per triangle pair, the generators, the cover's quick window tests, the facets, their
+compaction and the flat test, one pair at a time with no intermediate arrays. The same
+operations in the same order as the batched numpy and kernel code it replaces (see
+:mod:`ndbg_cli.kernels`), so each kept cone has the same nonzero rows, bit for bit, in the
+same order; only where the zero padding sits differs (after the facing rows here, before
+them there), which no consumer of a cone reads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .cover_kernels import _separates
+from .kernels import _compact, _cone_normals, dot_einsum
+
+
+@njit(cache=True)
+def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
+          jb: np.ndarray, near: np.ndarray, eps: float, pa: np.ndarray, pb: np.ndarray,
+          rel_tol: float, flat_tol: float, use_cover: bool, corners: np.ndarray,
+          sides: np.ndarray) -> tuple[np.ndarray, int]:
+    """The open cones of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` (those given can face
+    each other), in the order given: ``(p, w, 3)`` and their number ``p`` (rows past it
+    unused).
+
+    Pair ``k``'s generators are ``tj[jb[k], v] - ti[ia[k], w]`` (index ``3 v + w``), both
+    triangles moved inward by ``1.5 eps`` along their normals when ``near[k]``; its facing
+    half-spaces are ``ni[ia[k]]`` and ``-nj[jb[k]]``. With ``use_cover`` a pair is dropped
+    when it misses every window (corner directions ``corners`` ``(nw, 4, 3)``, inward side
+    normals ``sides``), first on its generators and facing half-spaces
+    (:func:`ndbg_cli.cover_kernels.misses_spanned_open`), then on its facets and facing
+    half-spaces (:func:`ndbg_cli.cover_kernels.outside`). The facets are the candidates
+    ``pa``, ``pb`` (:func:`ndbg_cli.kernels.cone_normals`, ``rel_tol``), compacted
+    (:func:`ndbg_cli.kernels.compact`); a cone with two rows ``m . m' <= -1 + flat_tol``
+    (:func:`ndbg_cli.kernels.flat`) is dropped."""
+    n = len(ia)
+    q = len(pa)
+    width = 2 * q + 2
+    out = np.zeros((n, width, 3))
+    gens = np.empty((9, 3))
+    facing = np.empty((2, 3))
+    normals = np.zeros((2 * q, 3))
+    scale = np.empty(9)
+    rows = np.empty((2 * q, 3))
+    sel = np.empty(2 * q, dtype=np.int64)
+    key = np.empty(2 * q)
+    qq = np.empty((2 * q, 3))
+    order = np.empty(2 * q, dtype=np.int64)
+    cone = np.empty((width, 3))
+    nw = corners.shape[0]
+    grow = 1.5 * eps
+    p = 0
+    used = 1
+    for k in range(n):
+        a, b = ia[k], jb[k]
+        if near[k]:
+            s0 = grow * (ni[a, 0] - nj[b, 0])
+            s1 = grow * (ni[a, 1] - nj[b, 1])
+            s2 = grow * (ni[a, 2] - nj[b, 2])
+        for v in range(3):
+            for w in range(3):
+                g = 3 * v + w
+                gens[g, 0] = tj[b, v, 0] - ti[a, w, 0]
+                gens[g, 1] = tj[b, v, 1] - ti[a, w, 1]
+                gens[g, 2] = tj[b, v, 2] - ti[a, w, 2]
+                if near[k]:
+                    gens[g, 0] = gens[g, 0] + s0
+                    gens[g, 1] = gens[g, 1] + s1
+                    gens[g, 2] = gens[g, 2] + s2
+        facing[0, 0], facing[0, 1], facing[0, 2] = ni[a, 0], ni[a, 1], ni[a, 2]
+        facing[1, 0], facing[1, 1], facing[1, 2] = -nj[b, 0], -nj[b, 1], -nj[b, 2]
+        if use_cover:
+            misses = True
+            for w in range(nw):
+                if not (_separates(sides[w], gens, True)
+                        or _separates(facing, corners[w], False)):
+                    misses = False
+                    break
+            if misses:
+                continue
+        normals[:] = 0.0
+        _cone_normals(gens, pa, pb, rel_tol, normals, scale)
+        if use_cover:
+            misses = True
+            for w in range(nw):
+                if not (_separates(normals, corners[w], True)
+                        or _separates(facing, corners[w], True)):
+                    misses = False
+                    break
+            if misses:
+                continue
+        nz = 0
+        for r in range(2 * q):
+            if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
+                nz += 1
+        kept = _compact(normals, max(nz, 1), rows, sel, key, qq, order)
+        m = kept + 2
+        for r in range(kept):
+            cone[r, 0], cone[r, 1], cone[r, 2] = rows[r, 0], rows[r, 1], rows[r, 2]
+        for r in range(2):
+            cone[kept + r, 0] = facing[r, 0]
+            cone[kept + r, 1] = facing[r, 1]
+            cone[kept + r, 2] = facing[r, 2]
+        lim = -1.0 + flat_tol
+        is_flat = False
+        for x in range(m):
+            for y in range(m):
+                if dot_einsum(cone[x, 0], cone[x, 1], cone[x, 2],
+                              cone[y, 0], cone[y, 1], cone[y, 2]) <= lim:
+                    is_flat = True
+                    break
+            if is_flat:
+                break
+        if is_flat:
+            continue
+        for r in range(m):
+            out[p, r, 0], out[p, r, 1], out[p, r, 2] = cone[r, 0], cone[r, 1], cone[r, 2]
+        used = max(used, m)
+        p += 1
+    return out[:p, :used].copy(), p
