@@ -84,23 +84,25 @@ def union(polys: np.ndarray, seed: int = 64,
     already covered (exact ``covers`` tests against the partial union), repeatedly.
 
     ``rect`` (chart units; the chart square with its margin when ``None``) is the rectangle
-    the pieces were clipped to: the partial unions drop their points inside straight runs
-    along its sides (:func:`off_rect_runs`), which add nothing to the point set but make
-    every ``covers`` test against them slow."""
+    the pieces were clipped to. The ``covers`` tests are made against the partial union
+    without its points inside straight runs along the rectangle's sides
+    (:func:`off_rect_runs`: the same point set, far faster to test), while the unions are
+    made from the partial union as GEOS gave it, so that the result does not depend on it."""
     if rect is None:
         r = 1.0 + SQUARE_MARGIN
         rect = (-r, -r, r, r)
     polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
-    acc = robust_union(polys[:seed], rect)
+    acc, test = _union_step(polys[:seed], polys[:seed], rect)
     rest = polys[seed:]
     while len(rest):
-        shapely.prepare(acc)
-        rest = rest[~shapely.covers(acc, rest)]
+        shapely.prepare(test)
+        rest = rest[~shapely.covers(test, rest)]
         if not len(rest):
             break
         take = max(seed, len(rest) // 8)
-        acc = robust_union(np.concatenate([[acc], rest[:take]]), rect)
-        rest = rest[take:]
+        batch, rest = rest[:take], rest[take:]
+        acc, test = _union_step(np.concatenate([[acc], batch]),
+                                np.concatenate([[test], batch]), rect)
     return acc
 
 
@@ -133,26 +135,47 @@ def off_rect_runs(g: object, rect: tuple[float, float, float, float]) -> object:
     return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
 
 
-def robust_union(polys: np.ndarray, rect: tuple[float, float, float, float] | None = None
-                 ) -> object:
+def _union_step(polys: np.ndarray, same: np.ndarray,
+                rect: tuple[float, float, float, float]) -> tuple[object, object]:
+    """:func:`robust_union` of ``polys``, and that union without its runs along ``rect``
+    (:func:`off_rect_runs`); ``same``: ``polys`` with the same point sets, faster to test
+    (the partial union without its runs), for the check."""
+    out = _overlay(polys)
+    if out is not None:
+        test = off_rect_runs(out, rect)
+        if _sound(out, test, polys, same):
+            return out, test
+    out = _snapped(polys)
+    return out, out
+
+
+def robust_union(polys: np.ndarray) -> object:
     """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
     overlay fails: GEOS topology exceptions on nearly coincident edges, a union smaller
     than one of its pieces (GEOS 3.14 returns the smaller of two polygons one ulp apart at a
     vertex, one inside the other, instead of the larger), or a union some piece sticks out
     of (:func:`loses_area`: GEOS 3.14.1 drops faces of the overlay, 0.03 of 1.2 chart units
-    on 64 pieces of a box pair's set, where the first 63 pieces' union was right). With
-    ``rect`` (the pieces' clipping rectangle) the union leaves out the points inside
-    straight runs along its sides (:func:`off_rect_runs`)."""
+    on 64 pieces of a box pair's set, where the first 63 pieces' union was right)."""
+    out = _overlay(polys)
+    return out if out is not None and _sound(out, out, polys, polys) else _snapped(polys)
+
+
+def _overlay(polys: np.ndarray) -> object | None:
     try:
-        out = shapely.union_all(polys)
+        return shapely.union_all(polys)
     except shapely.errors.GEOSException:
-        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
-    if rect is not None:
-        out = off_rect_runs(out, rect)
+        return None
+
+
+def _snapped(polys: np.ndarray) -> object:
+    return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
+
+
+def _sound(out: object, test: object, polys: np.ndarray, same: np.ndarray) -> bool:
+    """Whether the overlay ``out`` of ``polys`` is right (:func:`robust_union`); ``test``
+    and ``same``: ``out`` and ``polys`` with the same point sets, faster to test."""
     biggest = float(shapely.area(polys).max()) if len(polys) else 0.0
-    if out.area < biggest * (1.0 - 1e-9) - GRID * GRID or loses_area(out, polys):
-        return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
-    return out
+    return not (out.area < biggest * (1.0 - 1e-9) - GRID * GRID or loses_area(test, same))
 
 
 #: Area (chart units squared) of a piece outside the union of all the pieces above which

@@ -671,9 +671,10 @@ def test_2d_wide_region_keeps_its_middle():
 
 
 def test_union_drops_points_along_its_clipping_rectangle():
-    """Pieces clipped to a window leave two points each on its sides; the union keeps the
-    same point set without those inside straight runs along a side (corners, points where
-    the boundary leaves a side, and holes stay)."""
+    """Pieces clipped to a window leave two points each on its sides; without those inside
+    straight runs along a side the union is the same point set (corners and the points
+    where the boundary leaves a side stay), and the union made with the runs dropped for its
+    covers tests is the plain one."""
     import shapely
 
 
