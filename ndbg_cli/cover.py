@@ -22,16 +22,21 @@ def run_offsets(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return run, np.arange(len(run)) - (np.cumsum(counts) - counts)[run]
 
 
-def cells_window(cells: np.ndarray) -> tuple[float, float, float, float] | None:
+def cells_window(cells: np.ndarray, row0: int = 0, col0: int = 0, r: int | None = None
+                 ) -> tuple[float, float, float, float] | None:
     """The chart rectangle ``(x0, y0, x1, y1)`` round the marked cells of an ``r x r`` raster
     of one cube face (``cells[row, col]``, row = ``t``; on cell boundaries, the chart
     square's margin where it reaches the face's border so that cube edges stay inside on
-    both faces), or ``None`` when none is marked."""
+    both faces), or ``None`` when none is marked. ``cells`` may be the block of the raster
+    from row ``row0`` and column ``col0`` (``r``: the raster's size, the block's when
+    ``None``) holding every marked cell."""
     rows = np.nonzero(cells.any(axis=1))[0]
     if not len(rows):
         return None
-    cols = np.nonzero(cells.any(axis=0))[0]
-    r, m = cells.shape[0], 1.0 + SQUARE_MARGIN
+    cols = np.nonzero(cells.any(axis=0))[0] + col0
+    rows = rows + row0
+    r = cells.shape[0] if r is None else r
+    m = 1.0 + SQUARE_MARGIN
     h = 2.0 / r
     lo = [-m if c == 0 else -1.0 + c * h for c in (cols[0], rows[0])]
     hi = [m if c == r else -1.0 + c * h for c in (cols[-1] + 1, rows[-1] + 1)]
@@ -74,6 +79,8 @@ class Cover:
         self.sat: np.ndarray | None = None
         self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
+        # per face the (row0, row1, col0, col1) block holding every cell that may be open
+        self.block: list = [(0, raster, 0, raster)] * 6
         self._pyramids: dict[int, tuple] = {}  # per face: (window, corners, sides)
         self._args: tuple | None = None  # what _windows gave, until a cell is marked
         self._pyrs: tuple | None = None  # the windows' corners and sides, until then too
@@ -83,6 +90,12 @@ class Cover:
             # count as covered from the start, so whatever lies only there is pruned.
             self.covered = _outside_raster(domain, raster).copy()
             self.empty = not self.covered.any()
+            # the cells left open lie in a block per face: windows are sought there only
+            for face in range(6):
+                rows = np.nonzero(~self.covered[face].all(axis=1))[0]
+                cols = np.nonzero(~self.covered[face].all(axis=0))[0]
+                self.block[face] = None if not len(rows) else (
+                    int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
 
     def window(self, face: int) -> tuple[float, float, float, float] | None:
         """The chart rectangle ``(x0, y0, x1, y1)`` of the cells of ``face`` not yet covered
@@ -90,7 +103,9 @@ class Cover:
         ``None`` when every cell is covered. Cones are clipped to it only: outside it there
         is nothing to mark or to test."""
         if self.win[face] is False:
-            self.win[face] = cells_window(~self.covered[face])
+            b = self.block[face]
+            self.win[face] = None if b is None else cells_window(
+                ~self.covered[face, b[0]:b[1], b[2]:b[3]], b[0], b[2], self.r)
         return self.win[face]
 
     def add(self, cones: np.ndarray) -> None:

@@ -8,7 +8,7 @@ import pytest
 
 from ndbg_cli import blocking_cones as bc
 from ndbg_cli.cover import Cover
-from ndbg_cli.cubemap import FACES, clip_halfplanes, cone_normals
+from ndbg_cli.cubemap import FACES, clip_halfplanes, compact, cone_normals
 
 
 def _random_cones(rng: np.random.Generator, p: int, spread: float) -> np.ndarray:
@@ -121,3 +121,24 @@ def test_compact_keeps_different_facets_with_equal_keys() -> None:
     assert out.shape == (1, 2, 3)
     assert sorted(map(tuple, out[0].round(12))) == sorted([tuple(n1.round(12)),
                                                             tuple(n2.round(12))])
+
+
+def test_windows_sought_in_the_domain_block_are_the_whole_face_ones() -> None:
+    """A cover with a domain seeks its windows in the block of cells the domain leaves open;
+    they are the rectangles :func:`~ndbg_cli.cover.cells_window` finds on the whole face,
+    cube-edge margins included (blocks touching the face's border), as cells get marked."""
+    from ndbg_cli.cover import cells_window
+
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        dom = np.zeros((6, 16, 16), dtype=bool)
+        for f in range(6):
+            r0, c0 = rng.integers(0, 14, size=2)
+            dom[f, r0:r0 + rng.integers(1, 6), c0:c0 + rng.integers(1, 6)] = True
+        dom[0, 0, :3] = True  # at the face's border
+        cover = Cover(raster=64, domain=dom)
+        for step in range(3):
+            for f in range(6):
+                assert cover.window(f) == cells_window(~cover.covered[f]), (trial, step, f)
+            cones = compact(cone_normals(rng.normal(size=(30, 4, 3)), pairs=None))
+            cover.add(cones)
