@@ -255,8 +255,10 @@ def _ends(segs: np.ndarray) -> np.ndarray:
     """``(2 k, 2)`` the first and last points of ``k`` line pieces (the nodes of chains)."""
     if not len(segs):
         return np.zeros((0, 2))
-    return np.concatenate([shapely.get_coordinates(shapely.get_point(segs, 0)),
-                           shapely.get_coordinates(shapely.get_point(segs, -1))])
+    xy, idx = shapely.get_coordinates(segs, return_index=True)
+    last = np.r_[np.flatnonzero(idx[1:] != idx[:-1]), len(idx) - 1]
+    first = np.r_[0, last[:-1] + 1]
+    return np.concatenate([xy[first], xy[last]])
 
 
 #: Circle pairs crossed per vectorised chunk in :func:`circle_crossings`.
