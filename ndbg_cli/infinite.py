@@ -227,14 +227,17 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     skipped = 0
     if asm.dimension == 2:
         bs.arcs = {pair: equator.cone_arcs(c, OPEN_TOL) for pair, c in sorted(bs.cones.items())}
-        regs = equator.equator_regions(bs.arcs, bs.n, bs.eta,
+        regs = equator.equator_extents(bs.arcs, bs.n, bs.eta,
                                        equator.sliding_angles(bs.circles))
         t2 = time.perf_counter()
         # the prisms' caps are contacts too (normal along z): every direction slides on them
-        dirs = np.array([[np.cos(phi), np.sin(phi), 0.0] for _, phi, _ in regs])
+        dirs = np.array([[np.cos(phi), np.sin(phi), 0.0] for _, phi, _, _ in regs])
         sliding = sliding_counts(bs.circles[equator.in_plane(bs.circles)], dirs)
+        # thin: a 1-dimensional arc that may be an erosion band (equator's docstring)
         regions = [Region(dimension=dim, direction=equator.direction(phi), dbg=g,
-                          sliding=int(k)) for (dim, phi, g), k in zip(regs, sliding)]
+                          sliding=int(k),
+                          thin=dim == 1 and equator.narrow(span[1] - span[0], bs.eta))
+                   for (dim, phi, g, span), k in zip(regs, sliding)]
     else:
         regions, skipped = _regions_3d(bs)
         t2 = time.perf_counter()

@@ -34,7 +34,11 @@ class Region:
     "point": ..., "pitch": ...}``) and is ``None`` for translations. ``sliding``: the number
     of distinct contact normals perpendicular to ``direction`` (infinite translations: the
     contacts it slides along exactly; not reported), which ranks the lower-dimensional regions
-    of a move (:func:`ndbg_cli.planning.pick_region`).
+    of a move (:func:`ndbg_cli.planning.pick_region`). ``thin``: a full-dimensional region
+    too narrow for its direction to be trusted as open, ranked with the lower-dimensional
+    ones by ``pick_region`` (infinite translations in 2D: an arc of S^1 at most
+    :data:`ndbg_cli.equator.BAND_ETA` ``eta`` wide, which may be one of the erosion's
+    tolerance bands beside a sliding direction, see :mod:`ndbg_cli.equator`; not reported).
     """
 
     dimension: int
@@ -42,6 +46,7 @@ class Region:
     dbg: DBG
     motion: dict | None = None
     sliding: int = 0
+    thin: bool = False
 
 
 @dataclass(frozen=True)

@@ -130,13 +130,16 @@ class Plan:
 
 def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
     """The region reported for an instruction free in several: an open one (full dimension:
-    the most robust) first; then the lower-dimensional region sliding along the most contacts
-    exactly (:attr:`Region.sliding`), then the highest dimension, then the lowest index.
+    the most robust, unless :attr:`~ndbg_cli.ndbg.Region.thin`) first; then the
+    lower-dimensional or thin region sliding along the most contacts exactly
+    (:attr:`Region.sliding`), then the highest dimension, then the lowest index.
 
     A thin free band round a bore's axis holds many lower-dimensional cells a few ``eps / L``
     wide (the eroded contacts, :mod:`ndbg_cli.infinite`); only the axis itself, on every
     contact circle of the bore, is free for the direct sweep test (``ndbg query``) and for a
-    designer. Families without contact counts rank by dimension and index alone."""
+    designer. In 2D such bands are 1-dimensional arcs of S^1 (wider than ``eta``), marked
+    thin (:mod:`ndbg_cli.equator`): beside a sliding direction the direct test blocks their
+    middles. Families without contact counts rank by dimension and index alone."""
     return min(regions, key=lambda r: _rank(ndbg, r))
 
 
@@ -252,8 +255,8 @@ def free_region(ndbg: NDBG, subset: int, mask: int,
 def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
     """:func:`pick_region`'s order key of region ``r``."""
     reg = ndbg.regions[r]
-    if reg.dimension == ndbg.space_dimension - 1:  # any point of an open region is as good
-        return (0, 0, 0, r)
+    if reg.dimension == ndbg.space_dimension - 1 and not reg.thin:
+        return (0, 0, 0, r)  # any point of an open region is as good
     return (1, -reg.sliding, -reg.dimension, r)
 
 

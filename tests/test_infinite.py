@@ -670,6 +670,90 @@ def test_2d_wide_region_keeps_its_middle():
     assert SweepChecker(asm).dbg(np.array(free[0].direction)).is_free(nd.mask(["block"]))
 
 
+def test_2d_pick_prefers_the_sliding_direction_to_tolerance_bands():
+    """A plate 10 x 1 (mm) with a pocket 2 wide (floor y = 0.8: left wall 0.1 high, right
+    wall 0.2), a block 2 x 1.2 in it with no clearance, and a 1 x 1 side block against the
+    plate's right end (hand answer). The block comes out only along +y. Eroded (``eps`` =
+    1e-4 x sqrt(125) mm, ``eta`` = 5e-3 rad), it is free from ``atan(3 eps / 0.2)`` right of
+    +y (3.35 ``eta``) to ``atan(3 eps / 0.1)`` left of it (6.7 ``eta``); the side block slides
+    on the plate's end along +y and, eroded, within ``atan(3 eps / 1)`` (0.67 ``eta``) of it:
+    further left it is blocked by the plate, further right the plate by it. So the block is
+    free in three 1-dimensional regions: the right band (DBG base -> block, base -> side), the
+    middle one (base -> block; represented by +y, sliding on the walls) and the left band
+    (base -> block, side -> base). Open regions used to rank first by index: the right band,
+    whose middle (2 ``eta`` right of +y) sinks the block's corner 0.2 x 0.01 mm, 1.8 ``eps``,
+    into the right wall (the direct sweep test blocks it). All three are thin (at most
+    ``BAND_ETA`` ``eta`` wide): the one sliding along the walls, +y, is picked. The same at -y
+    for the sets moving the plate away (4 of the 6 partitionings' picks were blocked)."""
+    from ndbg_cli.equator import BAND_ETA, equator_extents, sliding_angles
+    from ndbg_cli.planning import pick_region, plan, verify
+    from ndbg_cli.validate import make_polygon_part
+
+    base = make_polygon_part("base", [(0, 0), (10, 0), (10, 1), (6, 1), (6, 0.8), (4, 0.8),
+                                      (4, 0.9), (0, 0.9)])[0]
+    block = make_polygon_part("block", [(4, 0.8), (6, 0.8), (6, 2), (4, 2)])[0]
+    side = make_polygon_part("side", [(10, 0), (11, 0), (11, 1), (10, 1)])[0]
+    asm = Assembly("bands2d", (base, block, side), dimension=2)
+    nd = build_infinite(asm)
+    sc = SweepChecker(asm)
+    # every partitioning's pick is free for the direct test, and so is every plan step's
+    # first region (no fallback)
+    parts, _ = partitionings(nd)
+    assert len(parts) == 6
+    for p in parts:
+        d = np.array(nd.regions[pick_region(nd, p.regions)].direction)
+        assert sc.frees(p.moved, p.rest, d), nd.names(p.moved)
+    assert verify(plan(nd), sc.frees, tries=1)["value"]
+    # the block: its three regions, by hand
+    eps, eta = asm.length_tolerance, nd.stats["angular_tolerance"]
+    assert eps == pytest.approx(1e-4 * np.sqrt(125.0)) and eta == pytest.approx(5e-3)
+    mask = nd.mask(["block"])
+    free = [k for k, r in enumerate(nd.regions) if r.dbg.is_free(mask)]
+    assert len(free) == 3
+    bs = nd.geometry
+    ext = equator_extents(bs.arcs, bs.n, bs.eta, sliding_angles(bs.circles))
+    up, b = np.pi / 2, np.arctan(3 * eps / 1.0)
+    ends = [up - np.arctan(3 * eps / 0.2), up - b, up + b, up + np.arctan(3 * eps / 0.1)]
+    for k, lo, hi in zip(free, ends, ends[1:]):
+        assert ext[k][3][:2] == pytest.approx((lo, hi), abs=1e-3 * eta)
+    right, middle, left = (nd.regions[k] for k in free)
+    named = [sorted((nd.ids[i], nd.ids[j]) for i, j in r.dbg.arcs())
+             for r in (right, middle, left)]
+    assert named == [[("base", "block"), ("base", "side")], [("base", "block")],
+                     [("base", "block"), ("side", "base")]]
+    assert all(r.dimension == 1 and r.thin for r in (right, middle, left))
+    assert (right.sliding, middle.sliding, left.sliding) == (0, 1, 0)
+    assert pick_region(nd, free) == free[1] and middle.direction == (0.0, 1.0)
+    assert not sc.frees(mask, nd.mask(["base", "side"]), np.array(right.direction))
+    # the wide regions (a real range of directions) are not thin and still rank first
+    wide = [k for k, r in enumerate(nd.regions) if r.dimension == 1 and not r.thin]
+    assert wide and all(ext[k][3][1] - ext[k][3][0] > BAND_ETA * eta for k in wide)
+
+
+#: Seeds of ``benchmarks/fuzz_pick2d.py`` whose assemblies (grids, stacks, pegged plates;
+#: three turned) had 36 picks the direct sweep test blocked among 104 partitionings.
+FUZZ_SEEDS = [1097657232, 161576974, 2040324895, 643626384, 823941273, 846428920, 503606823,
+              552547096]
+
+
+def test_2d_fuzzed_picks_pass_the_direct_sweep_test():
+    """The region :func:`~ndbg_cli.planning.pick_region` picks for each partitioning of a few
+    fuzzed 2D assemblies with short zero-clearance contacts: its direction frees the moved
+    set for the direct sweep test (``benchmarks/fuzz_pick2d.py`` runs thousands)."""
+    import importlib.util
+
+    from conftest import ROOT
+
+    spec = importlib.util.spec_from_file_location("fuzz_pick2d",
+                                                  ROOT / "benchmarks" / "fuzz_pick2d.py")
+    fuzz = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fuzz)
+    for seed in FUZZ_SEEDS:
+        asm = fuzz.random_assembly(np.random.default_rng(seed))
+        recs = fuzz.check(asm)
+        assert recs and all(r["free"] for r in recs), (seed, [r for r in recs if not r["free"]])
+
+
 def test_union_drops_points_along_its_clipping_rectangle():
     """Pieces clipped to a window leave two points each on its sides; without those inside
     straight runs along a side the union is the same point set (corners and the points
