@@ -124,17 +124,17 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     that miss every cell it leaves open are left out early, by its quick tests on the
     generators (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open`) before the facets are
     computed, then on the facets (:meth:`~ndbg_cli.cover.Cover.misses_open`)."""
-    from . import kernels
+    from . import term_kernels
     if not len(ia):
         return _EMPTY
     # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
     # of t_j's plane (lenient by 2 eps; an empty cone is harmless). Near: boxes within 4 eps.
     lo_i, hi_i, lo_j, hi_j = boxes if boxes is not None else triangle_boxes(ti, tj)
-    ok, near = kernels.facing_pairs(ti, ni, tj, nj, ia, jb, eps, lo_i, hi_i, lo_j, hi_j)
+    ok, near = term_kernels.facing_pairs(ti, ni, tj, nj, ia, jb, eps, lo_i, hi_i, lo_j,
+                                         hi_j)
     ia, jb, near = ia[ok], jb[ok], near[ok]
     if not len(ia):
         return _EMPTY
-    from . import term_kernels
     # the far pairs first, then the near ones (the order the cones are listed in)
     order = np.concatenate([np.nonzero(~near)[0], np.nonzero(near)[0]])
     if cover is not None:

@@ -430,41 +430,6 @@ def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
 
 
 @njit(cache=True)
-def facing_pairs(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray,
-                 ia: np.ndarray, jb: np.ndarray, eps: float, lo_i: np.ndarray,
-                 hi_i: np.ndarray, lo_j: np.ndarray, hi_j: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """For the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` (triangles ``(n, 3, 3)``, unit
-    normals ``(n, 3)``, model units): ``(p,)`` whether they can face each other (some vertex
-    of each in front of the other's plane by more than ``-2 eps``) and ``(p,)`` whether their
-    bounding boxes (``lo_*``, ``hi_*`` ``(n, 3)``) are within ``4 eps`` (gap: the largest
-    separation along an axis)."""
-    p = len(ia)
-    keep = np.zeros(p, dtype=np.bool_)
-    near = np.zeros(p, dtype=np.bool_)
-    lim = -2 * eps
-    for k in range(p):
-        a, b = ia[k], jb[k]
-        na0, na1, na2 = ni[a, 0], ni[a, 1], ni[a, 2]
-        nb0, nb1, nb2 = nj[b, 0], nj[b, 1], nj[b, 2]
-        oi = dot_einsum(na0, na1, na2, ti[a, 0, 0], ti[a, 0, 1], ti[a, 0, 2])
-        oj = dot_einsum(nb0, nb1, nb2, tj[b, 0, 0], tj[b, 0, 1], tj[b, 0, 2])
-        fj = False
-        fi = False
-        for v in range(3):
-            if dot_einsum(na0, na1, na2, tj[b, v, 0], tj[b, v, 1], tj[b, v, 2]) - oi > lim:
-                fj = True
-            if dot_einsum(nb0, nb1, nb2, ti[a, v, 0], ti[a, v, 1], ti[a, v, 2]) - oj > lim:
-                fi = True
-        keep[k] = fj and fi
-        gap = -np.inf
-        for x in range(3):
-            gap = max(gap, max(lo_j[b, x] - hi_i[a, x], lo_i[a, x] - hi_j[b, x]))
-        near[k] = gap <= 4 * eps
-    return keep, near
-
-
-@njit(cache=True)
 def open_hits(cones: np.ndarray, d: np.ndarray, x: np.ndarray, y: np.ndarray,
               boxes: np.ndarray, cand: np.ndarray, tol: float) -> np.ndarray:
     """``(r,)`` whether direction ``d[k]`` ``(r, 3)`` (unit; chart point ``(x[k], y[k])``)

@@ -1,5 +1,6 @@
-"""Compiled kernel (numba) of the terms of ``B_ij`` (:func:`ndbg_cli.blocking_cones.terms`):
-per triangle pair, the generators, the cover's quick window tests, the facets, their
+"""Compiled kernels (numba) of the terms of ``B_ij`` (:func:`ndbg_cli.blocking_cones.terms`):
+which triangle pairs can face each other (:func:`facing_pairs`), then (:func:`terms`), per
+triangle pair, the generators, the cover's quick window tests, the facets, their
 compaction and the flat test, one pair at a time with no intermediate arrays. The same
 operations in the same order as the batched numpy and kernel code it replaces (see
 :mod:`ndbg_cli.kernels`), so each kept cone has the same nonzero rows, bit for bit, in the
@@ -120,3 +121,38 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
         used = max(used, m)
         p += 1
     return out[:p, :used].copy(), p
+
+
+@njit(cache=True)
+def facing_pairs(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray,
+                 ia: np.ndarray, jb: np.ndarray, eps: float, lo_i: np.ndarray,
+                 hi_i: np.ndarray, lo_j: np.ndarray, hi_j: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """For the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` (triangles ``(n, 3, 3)``, unit
+    normals ``(n, 3)``, model units): ``(p,)`` whether they can face each other (some vertex
+    of each in front of the other's plane by more than ``-2 eps``) and ``(p,)`` whether their
+    bounding boxes (``lo_*``, ``hi_*`` ``(n, 3)``) are within ``4 eps`` (gap: the largest
+    separation along an axis)."""
+    p = len(ia)
+    keep = np.zeros(p, dtype=np.bool_)
+    near = np.zeros(p, dtype=np.bool_)
+    lim = -2 * eps
+    for k in range(p):
+        a, b = ia[k], jb[k]
+        na0, na1, na2 = ni[a, 0], ni[a, 1], ni[a, 2]
+        nb0, nb1, nb2 = nj[b, 0], nj[b, 1], nj[b, 2]
+        oi = dot_einsum(na0, na1, na2, ti[a, 0, 0], ti[a, 0, 1], ti[a, 0, 2])
+        oj = dot_einsum(nb0, nb1, nb2, tj[b, 0, 0], tj[b, 0, 1], tj[b, 0, 2])
+        fj = False
+        fi = False
+        for v in range(3):
+            if dot_einsum(na0, na1, na2, tj[b, v, 0], tj[b, v, 1], tj[b, v, 2]) - oi > lim:
+                fj = True
+            if dot_einsum(nb0, nb1, nb2, ti[a, v, 0], ti[a, v, 1], ti[a, v, 2]) - oj > lim:
+                fi = True
+        keep[k] = fj and fi
+        gap = -np.inf
+        for x in range(3):
+            gap = max(gap, max(lo_j[b, x] - hi_i[a, x], lo_i[a, x] - hi_j[b, x]))
+        near[k] = gap <= 4 * eps
+    return keep, near
