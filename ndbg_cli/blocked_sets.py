@@ -306,8 +306,14 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
             if dom[face] is None:
                 fd.clear()
                 continue
+            # many sets are the same polygon there (the whole window, a half-plane's part):
+            # each distinct one is cut once
+            cut: dict[bytes, object] = {}
             for pair in list(fd):
-                g = shapely.intersection(fd[pair], dom[face], grid_size=GRID)
+                key = shapely.to_wkb(fd[pair])
+                g = cut.get(key)
+                if g is None:
+                    g = cut[key] = shapely.intersection(fd[pair], dom[face], grid_size=GRID)
                 if g.is_empty or g.area <= 0:
                     del fd[pair]
                 else:
