@@ -357,6 +357,57 @@ def flat(cones: np.ndarray, tol: float) -> np.ndarray:
     return out
 
 
+@njit(cache=True, inline="always")
+def _pair_at(c: int, start: int) -> tuple[int, int]:
+    """The pair ``(i, j)`` at position ``start`` of the row-major order of ``i < j < c``."""
+    i, t = 0, 0
+    while i < c - 1 and t + (c - 1 - i) <= start:
+        t += c - 1 - i
+        i += 1
+    return i, i + 1 + (start - t)
+
+
+@njit(cache=True, inline="always")
+def _crossing(n: np.ndarray, i: int, j: int) -> tuple[bool, float, float, float]:
+    """``n_i x n_j / |n_i x n_j|``, and whether ``|n_i x n_j| > 1e-12`` (else unusable)."""
+    a0, a1, a2 = n[i, 0], n[i, 1], n[i, 2]
+    b0, b1, b2 = n[j, 0], n[j, 1], n[j, 2]
+    d0 = a1 * b2 - a2 * b1
+    d1 = a2 * b0 - a0 * b2
+    d2 = a0 * b1 - a1 * b0
+    ln = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+    if not ln > 1e-12:
+        return False, 0.0, 0.0, 0.0
+    return True, d0 / ln, d1 / ln, d2 / ln
+
+
+@njit(cache=True, inline="always")
+def _face(d0: float, d1: float, d2: float) -> int:
+    """The cube face of a direction: the largest ``d . e`` (the first of equals)."""
+    f, best = 0, d0
+    for g, val in ((1, -d0), (2, d1), (3, -d1), (4, d2), (5, -d2)):
+        if val > best:
+            f, best = g, val
+    return f
+
+
+@njit(cache=True, inline="always")
+def _chart(f: int, d0: float, d1: float, d2: float) -> tuple[float, float]:
+    """The chart point ``(s, t)`` of a direction on face ``f``."""
+    e, u, v = FACES[f, 0], FACES[f, 1], FACES[f, 2]
+    de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
+    return (dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de,
+            dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de)
+
+
+@njit(cache=True, inline="always")
+def _kept(s: float, t: float, inside: float, box: np.ndarray) -> bool:
+    """Whether a chart point is strictly inside ``|s|, |t| < inside`` and in the closed
+    ``box`` ``(x0, y0, x1, y1)``."""
+    return (abs(s) < inside and abs(t) < inside
+            and box[0] <= s <= box[2] and box[1] <= t <= box[3])
+
+
 @njit(cache=True)
 def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
                      faces: np.ndarray, inside: float, boxes: np.ndarray
@@ -372,12 +423,7 @@ def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
     ``(x0, y0, x1, y1)`` (chart units). Returns chart points ``(m, 2)`` and their faces
     ``(m,)``: all the ``+d`` of the pairs in order, then all the ``-d``."""
     c = n.shape[0]
-    # the pair at position start
-    i, t = 0, 0
-    while i < c - 1 and t + (c - 1 - i) <= start:
-        t += c - 1 - i
-        i += 1
-    j = i + 1 + (start - t)
+    i, j = _pair_at(c, start)
     npairs = max(stop - start, 0)
     dirs = np.empty((npairs, 3))
     m = 0
@@ -385,16 +431,9 @@ def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
         if i >= c - 1:
             break
         if meets[i] and meets[j]:
-            a0, a1, a2 = n[i, 0], n[i, 1], n[i, 2]
-            b0, b1, b2 = n[j, 0], n[j, 1], n[j, 2]
-            d0 = a1 * b2 - a2 * b1
-            d1 = a2 * b0 - a0 * b2
-            d2 = a0 * b1 - a1 * b0
-            ln = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-            if ln > 1e-12:
-                dirs[m, 0] = d0 / ln
-                dirs[m, 1] = d1 / ln
-                dirs[m, 2] = d2 / ln
+            ok, d0, d1, d2 = _crossing(n, i, j)
+            if ok:
+                dirs[m, 0], dirs[m, 1], dirs[m, 2] = d0, d1, d2
                 m += 1
         j += 1
         if j >= c:
@@ -408,19 +447,11 @@ def circle_crossings(n: np.ndarray, start: int, stop: int, meets: np.ndarray,
             d0, d1, d2 = dirs[r, 0], dirs[r, 1], dirs[r, 2]
             if sgn < 0.0:
                 d0, d1, d2 = -d0, -d1, -d2
-            f, best = 0, d0
-            for g, val in ((1, -d0), (2, d1), (3, -d1), (4, d2), (5, -d2)):
-                if val > best:
-                    f, best = g, val
+            f = _face(d0, d1, d2)
             if not faces[f]:
                 continue
-            e, u, v = FACES[f, 0], FACES[f, 1], FACES[f, 2]
-            de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
-            s = dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de
-            tt = dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de
-            if not (abs(s) < inside and abs(tt) < inside):
-                continue
-            if not (boxes[f, 0] <= s <= boxes[f, 2] and boxes[f, 1] <= tt <= boxes[f, 3]):
+            s, tt = _chart(f, d0, d1, d2)
+            if not _kept(s, tt, inside, boxes[f]):
                 continue
             pts[k, 0] = s
             pts[k, 1] = tt
@@ -510,43 +541,25 @@ def first_crossings(n: np.ndarray, meets: np.ndarray, inside: float, boxes: np.n
     for s0 in range(0, npairs, chunk):
         s1 = min(s0 + chunk, npairs)
         for sgn in (1.0, -1.0):
-            i, t = 0, 0
-            while i < c - 1 and t + (c - 1 - i) <= s0:
-                t += c - 1 - i
-                i += 1
-            j = i + 1 + (s0 - t)
+            i, j = _pair_at(c, s0)
             for _ in range(s1 - s0):
                 if i >= c - 1:
                     break
-                a0, a1, a2 = n[i, 0], n[i, 1], n[i, 2]
-                b0, b1, b2 = n[j, 0], n[j, 1], n[j, 2]
+                ok, d0, d1, d2 = _crossing(n, i, j)
                 ii, jj = i, j
                 j += 1
                 if j >= c:
                     i += 1
                     j = i + 1
-                d0 = a1 * b2 - a2 * b1
-                d1 = a2 * b0 - a0 * b2
-                d2 = a0 * b1 - a1 * b0
-                ln = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-                if not ln > 1e-12:
+                if not ok:
                     continue
-                d0, d1, d2 = d0 / ln, d1 / ln, d2 / ln
                 if sgn < 0.0:
                     d0, d1, d2 = -d0, -d1, -d2
-                f, best = 0, d0
-                for g, val in ((1, -d0), (2, d1), (3, -d1), (4, d2), (5, -d2)):
-                    if val > best:
-                        f, best = g, val
+                f = _face(d0, d1, d2)
                 if not (meets[f, ii] and meets[f, jj]):
                     continue
-                e, u, v = FACES[f, 0], FACES[f, 1], FACES[f, 2]
-                de = dot_matvec(d0, d1, d2, e[0], e[1], e[2])
-                s = dot_matvec(d0, d1, d2, u[0], u[1], u[2]) / de
-                tt = dot_matvec(d0, d1, d2, v[0], v[1], v[2]) / de
-                if not (abs(s) < inside and abs(tt) < inside):
-                    continue
-                if not (boxes[f, 0] <= s <= boxes[f, 2] and boxes[f, 1] <= tt <= boxes[f, 3]):
+                s, tt = _chart(f, d0, d1, d2)
+                if not _kept(s, tt, inside, boxes[f]):
                     continue
                 kx = np.int64(np.rint(s / q)) - key_lo[f, 0]
                 ky = np.int64(np.rint(tt / q)) - key_lo[f, 1]

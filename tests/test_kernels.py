@@ -214,7 +214,7 @@ def test_cover_tests_match_numpy() -> None:
 def _ref_terms(ti, ni, tj, nj, ia, jb, eps, near, cover):
     """The batched path the fused term kernel replaced: generators, the cover's quick tests,
     facets, compaction and the flat test, far pairs first; each cone's nonzero rows."""
-    from ndbg_cli.blocking_cones import FLAT, flat
+    from ndbg_cli.blocking_cones import flat
 
     out = []
     for sel in (np.nonzero(~near)[0], np.nonzero(near)[0]):
@@ -238,7 +238,6 @@ def _ref_terms(ti, ni, tj, nj, ia, jb, eps, near, cover):
             continue
         cone = np.concatenate([compact(m), facing], axis=1)
         cone = cone[~flat(cone)]
-        assert FLAT > 0
         out.extend(c[np.any(c != 0.0, axis=1)] for c in cone)
     return out
 
@@ -249,6 +248,7 @@ def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
     cones in the same order, each with the same nonzero rows, bit for bit (touching and
     coplanar triangles included: flat terms and erosion)."""
     from ndbg_cli import term_kernels
+    from ndbg_cli.blocking_cones import FLAT
 
     rng = np.random.default_rng(11 + with_cover)
     kept = 0
@@ -272,7 +272,7 @@ def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
         order = np.concatenate([np.nonzero(~near)[0], np.nonzero(near)[0]])
         corners, sides = cover.pyramids() if cover is not None else (np.zeros((0, 4, 3)),) * 2
         got, p = term_kernels.terms(ti, ni, tj, nj, ia[order], jb[order], near[order], 1e-3,
-                                    *DIFFERENCE_PAIRS, 1e-9, 1e-14, cover is not None,
+                                    *DIFFERENCE_PAIRS, 1e-9, FLAT, cover is not None,
                                     corners, sides)
         assert p == len(want) == len(got)
         for g, w in zip(got, want):
@@ -342,21 +342,8 @@ def test_circle_crossings_match_numpy() -> None:
     dom = [shapely.Point(0.1 * f - 0.2, 0.05).buffer(0.5) for f in range(6)]
     for domain in (None, dom):
         got = circle_crossings(n, 0.01, domain)
-        a, b = np.triu_indices(len(n), k=1)
-        d = np.cross(n[a], n[b])
-        ln = np.linalg.norm(d, axis=1)
-        d = d[ln > 1e-12] / ln[ln > 1e-12, None]
-        d = np.concatenate([d, -d])
-        owner = np.argmax(d @ FACES[:, 0].T, axis=1)
-        for face in range(6):
-            e, u, v = FACES[face]
-            df = d[owner == face]
-            st = np.stack([(df @ u) / (df @ e), (df @ v) / (df @ e)], axis=1)
-            st = st[(np.abs(st) < 1.0 - 1e-7).all(axis=1)]
-            if domain is not None:
-                st = st[shapely.contains_xy(domain[face], st[:, 0], st[:, 1])]
-            _, idx = np.unique(np.round(st / 0.01), axis=0, return_index=True)
-            assert _same(got[face], st[np.sort(idx)])
+        for face, want in enumerate(_crossings_reference(n, 0.01, domain)):
+            assert _same(got[face], want)
 
 
 def _crossings_reference(n: np.ndarray, q: float, domain: list | None) -> list[np.ndarray]:
