@@ -43,18 +43,26 @@ def cells_window(cells: np.ndarray, row0: int = 0, col0: int = 0, r: int | None 
     return lo[0], lo[1], hi[0], hi[1]
 
 
-_last_raster: list = [None, None, None]  # (domain bytes and shape, raster, cells) made last
+_last_raster: list = [None, None, None, None]  # (domain key, raster, cells, blocks) made last
 
 
-def _outside_raster(domain: np.ndarray, raster: int) -> np.ndarray:
+def _outside_raster(domain: np.ndarray, raster: int) -> tuple[np.ndarray, list]:
     """The cells ``(6, raster, raster)`` outside ``domain`` (``(6, c, c)``, ``c`` dividing
-    ``raster``). Every pair's walk (two covers each) starts from the same domain: the last
-    one is kept (do not write to it)."""
+    ``raster``), and per face the ``(row0, row1, col0, col1)`` block holding every cell
+    inside it (``None``: none). Every pair's walk (two covers each) starts from the same
+    domain: the last one is kept (do not write to it)."""
     key = (domain.tobytes(), domain.shape)
     if _last_raster[0] != key or _last_raster[1] != raster:
         k = raster // domain.shape[1]
-        _last_raster[:] = key, raster, ~domain.repeat(k, axis=1).repeat(k, axis=2)
-    return _last_raster[2]
+        cells = ~domain.repeat(k, axis=1).repeat(k, axis=2)
+        blocks: list = []
+        for face in range(6):
+            rows = np.nonzero(~cells[face].all(axis=1))[0]
+            cols = np.nonzero(~cells[face].all(axis=0))[0]
+            blocks.append(None if not len(rows) else (
+                int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1))
+        _last_raster[:] = key, raster, cells, blocks
+    return _last_raster[2], _last_raster[3]
 
 
 class Cover:
@@ -88,14 +96,11 @@ class Cover:
         if domain is not None:
             # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
             # count as covered from the start, so whatever lies only there is pruned.
-            self.covered = _outside_raster(domain, raster).copy()
-            self.empty = not self.covered.any()
             # the cells left open lie in a block per face: windows are sought there only
-            for face in range(6):
-                rows = np.nonzero(~self.covered[face].all(axis=1))[0]
-                cols = np.nonzero(~self.covered[face].all(axis=0))[0]
-                self.block[face] = None if not len(rows) else (
-                    int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+            outside, blocks = _outside_raster(domain, raster)
+            self.covered = outside.copy()
+            self.block = list(blocks)
+            self.empty = not self.covered.any()
 
     def window(self, face: int) -> tuple[float, float, float, float] | None:
         """The chart rectangle ``(x0, y0, x1, y1)`` of the cells of ``face`` not yet covered
