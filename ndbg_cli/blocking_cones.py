@@ -123,7 +123,8 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     ``cover``: what is kept so far (a non-empty :class:`~ndbg_cli.cover.Cover`); the terms
     that miss every cell it leaves open are left out early, by its quick tests on the
     generators (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open`) before the facets are
-    computed, then on the facets (:meth:`~ndbg_cli.cover.Cover.misses_open`)."""
+    computed, then on the facets (:meth:`~ndbg_cli.cover.Cover.misses_open`), made pair by
+    pair in :func:`ndbg_cli.term_kernels.terms`."""
     from . import term_kernels
     if not len(ia):
         return _EMPTY

@@ -30,6 +30,29 @@ def _separates(rows: np.ndarray, pts: np.ndarray, strict: bool) -> bool:
     return False
 
 
+@njit(cache=True, inline="always")
+def spanned_misses(gens: np.ndarray, facing: np.ndarray, corners: np.ndarray,
+                   sides: np.ndarray) -> bool:
+    """Whether one term (the cone spanned by ``gens`` ``(g, 3)`` cut by the open half-spaces
+    ``facing`` ``(f, 3)``) misses every window (:func:`misses_spanned_open`)."""
+    for w in range(corners.shape[0]):
+        # every generator strictly outside one side, or the corners outside a facing one
+        if not (_separates(sides[w], gens, True) or _separates(facing, corners[w], False)):
+            return False
+    return True
+
+
+@njit(cache=True, inline="always")
+def open_misses(normals: np.ndarray, facing: np.ndarray, corners: np.ndarray) -> bool:
+    """Whether the open cone of the rows ``normals`` and ``facing`` (``(k, 3)``, ``(f, 3)``;
+    zero rows never separate) misses every window: on each, one of its half-spaces has the
+    window's four corners strictly outside (:func:`outside` on every face)."""
+    for w in range(corners.shape[0]):
+        if not (_separates(normals, corners[w], True) or _separates(facing, corners[w], True)):
+            return False
+    return True
+
+
 @njit(cache=True)
 def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarray,
                         sides: np.ndarray) -> np.ndarray:
@@ -39,15 +62,9 @@ def misses_spanned_open(gens: np.ndarray, facing: np.ndarray, corners: np.ndarra
     each, every generator strictly outside one side (``< 0``) or the four corners outside
     one facing half-space (``<= 0``). With no window, every term misses."""
     p = gens.shape[0]
-    nw = corners.shape[0]
     out = np.ones(p, dtype=np.bool_)
     for i in range(p):
-        for w in range(nw):
-            # every generator strictly outside one side, or the corners outside a facing one
-            if not (_separates(sides[w], gens[i], True)
-                    or _separates(facing[i], corners[w], False)):
-                out[i] = False
-                break
+        out[i] = spanned_misses(gens[i], facing[i], corners, sides)
     return out
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .cover_kernels import _separates
+from .cover_kernels import open_misses, spanned_misses
 from .kernels import _compact, _cone_normals, dot_einsum
 
 
@@ -31,8 +31,8 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     half-spaces are ``ni[ia[k]]`` and ``-nj[jb[k]]``. With ``use_cover`` a pair is dropped
     when it misses every window (corner directions ``corners`` ``(nw, 4, 3)``, inward side
     normals ``sides``), first on its generators and facing half-spaces
-    (:func:`ndbg_cli.cover_kernels.misses_spanned_open`), then on its facets and facing
-    half-spaces (:func:`ndbg_cli.cover_kernels.outside`). The facets are the candidates
+    (:func:`ndbg_cli.cover_kernels.spanned_misses`), then on its facets and facing
+    half-spaces (:func:`ndbg_cli.cover_kernels.open_misses`). The facets are the candidates
     ``pa``, ``pb`` (:func:`ndbg_cli.kernels.cone_normals`, ``rel_tol``), compacted
     (:func:`ndbg_cli.kernels.compact`); a cone with two rows ``m . m' <= -1 + flat_tol``
     (:func:`ndbg_cli.kernels.flat`) is dropped."""
@@ -50,7 +50,6 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     qq = np.empty((2 * q, 3))
     order = np.empty(2 * q, dtype=np.int64)
     cone = np.empty((width, 3))
-    nw = corners.shape[0]
     grow = 1.5 * eps
     p = 0
     used = 1
@@ -72,26 +71,12 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
                     gens[g, 2] = gens[g, 2] + s2
         facing[0, 0], facing[0, 1], facing[0, 2] = ni[a, 0], ni[a, 1], ni[a, 2]
         facing[1, 0], facing[1, 1], facing[1, 2] = -nj[b, 0], -nj[b, 1], -nj[b, 2]
-        if use_cover:
-            misses = True
-            for w in range(nw):
-                if not (_separates(sides[w], gens, True)
-                        or _separates(facing, corners[w], False)):
-                    misses = False
-                    break
-            if misses:
-                continue
+        if use_cover and spanned_misses(gens, facing, corners, sides):
+            continue
         normals[:] = 0.0
         _cone_normals(gens, pa, pb, rel_tol, normals, scale)
-        if use_cover:
-            misses = True
-            for w in range(nw):
-                if not (_separates(normals, corners[w], True)
-                        or _separates(facing, corners[w], True)):
-                    misses = False
-                    break
-            if misses:
-                continue
+        if use_cover and open_misses(normals, facing, corners):
+            continue
         nz = 0
         for r in range(2 * q):
             if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
