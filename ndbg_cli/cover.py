@@ -233,7 +233,7 @@ class Cover:
             self._table(f)
         sat = self.sat if self.sat is not None else np.zeros((6, 2, 2), dtype=np.int32)
         self._args = (np.array(faces, dtype=np.int64),
-                      np.array([self._window_pyramid(f)[0] for f in faces]).reshape(-1, 4, 3),
+                      self.pyramids()[0],
                       np.array([self.window(f) for f in faces], dtype=float).reshape(-1, 4),
                       sat, self.h)
         return self._args
