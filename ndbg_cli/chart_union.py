@@ -92,7 +92,7 @@ def union(polys: np.ndarray, seed: int = 64,
         r = 1.0 + SQUARE_MARGIN
         rect = (-r, -r, r, r)
     polys = polys[np.argsort(-shapely.area(polys), kind="stable")]
-    acc, test = _union_step(polys[:seed], polys[:seed], rect)
+    acc, test = robust_union(polys[:seed], polys[:seed], rect)
     rest = polys[seed:]
     while len(rest):
         shapely.prepare(test)
@@ -101,8 +101,8 @@ def union(polys: np.ndarray, seed: int = 64,
             break
         take = max(seed, len(rest) // 8)
         batch, rest = rest[:take], rest[take:]
-        acc, test = _union_step(np.concatenate([[acc], batch]),
-                                np.concatenate([[test], batch]), rect)
+        acc, test = robust_union(np.concatenate([[acc], batch]),
+                                 np.concatenate([[test], batch]), rect)
     return acc
 
 
@@ -135,47 +135,28 @@ def off_rect_runs(g: object, rect: tuple[float, float, float, float]) -> object:
     return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
 
 
-def _union_step(polys: np.ndarray, same: np.ndarray,
-                rect: tuple[float, float, float, float]) -> tuple[object, object]:
-    """:func:`robust_union` of ``polys``, and that union without its runs along ``rect``
-    (:func:`off_rect_runs`); ``same``: ``polys`` with the same point sets, faster to test
-    (the partial union without its runs), for the check."""
-    out = _overlay(polys)
+def robust_union(polys: np.ndarray, same: np.ndarray,
+                 rect: tuple[float, float, float, float]) -> tuple[object, object]:
+    """``union_all`` of ``polys``, and that union without its runs along ``rect``
+    (:func:`off_rect_runs`, for the ``covers`` tests), falling back to snap-rounding on
+    :data:`GRID` (then both the same) when floating-point overlay fails: GEOS topology
+    exceptions on nearly coincident edges, a union smaller than one of its pieces (GEOS 3.14
+    returns the smaller of two polygons one ulp apart at a vertex, one inside the other,
+    instead of the larger), or a union some piece sticks out of (:func:`loses_area`: GEOS
+    3.14.1 drops faces of the overlay, 0.03 of 1.2 chart units on 64 pieces of a box pair's
+    set, where the first 63 pieces' union was right). ``same``: ``polys`` with the same
+    point sets, faster to test (the partial union without its runs), for that check."""
+    try:
+        out = shapely.union_all(polys)
+    except shapely.errors.GEOSException:
+        out = None
     if out is not None:
         test = off_rect_runs(out, rect)
-        if _sound(out, test, polys, same):
+        biggest = float(shapely.area(polys).max()) if len(polys) else 0.0
+        if not (out.area < biggest * (1.0 - 1e-9) - GRID * GRID or loses_area(test, same)):
             return out, test
-    out = _snapped(polys)
+    out = shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
     return out, out
-
-
-def robust_union(polys: np.ndarray) -> object:
-    """``union_all``, falling back to snap-rounding on :data:`GRID` when floating-point
-    overlay fails: GEOS topology exceptions on nearly coincident edges, a union smaller
-    than one of its pieces (GEOS 3.14 returns the smaller of two polygons one ulp apart at a
-    vertex, one inside the other, instead of the larger), or a union some piece sticks out
-    of (:func:`loses_area`: GEOS 3.14.1 drops faces of the overlay, 0.03 of 1.2 chart units
-    on 64 pieces of a box pair's set, where the first 63 pieces' union was right)."""
-    out = _overlay(polys)
-    return out if out is not None and _sound(out, out, polys, polys) else _snapped(polys)
-
-
-def _overlay(polys: np.ndarray) -> object | None:
-    try:
-        return shapely.union_all(polys)
-    except shapely.errors.GEOSException:
-        return None
-
-
-def _snapped(polys: np.ndarray) -> object:
-    return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
-
-
-def _sound(out: object, test: object, polys: np.ndarray, same: np.ndarray) -> bool:
-    """Whether the overlay ``out`` of ``polys`` is right (:func:`robust_union`); ``test``
-    and ``same``: ``out`` and ``polys`` with the same point sets, faster to test."""
-    biggest = float(shapely.area(polys).max()) if len(polys) else 0.0
-    return not (out.area < biggest * (1.0 - 1e-9) - GRID * GRID or loses_area(test, same))
 
 
 #: Area (chart units squared) of a piece outside the union of all the pieces above which
