@@ -68,7 +68,8 @@ from .cubemap import (
 )
 from .tritree import TriTree, tri_tree  # noqa: F401 (tri_tree: part of this API)
 
-#: Triangle pairs processed per vectorised chunk.
+#: Triangle pairs whose terms are made per call of the compiled kernel (it allocates room
+#: for every pair's cone, 912 bytes each: a dense pair of large parts would need gigabytes).
 CHUNK = 20000
 
 
@@ -136,16 +137,19 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     ia, jb, near = ia[ok], jb[ok], near[ok]
     if not len(ia):
         return _EMPTY
+    circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
     # the far pairs first, then the near ones (the order the cones are listed in)
     order = np.concatenate([np.nonzero(~near)[0], np.nonzero(near)[0]])
+    ia, jb, near = ia[order], jb[order], near[order]
     if cover is not None:
         corners, sides = cover.pyramids()
     else:
         corners = sides = np.zeros((0, 4, 3))
     pa, pb = DIFFERENCE_PAIRS
-    cones, _ = term_kernels.terms(ti, ni, tj, nj, ia[order], jb[order], near[order], eps,
-                                  pa, pb, 1e-9, FLAT, cover is not None, corners, sides)
-    circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
+    cones = _stack([term_kernels.terms(ti, ni, tj, nj, ia[s:s + CHUNK], jb[s:s + CHUNK],
+                                       near[s:s + CHUNK], eps, pa, pb, 1e-9, FLAT,
+                                       cover is not None, corners, sides)[0]
+                    for s in range(0, len(ia), CHUNK)])
     return cones, circles
 
 
