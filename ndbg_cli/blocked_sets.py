@@ -25,7 +25,7 @@ from .blocking_cones import (
     unique_circles,
 )
 from .cache import PairCache
-from .chart_union import GRID, with_boxes
+from .chart_union import GRID
 from .cubemap import face_of
 from .dbg import DBG
 from .domain import domain_polygons
@@ -273,10 +273,11 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for a, b in order:
         if (a, b) in fast or cache is None:
             continue
-        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-4":
-        # the pieces' boxes instead of the pieces (older entries: "pruned-3", and unions not
-        # checked for lost area before that)
-        keys[(a, b)] = cache.key("infinite", "pruned-4", gkeys[a], gkeys[b], eps,
+        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-5":
+        # unions of the pieces inside no other one (the same sets, other vertices); older:
+        # "pruned-4", the pieces themselves stored rather than their boxes before, and unions
+        # not checked for lost area before that
+        keys[(a, b)] = cache.key("infinite", "pruned-5", gkeys[a], gkeys[b], eps,
                                  asm.dimension, asm.diagonal if asm.dimension == 2 else None,
                                  *extra)
         got = cache.get("infinite", keys[(a, b)], _thaw)
@@ -286,9 +287,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     # each pair cached as soon as it is done (an interrupted run keeps them); the times are
     # summed over the workers (CPU seconds, not wall time, with several)
     done = pair_sets(tris, todo, eps, domain, workers)
-    for k, (cones, circ, faces, dt_cones, dt_union) in bar(done, len(todo), "part pairs",
-                                                           quiet=not progress):
-        entries = with_boxes(faces)
+    for k, (cones, circ, entries, dt_cones, dt_union) in bar(done, len(todo), "part pairs",
+                                                             quiet=not progress):
         found[todo[k]] = (cones, circ, entries)
         t_cones += dt_cones
         t_union += dt_union

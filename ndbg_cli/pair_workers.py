@@ -23,7 +23,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from .blocking_cones import pruned_pair_cones
-from .chart_union import face_unions
+from .chart_union import cones_to_face_geoms
 from .domain import domain_windows
 from .pools import end_pool
 from .tritree import LEAF, tri_tree
@@ -46,7 +46,7 @@ _STATE: dict = {}
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
              eps: float, domain: np.ndarray | None) -> tuple:
     """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union)``, ``faces`` as
-    :func:`~ndbg_cli.chart_union.face_unions` gives them. ``trees`` caches each part's
+    :func:`~ndbg_cli.chart_union.cones_to_face_geoms` gives them. ``trees`` caches each part's
     pruning tree (``None`` until built)."""
     t0 = time.perf_counter()
     for k in (a, b):
@@ -56,7 +56,7 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
                                     trees[b], eps, domain=domain)
     t1 = time.perf_counter()
     # with a domain only its part of the sets is used: the unions are made in its windows
-    faces = face_unions(cones, None if domain is None else domain_windows(domain))
+    faces = cones_to_face_geoms(cones, None if domain is None else domain_windows(domain))
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1
 
 

@@ -1,0 +1,89 @@
+"""Compiled kernels (numba) of :mod:`ndbg_cli.chart_union`: the areas and bounding boxes of
+a pair's chart pieces, and which of them the union needs (:func:`maximal_pieces`).
+
+A pair's set near a contact is a fan of wedges and half-planes meeting at the free
+directions: on AS1 only 10,685 of the 145,078 pieces clipped to the domain's windows are not
+inside another single piece (45% are exact duplicates within their window). Finding them
+costs a scan of the kept pieces' boxes per piece, far less than building and testing the
+others in GEOS (:func:`ndbg_cli.chart_union.union`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For convex polygons ``poly`` ``(p, m, 2)`` with ``cnt`` ``(p,)`` vertices each
+    (counter-clockwise, :func:`ndbg_cli.kernels.clip_square`'s output): their areas ``(p,)``
+    (shoelace, 0 below 3 vertices) and bounding boxes ``(p, 4)`` (``x0, y0, x1, y1``)."""
+    p = len(cnt)
+    area = np.zeros(p)
+    boxes = np.zeros((p, 4))
+    for i in range(p):
+        n = cnt[i]
+        if n < 1:
+            continue
+        x0, y0 = poly[i, 0, 0], poly[i, 0, 1]
+        x1, y1 = x0, y0
+        s = 0.0
+        for k in range(n):
+            x, y = poly[i, k, 0], poly[i, k, 1]
+            nx = poly[i, k + 1, 0] if k + 1 < n else poly[i, 0, 0]
+            ny = poly[i, k + 1, 1] if k + 1 < n else poly[i, 0, 1]
+            s += x * ny - nx * y
+            x0, x1 = min(x0, x), max(x1, x)
+            y0, y1 = min(y0, y), max(y1, y)
+        area[i] = 0.5 * s if n >= 3 else 0.0
+        boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3] = x0, y0, x1, y1
+    return area, boxes
+
+
+@njit(cache=True)
+def maximal_pieces(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray,
+                   order: np.ndarray) -> np.ndarray:
+    """``(p,)`` whether each convex polygon (``poly``, ``cnt``, ``boxes`` as
+    :func:`piece_boxes`; counter-clockwise) of ``order`` (indices, largest area first) lies
+    inside none of the polygons before it in ``order`` that were kept; polygons not in
+    ``order`` are not kept. The union of the kept polygons is the union of those of
+    ``order``.
+
+    A polygon ``a`` lies inside ``b`` when ``b``'s box holds ``a``'s and every vertex of
+    ``a`` is on the inner side of, or on, every edge ``p -> q`` of ``b``:
+    ``(q - p) x (v - p) >= 0`` in floating point. Containment is transitive, and a polygon
+    can only hold one of at most its area, so testing the kept ones suffices. The rounding
+    of that cross product (about 1e-16 chart units for chart coordinates of order 1) is the
+    most a dropped polygon can stick out of a kept one."""
+    keep = np.zeros(len(cnt), dtype=np.bool_)
+    kept = np.empty(len(order), dtype=np.int64)
+    nk = 0
+    for t in range(len(order)):
+        a = order[t]
+        ax0, ay0, ax1, ay1 = boxes[a, 0], boxes[a, 1], boxes[a, 2], boxes[a, 3]
+        na = cnt[a]
+        inside = False
+        for s in range(nk):
+            b = kept[s]
+            if boxes[b, 0] > ax0 or boxes[b, 1] > ay0 or boxes[b, 2] < ax1 or boxes[b, 3] < ay1:
+                continue
+            nb = cnt[b]
+            inside = True
+            for e in range(nb):
+                px, py = poly[b, e, 0], poly[b, e, 1]
+                f = e + 1 if e + 1 < nb else 0
+                ex, ey = poly[b, f, 0] - px, poly[b, f, 1] - py
+                for v in range(na):
+                    if ex * (poly[a, v, 1] - py) - ey * (poly[a, v, 0] - px) < 0.0:
+                        inside = False
+                        break
+                if not inside:
+                    break
+            if inside:
+                break
+        if not inside:
+            kept[nk] = a
+            nk += 1
+            keep[a] = True
+    return keep
