@@ -125,74 +125,17 @@ class Cover:
                 self._mark(face, poly[keep], cnt[keep])
 
     def _mark(self, face: int, poly: np.ndarray, cnt: np.ndarray) -> None:
-        r, h = self.r, self.h
-        m = poly.shape[1]
-        k = np.arange(m)[None, :]
-        valid = k < cnt[:, None]
-        nxt = np.where(k + 1 < cnt[:, None], k + 1, 0)
-        a = poly
-        b = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
-        # A convex polygon holding a cell has inradius >= h / 2, and its inradius is at most
-        # 2 area / perimeter: slivers, most of the terms, cover no cell and are skipped.
-        area = 0.5 * np.abs(np.where(valid, a[:, :, 0] * b[:, :, 1] - a[:, :, 1] * b[:, :, 0],
-                                     0.0).sum(axis=1))
-        perim = np.where(valid, np.linalg.norm(b - a, axis=2), 0.0).sum(axis=1)
-        fat = 4.0 * area >= h * perim
-        if not fat.all():
-            a, b, valid, poly = a[fat], b[fat], valid[fat], poly[fat]
-            if not len(poly):
-                return
-        ys = np.where(valid, poly[:, :, 1], np.nan)
-        g0 = np.ceil((np.nanmin(ys, axis=1) + 1.0) / h).astype(np.int64)
-        g1 = np.floor((np.nanmax(ys, axis=1) + 1.0) / h).astype(np.int64)
-        g0, g1 = np.maximum(g0, 0), np.minimum(g1, r)
-        nlines = np.maximum(g1 - g0 + 1, 0)
-        if not (nlines >= 2).any():  # a band needs two grid lines inside the polygon
-            return
-        owner, line = run_offsets(nlines)
-        base = np.cumsum(nlines) - nlines
-        left = np.full(len(owner), np.inf)
-        right = np.full(len(left), -np.inf)
-        # Each grid line meets a convex polygon in one edge going down (the left chain of a
-        # counter-clockwise polygon) and one going up (the right chain): intersect per edge.
-        pe, ke = np.nonzero(valid & (a[:, :, 1] != b[:, :, 1]))
-        ya, yb = a[pe, ke, 1], b[pe, ke, 1]
-        xa, xb = a[pe, ke, 0], b[pe, ke, 0]
-        e0 = np.maximum(np.ceil((np.minimum(ya, yb) + 1.0) / h).astype(np.int64), g0[pe])
-        e1 = np.minimum(np.floor((np.maximum(ya, yb) + 1.0) / h).astype(np.int64), g1[pe])
-        edge, k = run_offsets(np.maximum(e1 - e0 + 1, 0))
-        g = e0[edge] + k
-        y = -1.0 + g * h
-        x = xa[edge] + (y - ya[edge]) * ((xb - xa) / (yb - ya))[edge]
-        slot = base[pe[edge]] + g - g0[pe[edge]]
-        down = (yb < ya)[edge]
-        np.minimum.at(left, slot[down], x[down])
-        np.maximum.at(right, slot[~down], x[~down])
-        g = g0[owner] + line
-        # band [y_g, y_g+1] of one polygon: rows of consecutive lines of the same owner; a
-        # convex polygon's cross-section there contains the intersection of the two ends'
-        same = owner[1:] == owner[:-1]
-        lo = np.maximum(left[1:], left[:-1])[same]
-        hi = np.minimum(right[1:], right[:-1])[same]
-        row = g[:-1][same]
-        fin = np.isfinite(lo) & np.isfinite(hi) & (lo < hi)
-        lo, hi, row = lo[fin], hi[fin], row[fin]
-        c0 = np.ceil((lo + 1.0) / h).astype(np.int64)
-        c1 = np.floor((hi + 1.0) / h).astype(np.int64)  # one past the last whole cell
-        c0, c1 = np.maximum(c0, 0), np.minimum(c1, r)
-        ok = (c1 > c0) & (row < r)
-        if not ok.any():
-            return
-        rows, slot = np.unique(row[ok], return_inverse=True)
-        w = r + 1
-        spans = np.bincount(slot * w + c0[ok], minlength=len(rows) * w) \
-            - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
-        inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
-        self.covered[face, rows] |= inside
-        self.stale[face] = min(self.stale[face], int(rows[0]))
-        self.win[face] = False
-        self._args = self._pyrs = None
-        self.empty = False
+        """Mark the cells of ``face`` wholly inside the convex polygons ``poly`` ``(p, m, 2)``
+        (``cnt`` vertices each; :func:`~ndbg_cli.cover_kernels.mark_cells`)."""
+        from . import cover_kernels as kernels
+        first = kernels.mark_cells(np.ascontiguousarray(poly, dtype=float),
+                                   np.ascontiguousarray(cnt, dtype=np.int64), self.h,
+                                   self.covered[face])
+        if first < self.r:
+            self.stale[face] = min(self.stale[face], first)
+            self.win[face] = False
+            self._args = self._pyrs = None
+            self.empty = False
 
     def _table(self, face: int) -> np.ndarray:
         """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""

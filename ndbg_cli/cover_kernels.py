@@ -242,3 +242,72 @@ def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.n
                 ok[i] = False
                 break
     return ok
+
+
+@njit(cache=True)
+def mark_cells(poly: np.ndarray, cnt: np.ndarray, h: float, covered: np.ndarray) -> int:
+    """Mark in ``covered`` ``(r, r)`` (one face, ``covered[row, col]``; cells ``h`` chart
+    units wide from -1) the cells wholly inside each convex polygon ``poly`` ``(p, m, 2)``
+    (``cnt`` ``(p,)`` vertices, counter-clockwise). Returns the first row marked (``r`` when
+    none).
+
+    Per polygon: a convex polygon holding a cell has inradius at least ``h / 2`` and at most
+    ``2 area / perimeter``, so the slivers (most terms) are skipped at once. Otherwise each
+    grid line ``y_g`` between the polygon's lowest and highest point meets it in ``[left,
+    right]``, found on the edges going down (left chain) and up (right chain); the band
+    between two consecutive lines holds ``[max(left), min(right)]`` (convexity), and the
+    cells wholly in that span are marked. The same crossings (``x_a + (y - y_a) (x_b - x_a)
+    / (y_b - y_a)``) and cell bounds as the numpy version this replaced."""
+    r = covered.shape[0]
+    first = r
+    left = np.empty(r + 1)
+    right = np.empty(r + 1)
+    for i in range(len(cnt)):
+        n = cnt[i]
+        if n < 3:
+            continue
+        area = 0.0
+        perim = 0.0
+        ylo, yhi = poly[i, 0, 1], poly[i, 0, 1]
+        for k in range(n):
+            f = k + 1 if k + 1 < n else 0
+            ax, ay, bx, by = poly[i, k, 0], poly[i, k, 1], poly[i, f, 0], poly[i, f, 1]
+            area += ax * by - ay * bx
+            perim += np.sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay))
+            ylo, yhi = min(ylo, ay), max(yhi, ay)
+        if not 4.0 * (0.5 * abs(area)) >= h * perim:
+            continue
+        g0 = max(int(np.ceil((ylo + 1.0) / h)), 0)
+        g1 = min(int(np.floor((yhi + 1.0) / h)), r)
+        if g1 - g0 + 1 < 2:  # a band needs two grid lines inside the polygon
+            continue
+        for g in range(g0, g1 + 1):
+            left[g - g0] = np.inf
+            right[g - g0] = -np.inf
+        for k in range(n):
+            f = k + 1 if k + 1 < n else 0
+            xa, ya, xb, yb = poly[i, k, 0], poly[i, k, 1], poly[i, f, 0], poly[i, f, 1]
+            if ya == yb:
+                continue
+            e0 = max(int(np.ceil((min(ya, yb) + 1.0) / h)), g0)
+            e1 = min(int(np.floor((max(ya, yb) + 1.0) / h)), g1)
+            slope = (xb - xa) / (yb - ya)
+            for g in range(e0, e1 + 1):
+                x = xa + ((-1.0 + g * h) - ya) * slope
+                if yb < ya:
+                    left[g - g0] = min(left[g - g0], x)
+                else:
+                    right[g - g0] = max(right[g - g0], x)
+        for g in range(g0, g1):
+            lo = max(left[g + 1 - g0], left[g - g0])
+            hi = min(right[g + 1 - g0], right[g - g0])
+            if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi) or g >= r:
+                continue
+            c0 = max(int(np.ceil((lo + 1.0) / h)), 0)
+            c1 = min(int(np.floor((hi + 1.0) / h)), r)
+            if c1 <= c0:
+                continue
+            for c in range(c0, c1):
+                covered[g, c] = True
+            first = min(first, g)
+    return first

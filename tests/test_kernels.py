@@ -11,7 +11,7 @@ import pytest
 from ndbg_cli import cover_kernels
 from ndbg_cli.arrangement import circle_crossings
 from ndbg_cli.blocking_cones import unique_circles
-from ndbg_cli.cover import Cover
+from ndbg_cli.cover import Cover, run_offsets
 from ndbg_cli.cubemap import (
     BOX_EDGE_PAIRS,
     DIFFERENCE_PAIRS,
@@ -325,6 +325,106 @@ def test_sat_updates_in_place() -> None:
     ref = np.zeros_like(sat)
     ref[1:, 1:] = cov.cumsum(axis=0).cumsum(axis=1)
     assert np.array_equal(sat, ref)
+
+
+def _ref_mark(covered, poly, cnt, h):
+    """The numpy rasterisation :func:`ndbg_cli.cover_kernels.mark_cells` replaced."""
+    r = covered.shape[0]
+    m = poly.shape[1]
+    k = np.arange(m)[None, :]
+    valid = k < cnt[:, None]
+    nxt = np.where(k + 1 < cnt[:, None], k + 1, 0)
+    a = poly
+    b = np.take_along_axis(poly, nxt[:, :, None].repeat(2, axis=2), axis=1)
+    # A convex polygon holding a cell has inradius >= h / 2, and its inradius is at most
+    # 2 area / perimeter: slivers, most of the terms, cover no cell and are skipped.
+    area = 0.5 * np.abs(np.where(valid, a[:, :, 0] * b[:, :, 1] - a[:, :, 1] * b[:, :, 0],
+                                 0.0).sum(axis=1))
+    perim = np.where(valid, np.linalg.norm(b - a, axis=2), 0.0).sum(axis=1)
+    fat = 4.0 * area >= h * perim
+    if not fat.all():
+        a, b, valid, poly = a[fat], b[fat], valid[fat], poly[fat]
+        if not len(poly):
+            return r
+    ys = np.where(valid, poly[:, :, 1], np.nan)
+    g0 = np.ceil((np.nanmin(ys, axis=1) + 1.0) / h).astype(np.int64)
+    g1 = np.floor((np.nanmax(ys, axis=1) + 1.0) / h).astype(np.int64)
+    g0, g1 = np.maximum(g0, 0), np.minimum(g1, r)
+    nlines = np.maximum(g1 - g0 + 1, 0)
+    if not (nlines >= 2).any():  # a band needs two grid lines inside the polygon
+        return r
+    owner, line = run_offsets(nlines)
+    base = np.cumsum(nlines) - nlines
+    left = np.full(len(owner), np.inf)
+    right = np.full(len(left), -np.inf)
+    # Each grid line meets a convex polygon in one edge going down (the left chain of a
+    # counter-clockwise polygon) and one going up (the right chain): intersect per edge.
+    pe, ke = np.nonzero(valid & (a[:, :, 1] != b[:, :, 1]))
+    ya, yb = a[pe, ke, 1], b[pe, ke, 1]
+    xa, xb = a[pe, ke, 0], b[pe, ke, 0]
+    e0 = np.maximum(np.ceil((np.minimum(ya, yb) + 1.0) / h).astype(np.int64), g0[pe])
+    e1 = np.minimum(np.floor((np.maximum(ya, yb) + 1.0) / h).astype(np.int64), g1[pe])
+    edge, k = run_offsets(np.maximum(e1 - e0 + 1, 0))
+    g = e0[edge] + k
+    y = -1.0 + g * h
+    x = xa[edge] + (y - ya[edge]) * ((xb - xa) / (yb - ya))[edge]
+    slot = base[pe[edge]] + g - g0[pe[edge]]
+    down = (yb < ya)[edge]
+    np.minimum.at(left, slot[down], x[down])
+    np.maximum.at(right, slot[~down], x[~down])
+    g = g0[owner] + line
+    # band [y_g, y_g+1] of one polygon: rows of consecutive lines of the same owner; a
+    # convex polygon's cross-section there contains the intersection of the two ends'
+    same = owner[1:] == owner[:-1]
+    lo = np.maximum(left[1:], left[:-1])[same]
+    hi = np.minimum(right[1:], right[:-1])[same]
+    row = g[:-1][same]
+    fin = np.isfinite(lo) & np.isfinite(hi) & (lo < hi)
+    lo, hi, row = lo[fin], hi[fin], row[fin]
+    c0 = np.ceil((lo + 1.0) / h).astype(np.int64)
+    c1 = np.floor((hi + 1.0) / h).astype(np.int64)  # one past the last whole cell
+    c0, c1 = np.maximum(c0, 0), np.minimum(c1, r)
+    ok = (c1 > c0) & (row < r)
+    if not ok.any():
+        return r
+    rows, slot = np.unique(row[ok], return_inverse=True)
+    w = r + 1
+    spans = np.bincount(slot * w + c0[ok], minlength=len(rows) * w) \
+        - np.bincount(slot * w + c1[ok], minlength=len(rows) * w)
+    inside = np.cumsum(spans.reshape(len(rows), w), axis=1)[:, :r] > 0
+    covered[rows] |= inside
+    return int(rows[0])
+def test_mark_cells_by_hand() -> None:
+    # an 8 x 8 raster (cells 0.25 wide): a square on grid lines holds its 4 x 4 cells
+    cov = np.zeros((8, 8), dtype=bool)
+    sq = np.array([[[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]])
+    assert cover_kernels.mark_cells(sq, np.array([4]), 0.25, cov) == 2
+    want = np.zeros((8, 8), dtype=bool)
+    want[2:6, 2:6] = True
+    assert np.array_equal(cov, want)
+    # a diamond round the centre holds the four cells at its middle only
+    cov[:] = False
+    dia = np.array([[[0.0, -0.6], [0.6, 0.0], [0.0, 0.6], [-0.6, 0.0]]])
+    cover_kernels.mark_cells(dia, np.array([4]), 0.25, cov)
+    assert np.flatnonzero(cov.ravel()).tolist() == [27, 28, 35, 36]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_mark_cells_match_numpy(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    normals = rng.normal(size=(400, 4, 3))
+    normals[rng.random((400, 4)) < 0.3] = 0.0
+    normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-300)
+    for face in range(6):
+        for rect in (None, (-0.3, -0.2, 0.5, 0.4)):
+            poly, cnt = _ref_clip(normals, face, shrink=1e-5, rect=rect)
+            poly, cnt = poly[cnt >= 3], cnt[cnt >= 3]  # as Cover.add passes them
+            for r in (64, 512):
+                got, ref = np.zeros((r, r), dtype=bool), np.zeros((r, r), dtype=bool)
+                first = cover_kernels.mark_cells(poly, cnt, 2.0 / r, got)
+                assert first == _ref_mark(ref, poly, cnt, 2.0 / r)
+                assert np.array_equal(got, ref)
+                assert got.any() or rect is not None
 
 
 def test_circle_crossings_match_numpy() -> None:
