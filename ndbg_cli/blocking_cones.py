@@ -417,8 +417,6 @@ def _near_leaves(tree_i: TriTree, tree_j: TriTree, eps: float
 
 #: Leaf pairs whose terms are computed between two updates of the cover.
 LEAF_CHUNK = 64
-#: The corners of a box, as "take the high end" flags per axis ``(8, 3)``.
-_CORNERS = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool)
 
 
 class _Walk:
@@ -441,27 +439,20 @@ class _Walk:
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Boxes
         around the origin are kept, and so are near node pairs (gap <= 4 eps) unless the box
-        cone lies wholly outside the domain."""
+        cone lies wholly outside the domain (:func:`~ndbg_cli.term_kernels.prune_pairs`)."""
+        from . import term_kernels
         if not len(a) or self.cover.empty:
             return a, b
-        ti, tj, eps = self.tree_i, self.tree_j, self.eps
-        grow = 2.0 * eps  # the erosion moves near triangles by 1.5 eps
-        dlo = tj.lo[b] - ti.hi[a] - grow
-        dhi = tj.hi[b] - ti.lo[a] + grow
-        gap = _gap(ti, tj, a, b)
-        around = np.all((dlo < 0) & (dhi > 0), axis=1)
-        far = gap > 4 * eps
-        self.stats["node_pairs"] += int((far & ~around).sum())
-        drop = np.zeros(len(a), dtype=bool)
+        ti, tj = self.tree_i, self.tree_j
         # near pairs' terms and contact circles only matter inside the domain: a seam there
         # lies between terms there, whose near pairs are kept
-        for sel, cover in ((far & ~around, self.cover), (~far & ~around, self.outside)):
-            if cover is None or cover.empty or not sel.any():
-                continue
-            sel = np.nonzero(sel)[0]
-            gens = np.where(_CORNERS[None], dhi[sel][:, None, :], dlo[sel][:, None, :])
-            drop[sel] = cover.covers_spanned(gens, pairs=BOX_EDGE_PAIRS)
-        return a[~drop], b[~drop]
+        use_out = self.outside is not None and not self.outside.empty
+        cover = self.cover._windows()
+        keep, nfar = term_kernels.prune_pairs(
+            a, b, ti.lo, ti.hi, tj.lo, tj.hi, self.eps, *BOX_EDGE_PAIRS, cover, True,
+            self.outside._windows() if use_out else cover, use_out)
+        self.stats["node_pairs"] += nfar
+        return a[keep], b[keep]
 
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
         """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already

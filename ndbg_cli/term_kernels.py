@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .cover_kernels import open_misses, spanned_misses
+from .cover_kernels import covers_spanned, open_misses, spanned_misses
 from .kernels import _compact, _cone_normals, dot_einsum
 
 
@@ -141,3 +141,54 @@ def facing_pairs(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray,
             gap = max(gap, max(lo_j[b, x] - hi_i[a, x], lo_i[a, x] - hi_j[b, x]))
         near[k] = gap <= 4 * eps
     return keep, near
+
+
+@njit(cache=True)
+def prune_pairs(a: np.ndarray, b: np.ndarray, lo_i: np.ndarray, hi_i: np.ndarray,
+                lo_j: np.ndarray, hi_j: np.ndarray, eps: float, pa: np.ndarray,
+                pb: np.ndarray, cover: tuple, use_cover: bool, outside: tuple,
+                use_outside: bool) -> tuple[np.ndarray, int]:
+    """Which node pairs ``(a[k], b[k])`` of two triangle trees (node boxes ``lo_*``,
+    ``hi_*`` ``(nodes, 3)``, model units) a pruning walk keeps
+    (:meth:`ndbg_cli.blocking_cones._Walk.prune`), and how many far pairs it tested.
+
+    A pair's box cone is spanned by the 8 corners of the box of differences grown by
+    ``2 eps``. Pairs whose grown box holds the origin are kept. Far pairs (gap above
+    ``4 eps``) are dropped when ``cover`` covers their box cone, near ones when ``outside``
+    does (the domain alone), each when its ``use_*`` is set: :func:`~ndbg_cli.cover_kernels.
+    covers_spanned` with the generator pairs ``pa``, ``pb`` and the cover's windows
+    ``(faces, corners, rects, sats, h)``."""
+    p = len(a)
+    keep = np.ones(p, dtype=np.bool_)
+    grow = 2.0 * eps
+    gens = np.empty((p, 8, 3))
+    far = np.zeros(p, dtype=np.bool_)
+    test = np.zeros(p, dtype=np.bool_)
+    nfar = 0
+    for k in range(p):
+        i, j = a[k], b[k]
+        around = True
+        gap = -np.inf
+        for x in range(3):
+            lo = lo_j[j, x] - hi_i[i, x] - grow
+            hi = hi_j[j, x] - lo_i[i, x] + grow
+            around &= (lo < 0) & (hi > 0)
+            gap = max(gap, max(lo_j[j, x] - hi_i[i, x], lo_i[i, x] - hi_j[j, x]))
+            for c in range(8):  # corner c takes the high end on axis x when bit (2 - x) is set
+                gens[k, c, x] = hi if (c >> (2 - x)) & 1 else lo
+        if around:
+            continue
+        far[k] = gap > 4 * eps
+        if far[k]:
+            nfar += 1
+        test[k] = use_cover if far[k] else use_outside
+    for which in (True, False):
+        sel = np.flatnonzero(test & (far == which))
+        if not len(sel):
+            continue
+        faces, corners, rects, sats, h = cover if which else outside
+        drop = covers_spanned(gens[sel], pa, pb, faces, corners, rects, sats, h)
+        for t in range(len(sel)):
+            if drop[t]:
+                keep[sel[t]] = False
+    return keep, nfar
