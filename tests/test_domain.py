@@ -54,6 +54,28 @@ def test_domain_holds_every_direction_where_something_is_free(name, restricted):
     assert (dom[f, row, col] == dom[f2, row2, col2]).all()
 
 
+@pytest.mark.parametrize("name", ["peg-37", "slot-37", "bolt-screw", "fig11-nonlinear"])
+def test_pre_pass_skips_only_cells_the_coarse_test_drops(name, monkeypatch):
+    """The :data:`~ndbg_cli.domain.PRE` pass (parents tested with radii over their children)
+    gives the very domain of the plain coarse-then-fine test, with far fewer cells tested."""
+    from ndbg_cli import domain
+    asm, pairs, tol, dom = _domain(name)
+    tested = []
+    plain_may_free = domain._may_free
+
+    def counting(n, pairs, tol, d, rad):
+        tested.append(len(d))
+        return plain_may_free(n, pairs, tol, d, rad)
+
+    monkeypatch.setattr(domain, "_may_free", counting)
+    assert np.array_equal(free_domain(len(asm.parts), pairs, tol), dom)
+    with_pre = sum(tested)
+    tested.clear()
+    monkeypatch.setattr(domain, "PRE", domain.COARSE)  # no pre pass
+    assert np.array_equal(free_domain(len(asm.parts), pairs, tol), dom)
+    assert with_pre < sum(tested) / 4
+
+
 def test_peg_domain_is_around_its_axis():
     asm, pairs, tol, dom = _domain("peg-37")
     v = np.asarray(asm.parts[asm.index("peg")].mesh.vertices)
