@@ -82,8 +82,9 @@ class Cover:
         self.r = raster
         self.h = 2.0 / raster
         self.covered = np.zeros((6, raster, raster), dtype=bool)
-        # summed-area tables (6, r + 1, r + 1), made when first needed, then brought up to
-        # date from the first row marked since
+        # summed-area tables of each face's block (below; every cell outside it is covered),
+        # made when first needed, then brought up to date from the first row marked since
+        # (rows counted from the block's first)
         self.sat: np.ndarray | None = None
         self.stale = [0] * 6
         self.win: list = [False] * 6  # windows (:meth:`window`); False: not computed yet
@@ -132,20 +133,28 @@ class Cover:
                                    np.ascontiguousarray(cnt, dtype=np.int64), self.h,
                                    self.covered[face])
         if first < self.r:
-            self.stale[face] = min(self.stale[face], first)
+            self.stale[face] = min(self.stale[face], max(first - self.block[face][0], 0))
             self.win[face] = False
             self._args = self._pyrs = None
             self.empty = False
 
-    def _table(self, face: int) -> np.ndarray:
-        """The summed-area table ``(r + 1, r + 1)`` of the covered cells of ``face``."""
+    def _table(self, face: int) -> None:
+        """Bring the summed-area table of the covered cells of ``face``'s block up to date:
+        ``sat[face, :rows + 1, :cols + 1]``, the block's own rows and columns counted from
+        its corner (:func:`~ndbg_cli.cover_kernels.update_sat`). A box of cells is covered
+        when its part in the block is (:func:`~ndbg_cli.cover_kernels.box_covered`): with a
+        domain of a few hundred cells the tables are that small, not 513 x 513 per face."""
         from . import cover_kernels as kernels
         if self.sat is None:
-            self.sat = np.zeros((6, self.r + 1, self.r + 1), dtype=np.int32)
-        if self.stale[face] < self.r:
-            kernels.update_sat(self.covered[face], self.sat[face], self.stale[face])
-            self.stale[face] = self.r
-        return self.sat[face]
+            size = [(b[1] - b[0], b[3] - b[2]) for b in self.block if b is not None]
+            self.sat = np.zeros((6, max([s[0] for s in size], default=0) + 1,
+                                 max([s[1] for s in size], default=0) + 1), dtype=np.int32)
+        b = self.block[face]
+        if b is not None and self.stale[face] < b[1] - b[0]:
+            kernels.update_sat(self.covered[face, b[0]:b[1], b[2]:b[3]],
+                               self.sat[face, :b[1] - b[0] + 1, :b[3] - b[2] + 1],
+                               self.stale[face])
+            self.stale[face] = b[1] - b[0]
 
     def covers_spanned(self, gens: np.ndarray,
                        pairs: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
@@ -167,7 +176,8 @@ class Cover:
 
     def _windows(self) -> tuple:
         """The faces with a window ``(w,)``, their corner directions ``(w, 4, 3)``, chart
-        rectangles ``(w, 4)``, the summed-area tables (up to date) and the cell width: what
+        rectangles ``(w, 4)``, the blocks' summed-area tables (up to date), the blocks
+        ``(6, 4)`` (``row0, row1, col0, col1``), the cell width and the raster size: what
         the compiled tests (:func:`ndbg_cli.cover_kernels.covers`) take."""
         if self._args is not None:  # nothing marked since: the tables are up to date
             return self._args
@@ -175,10 +185,12 @@ class Cover:
         for f in faces:
             self._table(f)
         sat = self.sat if self.sat is not None else np.zeros((6, 2, 2), dtype=np.int32)
+        blocks = np.array([(0, 0, 0, 0) if b is None else b for b in self.block],
+                          dtype=np.int64)
         self._args = (np.array(faces, dtype=np.int64),
                       self.pyramids()[0],
                       np.array([self.window(f) for f in faces], dtype=float).reshape(-1, 4),
-                      sat, self.h)
+                      sat, blocks, self.h, self.r)
         return self._args
 
     def _outside(self, cones: np.ndarray, face: int) -> np.ndarray | None:

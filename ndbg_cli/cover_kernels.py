@@ -82,40 +82,45 @@ def outside(cones: np.ndarray, corners: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def update_sat(covered: np.ndarray, sat: np.ndarray, r0: int) -> None:
-    """Bring the summed-area table ``sat`` ``(r + 1, r + 1)`` (int32; ``sat[y, x]`` the
-    number of set cells of ``covered`` ``(r, r)`` in rows ``< y`` and columns ``< x``, zero
+    """Bring the summed-area table ``sat`` ``(m + 1, n + 1)`` (int32; ``sat[y, x]`` the
+    number of set cells of ``covered`` ``(m, n)`` in rows ``< y`` and columns ``< x``, zero
     first row and column) up to date for rows ``>= r0`` of ``covered`` (the rows above
     unchanged since it was last right). In place; integer sums, so exact."""
-    r = covered.shape[0]
-    for y in range(r0, r):
+    m, n = covered.shape
+    for y in range(r0, m):
         run = 0
-        for x in range(r):
+        for x in range(n):
             run += covered[y, x]
             sat[y + 1, x + 1] = sat[y, x + 1] + run
 
 
 @njit(cache=True)
-def _box_covered(sat: np.ndarray, lo0: float, lo1: float, hi0: float, hi1: float,
-                 h: float) -> bool:
-    """Whether every raster cell meeting the chart box ``lo..hi`` (clipped to the face) is
-    covered: one lookup in the summed-area table ``sat`` ``(r + 1, r + 1)`` (cells ``h``
-    chart units wide from -1)."""
-    top = sat.shape[0] - 2
-    x0 = int(min(max(np.floor((lo0 + 1.0) / h), 0.0), top))
-    y0 = int(min(max(np.floor((lo1 + 1.0) / h), 0.0), top))
-    x1 = int(min(max(np.floor((hi0 + 1.0) / h), 0.0), top))
-    y1 = int(min(max(np.floor((hi1 + 1.0) / h), 0.0), top))
+def box_covered(sat: np.ndarray, block: np.ndarray, lo0: float, lo1: float, hi0: float,
+                hi1: float, h: float, r: int) -> bool:
+    """Whether every cell of an ``r x r`` raster (cells ``h`` chart units wide from -1)
+    meeting the chart box ``lo..hi`` (clipped to the face) is covered, given that every cell
+    outside ``block`` (``row0, row1, col0, col1``) is: one lookup in the block's summed-area
+    table ``sat`` (``sat[y, x]``: the covered cells in the block's rows ``< y`` and columns
+    ``< x``), for the box's part in the block (none: covered)."""
+    top = r - 1
+    x0 = max(int(min(max(np.floor((lo0 + 1.0) / h), 0.0), top)), block[2])
+    y0 = max(int(min(max(np.floor((lo1 + 1.0) / h), 0.0), top)), block[0])
+    x1 = min(int(min(max(np.floor((hi0 + 1.0) / h), 0.0), top)), block[3] - 1)
+    y1 = min(int(min(max(np.floor((hi1 + 1.0) / h), 0.0), top)), block[1] - 1)
+    if x0 > x1 or y0 > y1:
+        return True
+    x0, x1, y0, y1 = x0 - block[2], x1 - block[2], y0 - block[0], y1 - block[0]
     got = sat[y1 + 1, x1 + 1] - sat[y0, x1 + 1] - sat[y1 + 1, x0] + sat[y0, x0]
     return got == (y1 - y0 + 1) * (x1 - x0 + 1)
 
 
 @njit(cache=True)
 def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
-                  rects: np.ndarray, sats: np.ndarray, h: float, coef: np.ndarray,
-                  cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
+                  rects: np.ndarray, sats: np.ndarray, blocks: np.ndarray, h: float, size: int,
+                  coef: np.ndarray, cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
     """Whether the closed cone ``cone`` ``(k, 3)`` lies in covered cells on every window
-    face it meets (see :func:`covers`; ``coef`` ``(k, 3)``, ``cur``, ``buf``, ``f``: work
-    arrays). Returns ``(covered, cur, buf, f)``."""
+    face it meets (see :func:`covers`; ``size``: the raster's; ``coef`` ``(k, 3)``,
+    ``cur``, ``buf``, ``f``: work arrays). Returns ``(covered, cur, buf, f)``."""
     k = cone.shape[0]
     for w in range(len(faces)):
         fc = faces[w]
@@ -139,22 +144,23 @@ def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
             lo1 = min(lo1, cur[j, 1])
             hi0 = max(hi0, cur[j, 0])
             hi1 = max(hi1, cur[j, 1])
-        if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+        if not box_covered(sats[fc], blocks[fc], lo0, lo1, hi0, hi1, h, size):
             return False, cur, buf, f
     return True, cur, buf, f
 
 
 @njit(cache=True)
 def covers(cones: np.ndarray, faces: np.ndarray, corners: np.ndarray, rects: np.ndarray,
-           sats: np.ndarray, h: float) -> np.ndarray:
+           sats: np.ndarray, blocks: np.ndarray, h: float, size: int) -> np.ndarray:
     """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every face
     it meets (:meth:`ndbg_cli.cover.Cover.covers`). Only the faces ``faces`` ``(w,)`` with a
     window count (elsewhere every cell is covered): window ``w`` has corner directions
     ``corners[w]`` ``(4, 3)`` and chart rectangle ``rects[w]`` (``x0, y0, x1, y1``). A cone
     with a half-space that has the four corners strictly outside misses the window; else its
     polygon clipped to the rectangle, when it has 3 vertices or more, must have its bounding
-    box in covered cells (summed-area tables ``sats`` ``(6, r + 1, r + 1)``, cells ``h``
-    chart units wide)."""
+    box in covered cells (the summed-area tables ``sats`` ``(6, ., .)`` of the ``blocks``
+    ``(6, 4)`` of a ``size x size`` raster, cells ``h`` chart units wide:
+    :func:`box_covered`)."""
     p, k, _ = cones.shape
     ok = np.ones(p, dtype=np.bool_)
     coef = np.empty((k, 3))
@@ -162,18 +168,19 @@ def covers(cones: np.ndarray, faces: np.ndarray, corners: np.ndarray, rects: np.
     buf = np.empty_like(cur)
     f = np.empty(len(cur))
     for i in range(p):
-        ok[i], cur, buf, f = _cone_covered(cones[i], faces, corners, rects, sats, h, coef,
-                                           cur, buf, f)
+        ok[i], cur, buf, f = _cone_covered(cones[i], faces, corners, rects, sats, blocks, h,
+                                           size, coef, cur, buf, f)
     return ok
 
 
 @njit(cache=True)
 def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.ndarray,
-                   corners: np.ndarray, rects: np.ndarray, sats: np.ndarray, h: float
-                   ) -> np.ndarray:
+                   corners: np.ndarray, rects: np.ndarray, sats: np.ndarray,
+                   blocks: np.ndarray, h: float, size: int) -> np.ndarray:
     """``(p,)`` whether each closed cone spanned by ``gens`` ``(p, g, 3)`` lies in covered
     cells on every window face it meets (:meth:`ndbg_cli.cover.Cover.covers_spanned`;
-    ``faces``, ``corners``, ``rects``, ``sats``, ``h`` as :func:`covers` takes them). A cone
+    ``faces``, ``corners``, ``rects``, ``sats``, ``blocks``, ``h``, ``size`` as :func:`covers`
+    takes them). A cone
     with every generator in front of a window face's plane (``g . e > 0``) or behind it on
     every window face is tested by the bounding box of its generators' chart points; one
     with generators on both sides of some window face's plane by its facets (candidates
@@ -217,8 +224,8 @@ def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.n
                 if normals[r, 0] != 0.0 or normals[r, 1] != 0.0 or normals[r, 2] != 0.0:
                     nz += 1
             kept = _compact(normals[:rows_in], max(nz, 1), rows, sel, key, qq, order)
-            ok[i], cur, buf, f = _cone_covered(rows[:kept], faces, corners, rects, sats, h,
-                                               coef, cur, buf, f)
+            ok[i], cur, buf, f = _cone_covered(rows[:kept], faces, corners, rects, sats,
+                                               blocks, h, size, coef, cur, buf, f)
             continue
         for w in range(nf):
             every = True
@@ -238,7 +245,7 @@ def covers_spanned(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, faces: np.n
                 lo1, hi1 = min(lo1, t), max(hi1, t)
             if not (hi0 >= -1.0 and hi1 >= -1.0 and lo0 <= 1.0 and lo1 <= 1.0):
                 continue
-            if not _box_covered(sats[fc], lo0, lo1, hi0, hi1, h):
+            if not box_covered(sats[fc], blocks[fc], lo0, lo1, hi0, hi1, h, size):
                 ok[i] = False
                 break
     return ok

@@ -157,7 +157,7 @@ def prune_pairs(a: np.ndarray, b: np.ndarray, lo_i: np.ndarray, hi_i: np.ndarray
     ``4 eps``) are dropped when ``cover`` covers their box cone, near ones when ``outside``
     does (the domain alone), each when its ``use_*`` is set: :func:`~ndbg_cli.cover_kernels.
     covers_spanned` with the generator pairs ``pa``, ``pb`` and the cover's windows
-    ``(faces, corners, rects, sats, h)``."""
+    ``(faces, corners, rects, sats, blocks, h, size)``."""
     p = len(a)
     keep = np.ones(p, dtype=np.bool_)
     grow = 2.0 * eps
@@ -186,8 +186,8 @@ def prune_pairs(a: np.ndarray, b: np.ndarray, lo_i: np.ndarray, hi_i: np.ndarray
         sel = np.flatnonzero(test & (far == which))
         if not len(sel):
             continue
-        faces, corners, rects, sats, h = cover if which else outside
-        drop = covers_spanned(gens[sel], pa, pb, faces, corners, rects, sats, h)
+        faces, corners, rects, sats, blocks, h, size = cover if which else outside
+        drop = covers_spanned(gens[sel], pa, pb, faces, corners, rects, sats, blocks, h, size)
         for t in range(len(sel)):
             if drop[t]:
                 keep[sel[t]] = False

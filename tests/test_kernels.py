@@ -315,6 +315,25 @@ def _ref_spanned(cover: Cover, gens: np.ndarray) -> np.ndarray:
     return ok
 
 
+def test_box_covered_reads_the_block_table() -> None:
+    """A box's cells are all covered when its part in the block is (every cell outside the
+    block is): the block's own summed-area table against the raster itself."""
+    rng = np.random.default_rng(4)
+    r, h = 64, 2.0 / 64
+    block = np.array([20, 31, 7, 40])  # rows 20..30, columns 7..39
+    cov = np.ones((r, r), dtype=bool)
+    cov[20:31, 7:40] = rng.random((11, 33)) < 0.9
+    sat = np.zeros((12, 34), dtype=np.int32)
+    cover_kernels.update_sat(cov[20:31, 7:40], sat, 0)
+    for _ in range(3000):
+        lo = rng.uniform(-1.2, 1.0, size=2)
+        hi = lo + rng.uniform(0.0, 0.4, size=2) ** 2
+        c0, r0 = np.clip(np.floor((lo + 1.0) / h), 0, r - 1).astype(int)
+        c1, r1 = np.clip(np.floor((hi + 1.0) / h), 0, r - 1).astype(int)
+        want = cov[r0:r1 + 1, c0:c1 + 1].all()
+        assert cover_kernels.box_covered(sat, block, lo[0], lo[1], hi[0], hi[1], h, r) == want
+
+
 def test_sat_updates_in_place() -> None:
     rng = np.random.default_rng(3)
     cov = rng.random((64, 64)) < 0.7
