@@ -9,6 +9,7 @@ linework is snapped to :data:`~ndbg_cli.chart_union.GRID`.
 from __future__ import annotations
 
 import itertools
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -39,7 +40,7 @@ class Cell:
     seam: bool = False
 
 
-def arrangement_cells(bs: BlockedSets) -> list[Cell]:
+def arrangement_cells(bs: BlockedSets, workers: int = 1) -> list[Cell]:
     """The regions of the arrangement of all ``B_ij`` boundaries, face by face.
 
     The boundaries of every ``U_ij`` on a face, with the chart square, are noded (collinear
@@ -51,55 +52,65 @@ def arrangement_cells(bs: BlockedSets) -> list[Cell]:
     its first point) and the 0-dimensional ones (their end points). Cells on the contact
     circles but off every boundary are *seam candidates* (``seam=True``):
     :func:`build_infinite` keeps those whose exact DBG differs from the one around them (a
-    slot's or a bore's free directions).
+    slot's or a bore's free directions). ``workers`` threads take the faces (GEOS releases
+    the GIL; the cells are listed face by face whatever their number).
     """
+    crossings = circle_crossings(bs.circles, bs.eta, bs.domain)
+    faces = [f for f in range(6) if bs.domain is None or bs.domain[f] is not None]
+    if workers > 1 and len(faces) > 1:
+        with ThreadPoolExecutor(max_workers=min(workers, len(faces))) as pool:
+            done = list(pool.map(lambda f: _face_cells(bs, f, crossings[f]), faces))
+    else:
+        done = [_face_cells(bs, f, crossings[f]) for f in faces]
+    return [c for cells in done for c in cells]
+
+
+def _face_cells(bs: BlockedSets, face: int, crossings: np.ndarray) -> list[Cell]:
+    """The cells of :func:`arrangement_cells` on ``face`` (``crossings``: its contact
+    circles' crossings)."""
     r = 1.0 + SQUARE_MARGIN
     square = shapely.box(-r, -r, r, r)
-    crossings = circle_crossings(bs.circles, bs.eta, bs.domain)
+    dom = None if bs.domain is None else bs.domain[face]
     cells: list[Cell] = []
-    for face in range(6):
-        dom = None if bs.domain is None else bs.domain[face]
-        if bs.domain is not None and dom is None:
-            continue
-        lines = [shapely.boundary(g) for g in bs.geoms[face].values()]
-        lines.append(square.boundary)
+    lines = [shapely.boundary(g) for g in bs.geoms[face].values()]
+    lines.append(square.boundary)
+    if dom is not None:
+        lines.append(shapely.boundary(dom))
+    # chains between the nodes of degree other than 2: one 1-dimensional cell each
+    noded = shapely.line_merge(shapely.union_all(merged_segments(lines), grid_size=GRID))
+    cells.extend(seam_cells(noded, bs.circles, face, dom, crossings))
+    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+    faces = faces[shapely.area(faces) > 0]
+    if dom is not None and len(faces):
+        # the domain's boundary is in the linework: each face is inside it or outside
+        faces = faces[shapely.contains(dom, shapely.point_on_surface(faces))]
+    if not len(faces):
         if dom is not None:
-            lines.append(shapely.boundary(dom))
-        # chains between the nodes of degree other than 2: one 1-dimensional cell each
-        noded = shapely.line_merge(shapely.union_all(merged_segments(lines), grid_size=GRID))
-        cells.extend(seam_cells(noded, bs.circles, face, dom, crossings[face]))
-        faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
-        faces = faces[shapely.area(faces) > 0]
-        if dom is not None and len(faces):
-            # the domain's boundary is in the linework: each face is inside it or outside
-            faces = faces[shapely.contains(dom, shapely.point_on_surface(faces))]
-        if not len(faces):
-            if dom is not None:
-                cells.extend(_edge_cells(noded, face, dom))
-            continue
-        pts = shapely.point_on_surface(faces)
-        xy = shapely.get_coordinates(pts)
-        area = shapely.area(faces)
-        width = 2 * area / np.maximum(shapely.length(faces), 1e-300)
-        b = shapely.bounds(faces)
-        extent = np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])
-        dims = np.where(extent < bs.eta, 0, np.where(width < bs.eta, 1, 2))
-        cent = shapely.get_coordinates(shapely.centroid(faces))
-        use = np.where((dims == 0)[:, None], cent, xy)
-        dirs = direction_of(face, use)
-        if len(bs.circles):
-            # a region's point may lie on a contact circle (point_on_surface of a square is
-            # its centre: an axis, where the contacts of an axis-aligned assembly slide),
-            # where the open sets free what the region's DBG blocks: move it off them
-            two = np.flatnonzero(dims == 2)
-            on = two[(np.abs(dirs[two] @ bs.circles.T) < OFF_CIRCLE).any(axis=1)]
-            for k in on:
-                p = off_circles(faces[k], bs.circles, face)
-                if p is not None:
-                    dirs[k] = direction_of(face, p)[0]
-        for k in range(len(faces)):
-            cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
-        cells.extend(_edge_cells(noded, face, dom))
+            cells.extend(_edge_cells(noded, face, dom))
+        return cells
+    pts = shapely.point_on_surface(faces)
+    xy = shapely.get_coordinates(pts)
+    area = shapely.area(faces)
+    width = 2 * area / np.maximum(shapely.length(faces), 1e-300)
+    b = shapely.bounds(faces)
+    extent = np.maximum(b[:, 2] - b[:, 0], b[:, 3] - b[:, 1])
+    dims = np.where(extent < bs.eta, 0, np.where(width < bs.eta, 1, 2))
+    cent = shapely.get_coordinates(shapely.centroid(faces))
+    use = np.where((dims == 0)[:, None], cent, xy)
+    dirs = direction_of(face, use)
+    if len(bs.circles):
+        # a region's point may lie on a contact circle (point_on_surface of a square is
+        # its centre: an axis, where the contacts of an axis-aligned assembly slide),
+        # where the open sets free what the region's DBG blocks: move it off them
+        two = np.flatnonzero(dims == 2)
+        on = two[(np.abs(dirs[two] @ bs.circles.T) < OFF_CIRCLE).any(axis=1)]
+        for k in on:
+            p = off_circles(faces[k], bs.circles, face)
+            if p is not None:
+                dirs[k] = direction_of(face, p)[0]
+    for k in range(len(faces)):
+        cells.append(Cell(int(dims[k]), dirs[k], face, faces[k]))
+    cells.extend(_edge_cells(noded, face, dom))
     return cells
 
 

@@ -53,7 +53,10 @@ open cones themselves (:mod:`ndbg_cli.equator`).
 
 from __future__ import annotations
 
+import gc
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import shapely
@@ -89,12 +92,12 @@ class TooLarge(NdbgError):
     """The NDBG has too many regions x parts to hold (:data:`MAX_DBG_BYTES`)."""
 
 
-def _regions_3d(bs: BlockedSets) -> tuple[list[Region], int]:
+def _regions_3d(bs: BlockedSets, workers: int = 1) -> tuple[list[Region], int]:
     """The regions of S^2 (:func:`~ndbg_cli.arrangement.arrangement_cells`), each with its DBG,
     the seam candidates kept where the open-set semantics frees something; and the number of
     lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`).
     :class:`TooLarge` when their DBGs would pass :data:`MAX_DBG_BYTES`."""
-    cells = arrangement_cells(bs)
+    cells = arrangement_cells(bs, workers)
     need = len(cells) * bs.n * ((bs.n + 7) // 8)
     if need > MAX_DBG_BYTES:
         raise TooLarge(f"its arrangement has {len(cells):,} regions over {bs.n} parts: their "
@@ -221,6 +224,27 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
     outside), not for its subassemblies'; the stats say ``restricted``. ``progress``: a bar on
     stderr over the part pairs (:mod:`ndbg_cli.progress`: on a terminal only)."""
+    with gc_paused():
+        return _build(asm, cache, domain, workers, progress)
+
+
+@contextmanager
+def gc_paused() -> Iterator[None]:
+    """Python's cyclic garbage collector off for the block (then back as it was). The NDBG
+    makes hundreds of thousands of short-lived arrays and geometries and no reference cycles
+    worth collecting, and each full collection walks every live object: AS1's arrangement
+    and DBGs took 0.98 s with it, 0.81 s without."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
+
+
+def _build(asm: Assembly, cache: PairCache | None, domain: np.ndarray | None, workers: int,
+           progress: bool) -> NDBG:
     t0 = time.perf_counter()
     bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers, progress)
     t1 = time.perf_counter()
@@ -239,7 +263,7 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
                           thin=dim == 1 and equator.narrow(span[1] - span[0], bs.eta))
                    for (dim, phi, g, span), k in zip(regs, sliding)]
     else:
-        regions, skipped = _regions_3d(bs)
+        regions, skipped = _regions_3d(bs, workers)
         t2 = time.perf_counter()
     t3 = time.perf_counter()
     ndbg = NDBG(family=FAMILY, ids=tuple(asm.ids), regions=tuple(regions),

@@ -12,6 +12,7 @@ computed in this process.
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import threading
@@ -68,6 +69,7 @@ def _watch_parent(parent: int) -> None:
 
 
 def _init(tris: list, eps: float, domain: np.ndarray | None, parent: int) -> None:
+    gc.disable()  # as in the parent (ndbg_cli.infinite.gc_paused); the pool is short-lived
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
