@@ -61,7 +61,7 @@ import trimesh
 
 from .assembly import Assembly
 from .chart_union import face_polygons
-from .cover import Cover, run_offsets
+from .cover import Cover, domain_cover, run_offsets
 from .cubemap import (
     BOX_EDGE_PAIRS,
     DIFFERENCE_PAIRS,
@@ -433,7 +433,7 @@ class _Walk:
         self.circles: list[np.ndarray] = []
         self.cover = Cover(domain=domain)
         # the domain alone (never updated): near node pairs wholly outside it are dropped too
-        self.outside = None if domain is None else Cover(domain=domain)
+        self.outside = None if domain is None else domain_cover(domain)
         self.stats = {"node_pairs": 0, "terms": 0, "kept": 0}
 
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

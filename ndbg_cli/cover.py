@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .cubemap import FACES, SQUARE_MARGIN, clip_halfplanes
+from .cubemap import SQUARE_MARGIN, clip_halfplanes
 
 #: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
 #: direction is at least this far inside a kept cone, far above the 1e-6 of the open test.
@@ -109,9 +109,11 @@ class Cover:
         ``None`` when every cell is covered. Cones are clipped to it only: outside it there
         is nothing to mark or to test."""
         if self.win[face] is False:
+            from . import cover_kernels as kernels
             b = self.block[face]
-            self.win[face] = None if b is None else cells_window(
-                ~self.covered[face, b[0]:b[1], b[2]:b[3]], b[0], b[2], self.r)
+            got = None if b is None else kernels.open_window(self.covered[face], *b,
+                                                             1.0 + SQUARE_MARGIN)
+            self.win[face] = got[1:] if got is not None and got[0] else None
         return self.win[face]
 
     def add(self, cones: np.ndarray) -> None:
@@ -213,13 +215,8 @@ class Cover:
             return None
         got = self._pyramids.get(face)
         if got is None or got[0] != win:
-            e, u, v = FACES[face]
-            x0, y0, x1, y1 = win
-            corners = np.array([e + x0 * u + y0 * v, e + x1 * u + y0 * v,
-                                e + x1 * u + y1 * v, e + x0 * u + y1 * v])
-            sides = np.cross(corners, np.roll(corners, -1, axis=0))
-            centre = e + 0.5 * (x0 + x1) * u + 0.5 * (y0 + y1) * v
-            got = self._pyramids[face] = (win, corners, sides * np.sign(sides @ centre)[:, None])
+            from . import cover_kernels as kernels
+            got = self._pyramids[face] = (win, *kernels.window_pyramid(face, *win))
         return got[1], got[2]
 
     def misses_spanned_open(self, gens: np.ndarray, facing: np.ndarray) -> np.ndarray:
@@ -261,3 +258,16 @@ class Cover:
         if self.empty:
             return np.zeros(len(cones), dtype=bool)
         return kernels.covers(np.ascontiguousarray(cones, dtype=float), *self._windows())
+
+
+_last_domain_cover: list = [None, None]  # (domain key, Cover)
+
+
+def domain_cover(domain: np.ndarray) -> Cover:
+    """The :class:`Cover` of ``domain`` alone (its outside cells covered, nothing marked),
+    shared: the same object while the domain is the same (every pair's walk tests its near
+    node pairs against it). Do not add to it."""
+    key = (domain.tobytes(), domain.shape)
+    if _last_domain_cover[0] != key:
+        _last_domain_cover[:] = key, Cover(domain=domain)
+    return _last_domain_cover[1]

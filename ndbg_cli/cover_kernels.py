@@ -318,3 +318,59 @@ def mark_cells(poly: np.ndarray, cnt: np.ndarray, h: float, covered: np.ndarray)
                 covered[g, c] = True
             first = min(first, g)
     return first
+
+
+@njit(cache=True)
+def open_window(covered: np.ndarray, row0: int, row1: int, col0: int, col1: int,
+                margin: float) -> tuple[bool, float, float, float, float]:
+    """:func:`ndbg_cli.cover.cells_window` of the cells not ``covered`` (``(r, r)``, one
+    face) in the block ``row0:row1, col0:col1`` (every other cell covered): ``(found, x0,
+    y0, x1, y1)``, the chart rectangle on cell boundaries, ``margin`` (the chart square's
+    half side) where it reaches the face's border."""
+    r = covered.shape[0]
+    h = 2.0 / r
+    lo_r, hi_r, lo_c, hi_c = r, -1, r, -1
+    for y in range(row0, row1):
+        for x in range(col0, col1):
+            if not covered[y, x]:
+                lo_r, hi_r = min(lo_r, y), max(hi_r, y)
+                lo_c, hi_c = min(lo_c, x), max(hi_c, x)
+    if hi_r < 0:
+        return False, 0.0, 0.0, 0.0, 0.0
+    x0 = -margin if lo_c == 0 else -1.0 + lo_c * h
+    y0 = -margin if lo_r == 0 else -1.0 + lo_r * h
+    x1 = margin if hi_c + 1 == r else -1.0 + (hi_c + 1) * h
+    y1 = margin if hi_r + 1 == r else -1.0 + (hi_r + 1) * h
+    return True, x0, y0, x1, y1
+
+
+@njit(cache=True)
+def window_pyramid(face: int, x0: float, y0: float, x1: float, y1: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """The chart rectangle ``x0..x1, y0..y1`` of ``face`` as a cone: its corner directions
+    ``(4, 3)`` (in turn round it) and the inward normals of its sides ``(4, 3)`` (the cross
+    products of consecutive corners, signed to hold the rectangle's centre), as
+    :meth:`ndbg_cli.cover.Cover._window_pyramid` computed them with numpy."""
+    e, u, v = FACES[face, 0], FACES[face, 1], FACES[face, 2]
+    corners = np.empty((4, 3))
+    sides = np.empty((4, 3))
+    xs = (x0, x1, x1, x0)
+    ys = (y0, y0, y1, y1)
+    cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+    centre = np.empty(3)
+    for k in range(3):
+        centre[k] = (e[k] + cx * u[k]) + cy * v[k]
+    for c in range(4):
+        for k in range(3):
+            corners[c, k] = (e[k] + xs[c] * u[k]) + ys[c] * v[k]
+    for c in range(4):
+        a0, a1, a2 = corners[c, 0], corners[c, 1], corners[c, 2]
+        n = (c + 1) % 4
+        b0, b1, b2 = corners[n, 0], corners[n, 1], corners[n, 2]
+        s0 = a1 * b2 - a2 * b1
+        s1 = a2 * b0 - a0 * b2
+        s2 = a0 * b1 - a1 * b0
+        d = dot_matvec(s0, s1, s2, centre[0], centre[1], centre[2])
+        sg = 1.0 if d > 0 else (-1.0 if d < 0 else 0.0)
+        sides[c, 0], sides[c, 1], sides[c, 2] = s0 * sg, s1 * sg, s2 * sg
+    return corners, sides

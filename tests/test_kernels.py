@@ -334,6 +334,37 @@ def test_box_covered_reads_the_block_table() -> None:
         assert cover_kernels.box_covered(sat, block, lo[0], lo[1], hi[0], hi[1], h, r) == want
 
 
+def test_window_kernels_match_numpy() -> None:
+    """The windows of uncovered cells (:func:`~ndbg_cli.cover_kernels.open_window`) against
+    :func:`~ndbg_cli.cover.cells_window`, and their cones
+    (:func:`~ndbg_cli.cover_kernels.window_pyramid`) against the numpy expressions they
+    replaced, bit for bit."""
+    from ndbg_cli.cover import cells_window
+    rng = np.random.default_rng(6)
+    r = 64
+    m = 1.0 + SQUARE_MARGIN
+    for t in range(200):
+        cov = np.ones((r, r), dtype=bool)
+        b = np.sort(rng.integers(0, r + 1, size=2)), np.sort(rng.integers(0, r + 1, size=2))
+        (r0, r1), (c0, c1) = b
+        cov[r0:r1, c0:c1] = rng.random((r1 - r0, c1 - c0)) < (0.99 if t % 3 else 0.5)
+        got = cover_kernels.open_window(cov, r0, r1, c0, c1, m)
+        want = cells_window(~cov[r0:r1, c0:c1], r0, c0, r)
+        assert (got[1:] if got[0] else None) == want
+        if want is None:
+            continue
+        face = t % 6
+        e, u, v = FACES[face]
+        x0, y0, x1, y1 = want
+        corners = np.array([e + x0 * u + y0 * v, e + x1 * u + y0 * v,
+                            e + x1 * u + y1 * v, e + x0 * u + y1 * v])
+        sides = np.cross(corners, np.roll(corners, -1, axis=0))
+        centre = e + 0.5 * (x0 + x1) * u + 0.5 * (y0 + y1) * v
+        sides = sides * np.sign(sides @ centre)[:, None]
+        kc, ks = cover_kernels.window_pyramid(face, *want)
+        assert _same(kc, corners) and _same(ks, sides)
+
+
 def test_sat_updates_in_place() -> None:
     rng = np.random.default_rng(3)
     cov = rng.random((64, 64)) < 0.7
