@@ -42,7 +42,8 @@ exact triangles, with closed polygons: a direction grazing a distant part with e
 clearance counts as blocked.
 
 The arrangement is computed per cube face with shapely: the union ``U_ij`` of each pair's
-polygons, all their boundaries noded (collinear pieces merged first) and polygonized; each face
+polygons (those inside another single polygon left out first: the same set,
+:func:`ndbg_cli.chart_union.face_pieces`), all their boundaries noded (collinear pieces merged first) and polygonized; each face
 of the overlay is a region, and its DBG is read at a point inside it; each chain of boundary
 between two nodes is a 1-dimensional cell, each node a 0-dimensional one. Regions cut by the
 cube edges are counted once per cube face (the DBG is constant on each piece, so the NDBG stays
