@@ -111,20 +111,17 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
 
     Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
     ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face): see
-    :func:`ndbg_cli.kernels.clip_square`.
+    :func:`ndbg_cli.kernels.clip_cones`.
     """
     from . import kernels
-    e, u, v = FACES[face]
     r = 1.0 + SQUARE_MARGIN
     x0, y0, x1, y1 = (-r, -r, r, r) if rect is None else rect
-    sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
-    coef = np.stack([normals @ u, normals @ v, normals @ e], axis=2)  # (p, k, 3): a, b, c
-    if shrink > 0.0:
-        coef[:, :, 2] -= shrink * np.hypot(coef[:, :, 0], coef[:, :, 1])
+    sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
     # Sutherland-Hodgman per cone, compiled; a half-plane that excludes the four corners
     # excludes the square (it is convex): most cones meet one or two faces, so that test,
     # made first, spares the clipping of the others.
-    return kernels.clip_square(np.ascontiguousarray(coef), sq, max_vertices)
+    return kernels.clip_cones(np.ascontiguousarray(normals, dtype=float), face, sq,
+                              float(shrink), max_vertices)
 
 
 def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:

@@ -43,9 +43,10 @@ clearance counts as blocked.
 
 The arrangement is computed per cube face with shapely: the union ``U_ij`` of each pair's
 polygons (those inside another single polygon left out first: the same set,
-:func:`ndbg_cli.chart_union.face_pieces`), all their boundaries noded (collinear pieces merged first) and polygonized; each face
-of the overlay is a region, and its DBG is read at a point inside it; each chain of boundary
-between two nodes is a 1-dimensional cell, each node a 0-dimensional one. Regions cut by the
+:func:`ndbg_cli.chart_union.face_pieces`), all their boundaries noded (collinear pieces
+merged first) and polygonized; each face of the overlay is a region, and its DBG is read at
+a point inside it; each chain of boundary between two nodes is a 1-dimensional cell, each
+node a 0-dimensional one. Regions cut by the
 cube edges are counted once per cube face (the DBG is constant on each piece, so the NDBG stays
 exact; region counts are those of the arrangement refined by the 12 cube-edge arcs). 2D
 assemblies are extruded to prisms and the arrangement is read on the equator (S^1) from the

@@ -72,7 +72,7 @@ def dot_einsum(x0, x1, x2, y0, y1, y2):
 @njit(cache=True)
 def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
     """Clip the quadrilateral ``sq`` ``(4, 2)`` by the half-planes ``coef`` ``(k, 3)`` of one
-    cone (see :func:`clip_square`), in the work arrays ``cur``, ``buf`` ``(c, 2)`` and ``f``
+    cone (see :func:`clip_cones`), in the work arrays ``cur``, ``buf`` ``(c, 2)`` and ``f``
     ``(c,)`` (``c >= 4``; replaced by larger ones when a step needs more room). Returns
     ``(n, widest, cur, buf, f)``: the polygon is ``cur[:n]``; ``widest`` is the largest vertex
     count a cut produced (-1 without a cut)."""
@@ -133,11 +133,14 @@ def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f:
 
 
 @njit(cache=True)
-def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
-                ) -> tuple[np.ndarray, np.ndarray]:
-    """Clip the convex quadrilateral ``sq`` ``(4, 2)`` (counter-clockwise, chart units) by the
-    half-planes ``a s + b t + c >= 0`` of each cone: ``coef`` ``(p, k, 3)`` rows ``(a, b, c)``,
-    an all-zero row being no constraint (padding).
+def clip_cones(normals: np.ndarray, face: int, sq: np.ndarray, shrink: float,
+               max_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Clip the convex quadrilateral ``sq`` ``(4, 2)`` (counter-clockwise, chart units) of
+    ``face`` by the chart half-planes ``a s + b t + c >= 0`` of each open cone of
+    ``normals`` ``(p, k, 3)`` (:func:`ndbg_cli.cubemap.clip_halfplanes`): row ``m`` gives
+    ``(a, b, c) = (m . u, m . v, m . e)`` (as numpy's matmul rounds them), ``c`` lowered by
+    ``shrink * hypot(a, b)`` when ``shrink > 0``; an all-zero row is no constraint
+    (padding).
 
     Returns ``(poly, count)``: ``poly`` ``(p, w, 2)`` vertices (counter-clockwise; the entries
     past ``count[i]`` are zero) and ``count`` ``(p,)``; ``count[i] < 3`` when cone ``i``
@@ -147,17 +150,27 @@ def clip_square(coef: np.ndarray, sq: np.ndarray, max_vertices: int
     polygon once it has fewer than 3 vertices; a vertex is inside when its value is ``>= 0``
     and a crossing of edge ``p -> q`` is ``p + w (q - p)``, ``w = f(p) / (f(p) - f(q))``.
     """
-    p, k, _ = coef.shape
-    keep = max(4, max_vertices)  # no output row is wider
+    p, k, _ = normals.shape
+    e, u, v = FACES[face, 0], FACES[face, 1], FACES[face, 2]
+    keep = max(4, max_vertices)
     store = np.zeros((p, keep, 2))
     count = np.zeros(p, dtype=np.int64)
+    coef = np.empty((k, 3))
     cur = np.empty((8 + 2 * k, 2))
     buf = np.empty_like(cur)
     f = np.empty(len(cur))
     width = 4
     grown = False
     for i in range(p):
-        n, widest, cur, buf, f = _clip(coef[i], sq, cur, buf, f)
+        for r in range(k):
+            m0, m1, m2 = normals[i, r, 0], normals[i, r, 1], normals[i, r, 2]
+            a = dot_matvec(m0, m1, m2, u[0], u[1], u[2])
+            b = dot_matvec(m0, m1, m2, v[0], v[1], v[2])
+            c = dot_matvec(m0, m1, m2, e[0], e[1], e[2])
+            if shrink > 0.0:
+                c -= shrink * np.hypot(a, b)
+            coef[r, 0], coef[r, 1], coef[r, 2] = a, b, c
+        n, widest, cur, buf, f = _clip(coef, sq, cur, buf, f)
         if widest >= 0:
             grown = True
             width = max(width, widest)

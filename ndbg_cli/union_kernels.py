@@ -17,7 +17,7 @@ from numba import njit
 @njit(cache=True)
 def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For convex polygons ``poly`` ``(p, m, 2)`` with ``cnt`` ``(p,)`` vertices each
-    (counter-clockwise, :func:`ndbg_cli.kernels.clip_square`'s output): their areas ``(p,)``
+    (counter-clockwise, :func:`ndbg_cli.kernels.clip_cones`'s output): their areas ``(p,)``
     (shoelace, 0 below 3 vertices) and bounding boxes ``(p, 4)`` (``x0, y0, x1, y1``)."""
     p = len(cnt)
     area = np.zeros(p)
