@@ -45,13 +45,15 @@ def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48,
     return polys[big], index[big]
 
 
-def face_pieces(cones: np.ndarray, face: int, rect: tuple[float, float, float, float]
-                | None = None, max_vertices: int = 48) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def face_pieces(cones: np.ndarray, face: int,
+                rect: tuple[float, float, float, float] | None = None,
+                max_vertices: int = 48) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The chart pieces of ``cones`` ``(p, k, 3)`` on ``face``, clipped to ``rect`` (the
-    chart square when ``None``), those of area at most ``GRID**2`` left out: their bounding
-    boxes ``(q, 4)`` (``x0, y0, x1, y1``), their cone indices ``(q,)`` (ascending), and the
-    polygons of those inside no other single piece (:func:`~ndbg_cli.union_kernels.
-    maximal_pieces`, largest first), whose union is the union of all."""
+    chart square when ``None``), those of area at most ``GRID**2`` left out: the polygons of
+    those inside no other single piece, largest first
+    (:func:`~ndbg_cli.union_kernels.maximal_pieces`), whose union is the union of all; and
+    every piece's bounding box ``(q, 4)`` (``x0, y0, x1, y1``) and cone index ``(q,)``
+    (ascending)."""
     from . import union_kernels as kernels
     none = np.zeros(0, dtype=object), np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
     if not len(cones):
