@@ -342,7 +342,9 @@ def test_triangle_difference_facets_come_from_edge_vertex_pairs():
 def test_box_cone_facets_come_from_box_edges():
     rng = np.random.default_rng(8)
     d = random_directions(3000, seed=12)
-    corners = bc._CORNERS
+    # corner c takes the high end on axis x when bit 2 - x of c is set, as the walk's
+    # compiled prune (term_kernels.prune_pairs) builds them
+    corners = np.array([[c >> 2 & 1, c >> 1 & 1, c & 1] for c in range(8)], dtype=bool)
     for trial in range(300):
         lo = rng.normal(size=3) * 2
         hi = lo + rng.uniform(0, 2, size=3)
