@@ -273,11 +273,13 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for a, b in order:
         if (a, b) in fast or cache is None:
             continue
-        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-5":
-        # unions of the pieces inside no other one (the same sets, other vertices); older:
-        # "pruned-4", the pieces themselves stored rather than their boxes before, and unions
-        # not checked for lost area before that
-        keys[(a, b)] = cache.key("infinite", "pruned-5", gkeys[a], gkeys[b], eps,
+        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-6":
+        # near triangles inset from their parts' convex sharp edges (ndbg_cli.erosion), and
+        # with a domain the terms whose window pieces lie inside kept ones left out; older:
+        # "pruned-5", unions of the pieces inside no other one, "pruned-4", the pieces
+        # themselves stored rather than their boxes before, and unions not checked for lost
+        # area before that
+        keys[(a, b)] = cache.key("infinite", "pruned-6", gkeys[a], gkeys[b], eps,
                                  asm.dimension, asm.diagonal if asm.dimension == 2 else None,
                                  *extra)
         got = cache.get("infinite", keys[(a, b)], _thaw)

@@ -27,7 +27,9 @@ Minkowski difference (:func:`ndbg_cli.blocking_cones.convex_pair_cone`, the same
 Tolerance (``eps = asm.length_tolerance``)
 ------------------------------------------
 For *near* triangle pairs (bounding boxes closer than ``4 eps``) both triangles are moved
-inward by ``1.5 eps`` along their normals: the parts are eroded by about ``eps``. Contact then
+inward by ``1.5 eps`` along their normals (and, where two parts touch at an angle, pulled
+back by as much from their parts' convex sharp edges: :mod:`ndbg_cli.erosion`): the parts
+are eroded by about ``eps``. Contact then
 never blocks by itself: a part blocks only if the sweep penetrates it deeper than about
 ``eps``, sliding along a contact face is free, tessellation overlaps below ``eps`` are
 ignored, and the directions through a zero-clearance slot or bore form a thin free region of

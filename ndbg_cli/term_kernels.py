@@ -21,13 +21,16 @@ from .kernels import _compact, _cone_normals, dot_einsum
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
           jb: np.ndarray, near: np.ndarray, eps: float, pa: np.ndarray, pb: np.ndarray,
           rel_tol: float, flat_tol: float, use_cover: bool, corners: np.ndarray,
-          sides: np.ndarray) -> tuple[np.ndarray, int]:
+          sides: np.ndarray, di: np.ndarray, gi: np.ndarray, dj: np.ndarray,
+          gj: np.ndarray) -> tuple[np.ndarray, int]:
     """The open cones of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` (those given can face
     each other), in the order given: ``(p, w, 3)`` and their number ``p`` (rows past it
     unused).
 
     Pair ``k``'s generators are ``tj[jb[k], v] - ti[ia[k], w]`` (index ``3 v + w``), both
-    triangles moved inward by ``1.5 eps`` along their normals when ``near[k]``; its facing
+    triangles moved inward by ``1.5 eps`` along their normals when ``near[k]``, and their
+    vertices by ``di``, ``dj`` ``(t, 3, 3)`` in their planes (:mod:`ndbg_cli.erosion`; a
+    near pair with a triangle ``gi`` / ``gj`` gone has no term); its facing
     half-spaces are ``ni[ia[k]]`` and ``-nj[jb[k]]``. With ``use_cover`` a pair is dropped
     when it misses every window (corner directions ``corners`` ``(nw, 4, 3)``, inward side
     normals ``sides``), first on its generators and facing half-spaces
@@ -55,6 +58,11 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     used = 1
     for k in range(n):
         a, b = ia[k], jb[k]
+        # faces meeting at an angle (not opposed within 45 degrees) move in their planes too
+        inset = near[k] and dot_einsum(ni[a, 0], ni[a, 1], ni[a, 2],
+                                       nj[b, 0], nj[b, 1], nj[b, 2]) > -0.7071067811865476
+        if inset and (gi[a] or gj[b]):
+            continue
         if near[k]:
             s0 = grow * (ni[a, 0] - nj[b, 0])
             s1 = grow * (ni[a, 1] - nj[b, 1])
@@ -62,9 +70,14 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
         for v in range(3):
             for w in range(3):
                 g = 3 * v + w
-                gens[g, 0] = tj[b, v, 0] - ti[a, w, 0]
-                gens[g, 1] = tj[b, v, 1] - ti[a, w, 1]
-                gens[g, 2] = tj[b, v, 2] - ti[a, w, 2]
+                if inset:
+                    gens[g, 0] = (tj[b, v, 0] + dj[b, v, 0]) - (ti[a, w, 0] + di[a, w, 0])
+                    gens[g, 1] = (tj[b, v, 1] + dj[b, v, 1]) - (ti[a, w, 1] + di[a, w, 1])
+                    gens[g, 2] = (tj[b, v, 2] + dj[b, v, 2]) - (ti[a, w, 2] + di[a, w, 2])
+                else:
+                    gens[g, 0] = tj[b, v, 0] - ti[a, w, 0]
+                    gens[g, 1] = tj[b, v, 1] - ti[a, w, 1]
+                    gens[g, 2] = tj[b, v, 2] - ti[a, w, 2]
                 if near[k]:
                     gens[g, 0] = gens[g, 0] + s0
                     gens[g, 1] = gens[g, 1] + s1
