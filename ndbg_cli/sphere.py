@@ -525,33 +525,54 @@ def _snap_lineality_plane(normals: np.ndarray, tol: float) -> np.ndarray:
     return unit(out)
 
 
+#: How far (times the angular tolerance, over the unit box of directions) a constraint of
+#: :func:`_implicit_equalities`' first LP may be exceeded: far above the normals' rounding,
+#: far below the half-tolerance slack that makes a constraint not implicit.
+NOISE = 0.01
+
+
 def _implicit_equalities(normals: np.ndarray, tol: float
                          ) -> tuple[np.ndarray, np.ndarray] | None:
     """The constraints ``n . d <= 0`` that hold with equality on the whole free cone, within
     the tolerance, and a direction deep inside it when there are none.
 
-    LP 1: ``max sum t_i`` s.t. ``N d + t <= 0``, ``|d|_inf <= 1 / tol``, ``0 <= t_i <= 1``
+    LP 1: ``max sum t_i`` s.t. ``N d + t <= NOISE``, ``|d|_inf <= 1 / tol``, ``0 <= t_i <= 1``
     (the box ``|d|_inf <= 1`` and slacks up to ``tol``, scaled by ``1 / tol`` for the
     solver). A constraint that some ``d`` of the unit box slackens by ``k tol`` or more
     reaches ``t_i = 1`` (average the maximisers), so ``t_i < 1/2`` marks it implicit: rounding
     noise cannot open a sliver of free directions. LP 2 (no implicit constraint): ``max s``
     s.t. ``N d + s <= 0``, ``|d|_inf <= 1``: a well-centred interior direction. ``None``
-    when the solver fails (the caller then keeps every circle, which is still exact).
+    when the solver fails, by simplex and then by interior points (the caller then keeps
+    every circle, which is still exact, but other noise gives another arrangement).
     """
     from scipy.optimize import linprog
 
+    def solve(*args, **kwargs):
+        for method in ("highs", "highs-ipm"):
+            res = linprog(*args, method=method, **kwargs)
+            if res.status == 0:
+                return res
+        return None
+
     k = len(normals)
-    a_ub = np.hstack([normals, np.eye(k)])
     big = 1.0 / tol
-    res = linprog(np.r_[np.zeros(3), -np.ones(k)], A_ub=a_ub, b_ub=np.zeros(k),
-                  bounds=[(-big, big)] * 3 + [(0.0, 1.0)] * k, method="highs")
-    if res.status != 0:  # numerical trouble (d = 0, t = 0 is feasible, all is bounded)
+    # each constraint may be exceeded by NOISE tol (over the unit box): rounding of the
+    # normals (1e-9) must not close a free ray that the exact normals leave
+    res = solve(np.r_[np.zeros(3), -np.ones(k)], A_ub=np.hstack([normals, np.eye(k)]),
+                b_ub=np.full(k, NOISE), bounds=[(-big, big)] * 3 + [(0.0, 1.0)] * k)
+    if res is None:
+        # HiGHS can stop with no status ("Not Set") on normals 1e-9 from a degenerate
+        # configuration (five normals of two pairs): the same LP with d in the unit box and
+        # the slacks scaled by tol instead
+        res = solve(np.r_[np.zeros(3), -np.ones(k)], A_ub=np.hstack([normals, tol * np.eye(k)]),
+                    b_ub=np.full(k, NOISE * tol), bounds=[(-1.0, 1.0)] * 3 + [(0.0, 1.0)] * k)
+    if res is None:  # numerical trouble (d = 0, t = 0 is feasible, all is bounded)
         return None
     implicit = res.x[3:] < 0.5
     if implicit.any():
         return implicit, res.x[:3]
-    res = linprog(np.r_[np.zeros(3), -1.0], A_ub=np.hstack([normals, np.ones((k, 1))]),
-                  b_ub=np.zeros(k), bounds=[(-1.0, 1.0)] * 3 + [(0.0, 1.0)], method="highs")
-    if res.status != 0:
+    res = solve(np.r_[np.zeros(3), -1.0], A_ub=np.hstack([normals, np.ones((k, 1))]),
+                b_ub=np.zeros(k), bounds=[(-1.0, 1.0)] * 3 + [(0.0, 1.0)])
+    if res is None:
         return None
     return implicit, res.x[:3]
