@@ -32,11 +32,9 @@ this (and backtracks, within the budget, when a ``connected`` filter breaks it).
 
 from __future__ import annotations
 
-import gc
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -45,6 +43,7 @@ import numpy as np
 from .candidates import connected_free_sets
 from .components import condense, free_sets, strongly_connected
 from .dbg import bits, closure_table
+from .gc_pause import gc_paused
 from .ndbg import NDBG, ConnectivityTest
 
 #: Search nodes per subassembly for its contact-connected partitionings (with a
@@ -128,20 +127,6 @@ class Hyperarc(NamedTuple):
     def balance(self) -> int:
         """Size of the larger side (smaller is more balanced)."""
         return max(self.left.bit_count(), self.right.bit_count())
-
-
-@contextmanager
-def gc_paused() -> Iterator[None]:
-    """Cyclic garbage collection off while an AND/OR search allocates (its sets, lists and
-    tuples of ints hold no reference cycles; the collector's repeated scans of the growing
-    graph took about a quarter of AS1's build). The previous state is restored on exit."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
 
 
 def contains(big: NDBG, small: NDBG) -> bool:

@@ -21,13 +21,13 @@ from .andor import (
     Budget,
     Hyperarc,
     Meter,
-    gc_paused,
     greedy_tree,
     lower_bound_depth,
     node_splits,
 )
 from .components import condense
 from .dbg import bits
+from .gc_pause import gc_paused
 from .ndbg import NDBG, ConnectivityTest
 
 

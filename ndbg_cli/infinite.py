@@ -57,10 +57,7 @@ open cones themselves (:mod:`ndbg_cli.equator`).
 
 from __future__ import annotations
 
-import gc
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 
 import numpy as np
 import shapely
@@ -74,6 +71,7 @@ from .cache import PairCache
 from .cubemap import face_of
 from .dbg import DBG
 from .errors import NdbgError
+from .gc_pause import gc_paused
 from .infinite_report import FAMILY, infinite_section, infinite_text, partitioning_records
 from .ndbg import NDBG, Region
 
@@ -230,21 +228,6 @@ def build_infinite(asm: Assembly, cache: PairCache | None = None,
     stderr over the part pairs (:mod:`ndbg_cli.progress`: on a terminal only)."""
     with gc_paused():
         return _build(asm, cache, domain, workers, progress)
-
-
-@contextmanager
-def gc_paused() -> Iterator[None]:
-    """Python's cyclic garbage collector off for the block (then back as it was). The NDBG
-    makes hundreds of thousands of short-lived arrays and geometries and no reference cycles
-    worth collecting, and each full collection walks every live object: AS1's arrangement
-    and DBGs took 0.98 s with it, 0.81 s without."""
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
 
 
 def _build(asm: Assembly, cache: PairCache | None, domain: np.ndarray | None, workers: int,

@@ -69,7 +69,7 @@ def _watch_parent(parent: int) -> None:
 
 
 def _init(tris: list, eps: float, domain: np.ndarray | None, parent: int) -> None:
-    gc.disable()  # as in the parent (ndbg_cli.infinite.gc_paused); the pool is short-lived
+    gc.disable()  # as in the parent (ndbg_cli.gc_pause.gc_paused); the pool is short-lived
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()

@@ -1,0 +1,24 @@
+"""Python's cyclic garbage collector paused while a build allocates (:func:`gc_paused`)."""
+
+from __future__ import annotations
+
+import gc
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+
+@contextmanager
+def gc_paused() -> Iterator[None]:
+    """Cyclic garbage collection off for the block (also as a decorator); the previous state
+    is restored on exit. For builds that make many short-lived objects and no reference
+    cycles worth collecting, where each full collection walks every live object: an AND/OR
+    search's sets, lists and tuples of ints (the scans of the growing graph took about a
+    quarter of AS1's build), the infinite NDBG's arrays and geometries (AS1's arrangement
+    and DBGs 0.98 s with it, 0.81 s without)."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
