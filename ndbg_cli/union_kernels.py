@@ -42,6 +42,27 @@ def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return area, boxes
 
 
+@njit(cache=True, inline="always")
+def _inside(poly: np.ndarray, boxes: np.ndarray, cnt: np.ndarray, a: int,
+            kpoly: np.ndarray, kboxes: np.ndarray, kcnt: np.ndarray, b: int) -> bool:
+    """Whether convex polygon ``a`` (``poly``, ``boxes``, ``cnt``) lies inside convex
+    polygon ``b`` (``kpoly``, ``kboxes``, ``kcnt``), both counter-clockwise: ``b``'s box
+    holds ``a``'s and every vertex of ``a`` is on the inner side of, or on, every edge
+    ``p -> q`` of ``b``, ``(q - p) x (v - p) >= 0`` in floating point."""
+    if kboxes[b, 0] > boxes[a, 0] or kboxes[b, 1] > boxes[a, 1] \
+            or kboxes[b, 2] < boxes[a, 2] or kboxes[b, 3] < boxes[a, 3]:
+        return False
+    nb = kcnt[b]
+    for e in range(nb):
+        px, py = kpoly[b, e, 0], kpoly[b, e, 1]
+        f = e + 1 if e + 1 < nb else 0
+        ex, ey = kpoly[b, f, 0] - px, kpoly[b, f, 1] - py
+        for v in range(cnt[a]):
+            if ex * (poly[a, v, 1] - py) - ey * (poly[a, v, 0] - px) < 0.0:
+                return False
+    return True
+
+
 @njit(cache=True)
 def maximal_pieces(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray,
                    order: np.ndarray) -> np.ndarray:
@@ -51,37 +72,19 @@ def maximal_pieces(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray,
     ``order`` are not kept. The union of the kept polygons is the union of those of
     ``order``.
 
-    A polygon ``a`` lies inside ``b`` when ``b``'s box holds ``a``'s and every vertex of
-    ``a`` is on the inner side of, or on, every edge ``p -> q`` of ``b``:
-    ``(q - p) x (v - p) >= 0`` in floating point. Containment is transitive, and a polygon
-    can only hold one of at most its area, so testing the kept ones suffices. The rounding
-    of that cross product (about 1e-16 chart units for chart coordinates of order 1) is the
-    most a dropped polygon can stick out of a kept one."""
+    Containment is :func:`_inside`. It is transitive, and a polygon can only hold one of at
+    most its area, so testing the kept ones suffices. The rounding of the cross products
+    (about 1e-16 chart units for chart coordinates of order 1) is the most a dropped
+    polygon can stick out of a kept one."""
     keep = np.zeros(len(cnt), dtype=np.bool_)
     kept = np.empty(len(order), dtype=np.int64)
     nk = 0
     for t in range(len(order)):
         a = order[t]
-        ax0, ay0, ax1, ay1 = boxes[a, 0], boxes[a, 1], boxes[a, 2], boxes[a, 3]
-        na = cnt[a]
         inside = False
         for s in range(nk):
-            b = kept[s]
-            if boxes[b, 0] > ax0 or boxes[b, 1] > ay0 or boxes[b, 2] < ax1 or boxes[b, 3] < ay1:
-                continue
-            nb = cnt[b]
-            inside = True
-            for e in range(nb):
-                px, py = poly[b, e, 0], poly[b, e, 1]
-                f = e + 1 if e + 1 < nb else 0
-                ex, ey = poly[b, f, 0] - px, poly[b, f, 1] - py
-                for v in range(na):
-                    if ex * (poly[a, v, 1] - py) - ey * (poly[a, v, 0] - px) < 0.0:
-                        inside = False
-                        break
-                if not inside:
-                    break
-            if inside:
+            if _inside(poly, boxes, cnt, a, poly, boxes, cnt, kept[s]):
+                inside = True
                 break
         if not inside:
             kept[nk] = a
@@ -95,32 +98,14 @@ def inside_kept(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray, test: np.n
                 kpoly: np.ndarray, kcnt: np.ndarray, kboxes: np.ndarray, nk: int
                 ) -> np.ndarray:
     """``(p,)`` whether each convex polygon ``poly[i]`` with ``test[i]`` lies inside one of
-    the first ``nk`` polygons ``kpoly`` (the same layout and test as
-    :func:`maximal_pieces`: counter-clockwise, vertices on or inside every edge)."""
-    p = len(cnt)
-    out = np.zeros(p, dtype=np.bool_)
-    for a in range(p):
+    the first ``nk`` polygons ``kpoly`` (the same layout as :func:`maximal_pieces`;
+    :func:`_inside`)."""
+    out = np.zeros(len(cnt), dtype=np.bool_)
+    for a in range(len(cnt)):
         if not test[a]:
             continue
-        ax0, ay0, ax1, ay1 = boxes[a, 0], boxes[a, 1], boxes[a, 2], boxes[a, 3]
-        na = cnt[a]
         for b in range(nk):
-            if kboxes[b, 0] > ax0 or kboxes[b, 1] > ay0 or kboxes[b, 2] < ax1 \
-                    or kboxes[b, 3] < ay1:
-                continue
-            nb = kcnt[b]
-            inside = True
-            for e in range(nb):
-                px, py = kpoly[b, e, 0], kpoly[b, e, 1]
-                f = e + 1 if e + 1 < nb else 0
-                ex, ey = kpoly[b, f, 0] - px, kpoly[b, f, 1] - py
-                for v in range(na):
-                    if ex * (poly[a, v, 1] - py) - ey * (poly[a, v, 0] - px) < 0.0:
-                        inside = False
-                        break
-                if not inside:
-                    break
-            if inside:
+            if _inside(poly, boxes, cnt, a, kpoly, kboxes, kcnt, b):
                 out[a] = True
                 break
     return out
