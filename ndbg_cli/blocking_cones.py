@@ -76,12 +76,11 @@ import numpy as np
 import trimesh
 
 from .assembly import Assembly
-from .chart_union import GRID, face_polygons
+from .chart_union import clipped_pieces, face_polygons
 from .cover import Cover, domain_cover, run_offsets
 from .cubemap import (
     BOX_EDGE_PAIRS,
     DIFFERENCE_PAIRS,
-    clip_halfplanes,
 )
 from .domain import domain_windows
 from .erosion import edge_insets
@@ -497,9 +496,6 @@ class _Walk:
         self.stats["node_pairs"] += nfar
         return a[keep], b[keep]
 
-    def _new_pieces(self, cones: np.ndarray) -> np.ndarray:
-        return _new_pieces_of(self, cones)
-
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
         """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already
         inside the cover and add them to it."""
@@ -515,7 +511,7 @@ class _Walk:
             if not len(cones):
                 return
         if self.windows is not None:
-            cones = self._new_pieces(cones)
+            cones = _new_pieces_of(self, cones)
             if not len(cones):
                 return
         self.kept.append(cones)
@@ -561,10 +557,7 @@ def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
     for face, rect in enumerate(walk.windows):
         if rect is None:
             continue
-        poly, cnt = clip_halfplanes(cones, face, max_vertices=_Pieces.WIDTH, rect=rect)
-        cnt = np.minimum(cnt, poly.shape[1])
-        area, boxes = kernels.piece_boxes(poly, cnt)
-        has = area > GRID * GRID
+        poly, cnt, _, boxes, has = clipped_pieces(cones, face, rect, _Pieces.WIDTH)
         if not has.any():
             continue
         kp = walk.pieces[face]

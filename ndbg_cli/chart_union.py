@@ -45,6 +45,20 @@ def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48,
     return polys[big], index[big]
 
 
+def clipped_pieces(cones: np.ndarray, face: int,
+                   rect: tuple[float, float, float, float] | None = None,
+                   max_vertices: int = 48) -> tuple[np.ndarray, ...]:
+    """The chart pieces of ``cones`` ``(p, k, 3)`` on ``face`` clipped to ``rect`` (the chart
+    square when ``None``): vertices ``(p, w, 2)`` (counter-clockwise), counts ``(p,)``,
+    areas ``(p,)`` and bounding boxes ``(p, 4)`` (:func:`~ndbg_cli.union_kernels.
+    piece_boxes`), and whether each has area above ``GRID**2`` ``(p,)``."""
+    from . import union_kernels as kernels
+    poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
+    cnt = np.minimum(cnt, poly.shape[1])
+    area, boxes = kernels.piece_boxes(poly, cnt)
+    return poly, cnt, area, boxes, area > GRID * GRID
+
+
 def face_pieces(cones: np.ndarray, face: int,
                 rect: tuple[float, float, float, float] | None = None,
                 max_vertices: int = 48) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -58,10 +72,8 @@ def face_pieces(cones: np.ndarray, face: int,
     none = np.zeros(0, dtype=object), np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
     if not len(cones):
         return none
-    poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
-    cnt = np.minimum(cnt, poly.shape[1])
-    area, boxes = kernels.piece_boxes(poly, cnt)
-    index = np.nonzero(area > GRID * GRID)[0]
+    poly, cnt, area, boxes, big = clipped_pieces(cones, face, rect, max_vertices)
+    index = np.nonzero(big)[0]
     if not len(index):
         return none
     order = index[np.argsort(-area[index], kind="stable")]
