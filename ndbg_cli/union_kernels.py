@@ -42,16 +42,15 @@ def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return area, boxes
 
 
-@njit(cache=True, inline="always")
-def _inside(poly: np.ndarray, boxes: np.ndarray, cnt: np.ndarray, a: int,
-            kpoly: np.ndarray, kboxes: np.ndarray, kcnt: np.ndarray, b: int) -> bool:
-    """Whether convex polygon ``a`` (``poly``, ``boxes``, ``cnt``) lies inside convex
-    polygon ``b`` (``kpoly``, ``kboxes``, ``kcnt``), both counter-clockwise: ``b``'s box
-    holds ``a``'s and every vertex of ``a`` is on the inner side of, or on, every edge
-    ``p -> q`` of ``b``, ``(q - p) x (v - p) >= 0`` in floating point."""
-    if kboxes[b, 0] > boxes[a, 0] or kboxes[b, 1] > boxes[a, 1] \
-            or kboxes[b, 2] < boxes[a, 2] or kboxes[b, 3] < boxes[a, 3]:
-        return False
+@njit(cache=True)
+def _edges_hold(poly: np.ndarray, cnt: np.ndarray, a: int, kpoly: np.ndarray,
+                kcnt: np.ndarray, b: int) -> bool:
+    """Whether every vertex of convex polygon ``a`` (``poly``, ``cnt``) is on the inner side
+    of, or on, every edge ``p -> q`` of convex polygon ``b`` (``kpoly``, ``kcnt``), both
+    counter-clockwise: ``(q - p) x (v - p) >= 0`` in floating point. With ``b``'s bounding
+    box holding ``a``'s (tested by the callers, in their loops: written there, the scans run
+    about 20 times faster than through one inlined function with both tests), ``a`` lies
+    inside ``b``."""
     nb = kcnt[b]
     for e in range(nb):
         px, py = kpoly[b, e, 0], kpoly[b, e, 1]
@@ -72,8 +71,9 @@ def maximal_pieces(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray,
     ``order`` are not kept. The union of the kept polygons is the union of those of
     ``order``.
 
-    Containment is :func:`_inside`. It is transitive, and a polygon can only hold one of at
-    most its area, so testing the kept ones suffices. The rounding of the cross products
+    Containment: ``b``'s bounding box holds ``a``'s and :func:`_edges_hold`. It is
+    transitive, and a polygon can only hold one of at most its area, so testing the kept
+    ones suffices. The rounding of the cross products
     (about 1e-16 chart units for chart coordinates of order 1) is the most a dropped
     polygon can stick out of a kept one."""
     keep = np.zeros(len(cnt), dtype=np.bool_)
@@ -81,9 +81,12 @@ def maximal_pieces(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray,
     nk = 0
     for t in range(len(order)):
         a = order[t]
+        x0, y0, x1, y1 = boxes[a, 0], boxes[a, 1], boxes[a, 2], boxes[a, 3]
         inside = False
         for s in range(nk):
-            if _inside(poly, boxes, cnt, a, poly, boxes, cnt, kept[s]):
+            b = kept[s]
+            if boxes[b, 0] <= x0 and boxes[b, 1] <= y0 and boxes[b, 2] >= x1 \
+                    and boxes[b, 3] >= y1 and _edges_hold(poly, cnt, a, poly, cnt, b):
                 inside = True
                 break
         if not inside:
@@ -99,13 +102,15 @@ def inside_kept(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray, test: np.n
                 ) -> np.ndarray:
     """``(p,)`` whether each convex polygon ``poly[i]`` with ``test[i]`` lies inside one of
     the first ``nk`` polygons ``kpoly`` (the same layout as :func:`maximal_pieces`;
-    :func:`_inside`)."""
+    containment as there)."""
     out = np.zeros(len(cnt), dtype=np.bool_)
     for a in range(len(cnt)):
         if not test[a]:
             continue
+        x0, y0, x1, y1 = boxes[a, 0], boxes[a, 1], boxes[a, 2], boxes[a, 3]
         for b in range(nk):
-            if _inside(poly, boxes, cnt, a, kpoly, kboxes, kcnt, b):
+            if kboxes[b, 0] <= x0 and kboxes[b, 1] <= y0 and kboxes[b, 2] >= x1 \
+                    and kboxes[b, 3] >= y1 and _edges_hold(poly, cnt, a, kpoly, kcnt, b):
                 out[a] = True
                 break
     return out
