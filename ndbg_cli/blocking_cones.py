@@ -371,12 +371,16 @@ def convex_entries(cones: list[np.ndarray]) -> list[list[tuple | None]]:
 
 def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.ndarray,
                       nj: np.ndarray, tree_j: TriTree, eps: float, stats: dict | None = None,
-                      domain: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                      domain: np.ndarray | None = None, pieces: list | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """The terms of ``B_ij`` that the union needs (see the module docstring): the same set
     as :func:`pair_cones`, as open cones ``(p, k, 3)``, and the same contact normals.
     ``stats`` (if given) receives counts of node pairs tested and terms computed and kept.
     With ``domain`` (``(6, c, c)`` bool cells of the cube map, :mod:`ndbg_cli.domain`) the
-    union is right only inside the domain cells: nothing is computed for the others."""
+    union is right only inside the domain cells: nothing is computed for the others; then
+    ``pieces`` (a list, if given) receives per face the kept terms' chart pieces in the
+    domain's window (``None`` where there is none), as
+    :func:`~ndbg_cli.chart_union.union_pieces` takes them: the walk clipped them already."""
     if not len(ti) or not len(tj):
         return _EMPTY
     walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps, domain)
@@ -412,6 +416,9 @@ def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.nd
         a, b = _split(tree_i, tree_j, a[~leaf], b[~leaf])
     if stats is not None:
         stats.update(walk.stats)
+    if pieces is not None and walk.windows is not None:
+        pieces.extend(None if rect is None else kp.arrays()
+                      for rect, kp in zip(walk.windows, walk.pieces))
     cones = _stack(walk.kept)
     circ = unique_circles(np.concatenate(walk.circles)) if walk.circles else np.zeros((0, 3))
     return cones, circ
@@ -520,8 +527,9 @@ class _Walk:
 
 
 class _Pieces:
-    """The chart pieces ``(n, w, 2)`` (counter-clockwise), vertex counts and boxes of the
-    terms a walk kept, on one face's window, in arrays grown by doubling."""
+    """The chart pieces ``(n, w, 2)`` (counter-clockwise), vertex counts, areas, boxes and
+    cone indices (among the kept terms) of the terms a walk kept, on one face's window, in
+    arrays grown by doubling."""
 
     WIDTH = 48
 
@@ -529,21 +537,33 @@ class _Pieces:
         self.n = 0
         self.poly = np.zeros((0, self.WIDTH, 2))
         self.cnt = np.zeros(0, dtype=np.int64)
+        self.area = np.zeros(0)
         self.boxes = np.zeros((0, 4))
+        self.index = np.zeros(0, dtype=np.int64)
 
-    def add(self, poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray) -> None:
+    def add(self, poly: np.ndarray, cnt: np.ndarray, area: np.ndarray, boxes: np.ndarray,
+            index: np.ndarray) -> None:
         m = self.n + len(cnt)
         if m > len(self.cnt):
             size = max(m, 2 * len(self.cnt), 64)
             grown = np.zeros((size, self.WIDTH, 2))
             grown[:self.n] = self.poly[:self.n]
             self.poly = grown
-            self.cnt = np.concatenate([self.cnt[:self.n], np.zeros(size - self.n, np.int64)])
-            self.boxes = np.concatenate([self.boxes[:self.n], np.zeros((size - self.n, 4))])
+            self.cnt, self.area, self.boxes, self.index = (
+                np.concatenate([a[:self.n], np.zeros((size - self.n, *a.shape[1:]), a.dtype)])
+                for a in (self.cnt, self.area, self.boxes, self.index))
         self.poly[self.n:m, :poly.shape[1]] = poly
         self.cnt[self.n:m] = cnt
+        self.area[self.n:m] = area
         self.boxes[self.n:m] = boxes
+        self.index[self.n:m] = index
         self.n = m
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """``(poly, cnt, area, boxes, index)`` of the pieces, as
+        :func:`~ndbg_cli.chart_union.union_pieces` takes them."""
+        n = self.n
+        return self.poly[:n], self.cnt[:n], self.area[:n], self.boxes[:n], self.index[:n]
 
 
 def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
@@ -557,17 +577,19 @@ def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
     for face, rect in enumerate(walk.windows):
         if rect is None:
             continue
-        poly, cnt, _, boxes, has = clipped_pieces(cones, face, rect, _Pieces.WIDTH)
+        poly, cnt, area, boxes, has = clipped_pieces(cones, face, rect, _Pieces.WIDTH)
         if not has.any():
             continue
         kp = walk.pieces[face]
         inside = kernels.inside_kept(poly, cnt, boxes, has, kp.poly, kp.cnt, kp.boxes, kp.n)
         keep |= has & ~inside
-        found.append((face, poly, cnt, boxes, has))
-    for face, poly, cnt, boxes, has in found:
+        found.append((face, poly, cnt, area, boxes, has))
+    # the kept terms' indices among all those the walk keeps
+    index = walk.stats["kept"] + np.cumsum(keep) - 1
+    for face, poly, cnt, area, boxes, has in found:
         sel = has & keep
         if sel.any():
-            walk.pieces[face].add(poly[sel], cnt[sel], boxes[sel])
+            walk.pieces[face].add(poly[sel], cnt[sel], area[sel], boxes[sel], index[sel])
     return cones[keep]
 
 

@@ -64,19 +64,31 @@ def face_pieces(cones: np.ndarray, face: int,
                 max_vertices: int = 48) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The chart pieces of ``cones`` ``(p, k, 3)`` on ``face``, clipped to ``rect`` (the
     chart square when ``None``), those of area at most ``GRID**2`` left out: the polygons of
-    those inside no other single piece, largest first
-    (:func:`~ndbg_cli.union_kernels.maximal_pieces`), whose union is the union of all; and
-    every piece's bounding box ``(q, 4)`` (``x0, y0, x1, y1``) and cone index ``(q,)``
-    (ascending)."""
-    from . import union_kernels as kernels
-    none = np.zeros(0, dtype=object), np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
+    those inside no other single piece, largest first (:func:`union_pieces`), whose union
+    is the union of all; and every piece's bounding box ``(q, 4)`` (``x0, y0, x1, y1``) and
+    cone index ``(q,)`` (ascending)."""
     if not len(cones):
-        return none
+        return union_pieces(np.zeros((0, 3, 2)), *_NO_PIECES)
     poly, cnt, area, boxes, big = clipped_pieces(cones, face, rect, max_vertices)
     index = np.nonzero(big)[0]
+    return union_pieces(poly[index], cnt[index], area[index], boxes[index], index)
+
+
+_NO_PIECES = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 4)),
+              np.zeros(0, dtype=np.int64))
+
+
+def union_pieces(poly: np.ndarray, cnt: np.ndarray, area: np.ndarray, boxes: np.ndarray,
+                 index: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`face_pieces` of pieces already clipped (:func:`clipped_pieces`' vertices,
+    counts, areas and boxes, of area above ``GRID**2`` only) with the cone index of each
+    ``(q,)``, ascending: the polygons of those inside no other single piece
+    (:func:`~ndbg_cli.union_kernels.maximal_pieces`), largest first, and ``boxes``,
+    ``index``."""
+    from . import union_kernels as kernels
     if not len(index):
-        return none
-    order = index[np.argsort(-area[index], kind="stable")]
+        return np.zeros(0, dtype=object), np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
+    order = np.argsort(-area, kind="stable")
     keep = kernels.maximal_pieces(poly, cnt, boxes, order)
     top = order[keep[order]]
     k = np.arange(poly.shape[1])[None, :] < cnt[top][:, None]
@@ -84,25 +96,30 @@ def face_pieces(cones: np.ndarray, face: int,
     # The pieces are convex: their hull is the same polygon, and always valid.
     polys = shapely.convex_hull(shapely.polygons(rings))
     polys = polys[shapely.get_type_id(polys) == 3]
-    return polys, boxes[index], index
+    return polys, boxes, index
 
 
-def cones_to_face_geoms(cones: np.ndarray, windows: list | None = None
-                        ) -> list[tuple | None]:
+def cones_to_face_geoms(cones: np.ndarray, windows: list | None = None,
+                        pieces: list | None = None) -> list[tuple | None]:
     """Per cube face, the polygons of ``cones`` (``(p, k, 3)``): 6 entries, ``None`` where
     empty, else ``(union, boxes, index)``: the union (closed polygons in chart coordinates),
     the pieces' bounding boxes ``(q, 4)`` (``x0, y0, x1, y1``) and the cone index of each
     piece ``(q,)`` (:func:`face_pieces`). With ``windows`` (per face a chart rectangle or
     ``None``, :func:`ndbg_cli.domain.domain_windows`) only the part inside each face's
     rectangle is made, none where ``None``: the sets are then right inside the windows
-    only."""
+    only. ``pieces``: per face, the cones' pieces clipped to its window, as
+    :func:`union_pieces` takes them (a pruning walk made them,
+    :func:`ndbg_cli.blocking_cones.pruned_pair_cones`), else they are clipped here."""
     out: list[tuple | None] = []
     for face in range(6):
         if windows is not None and windows[face] is None:
             out.append(None)
             continue
         rect = None if windows is None else windows[face]
-        polys, boxes, index = face_pieces(cones, face, rect=rect)
+        if pieces is not None:
+            polys, boxes, index = union_pieces(*pieces[face])
+        else:
+            polys, boxes, index = face_pieces(cones, face, rect=rect)
         if not len(polys):
             out.append(None)
             continue
@@ -205,7 +222,18 @@ def loses_area(out: object, polys: np.ndarray) -> bool:
     out_of = polys[~shapely.covers(out, polys)]
     if not len(out_of):
         return False
+    # Each piece against the union cut to its box grown by CLIP_MARGIN (the same difference:
+    # the cuts lie off the piece), not against the whole union: 3 times faster on AS1. A cut
+    # GEOS's fast rectangle clip leaves invalid is not used.
+    lo_x, lo_y, hi_x, hi_y = (shapely.bounds(out_of) + CLIP_MARGIN * np.array([-1, -1, 1, 1])).T
+    near = np.array([shapely.clip_by_rect(out, *box) for box in zip(lo_x, lo_y, hi_x, hi_y)])
+    near = np.where(shapely.is_valid(near), near, out)
     try:
-        return bool((shapely.area(shapely.difference(out_of, out)) > LOST_AREA).any())
+        return bool((shapely.area(shapely.difference(out_of, near)) > LOST_AREA).any())
     except shapely.errors.GEOSException:
         return True
+
+
+#: Chart units the box of a piece is grown by before the union is cut to it
+#: (:func:`loses_area`): far above the coordinates' rounding, far below the pieces.
+CLIP_MARGIN = 1e-6

@@ -53,11 +53,14 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     for k in (a, b):
         if trees[k] is None:
             trees[k] = tri_tree(tris[k][0], LEAF if domain is None else DOMAIN_LEAF)
+    pieces: list = []
     cones, circ = pruned_pair_cones(tris[a][0], tris[a][1], trees[a], tris[b][0], tris[b][1],
-                                    trees[b], eps, domain=domain)
+                                    trees[b], eps, domain=domain, pieces=pieces)
     t1 = time.perf_counter()
-    # with a domain only its part of the sets is used: the unions are made in its windows
-    faces = cones_to_face_geoms(cones, None if domain is None else domain_windows(domain))
+    # with a domain only its part of the sets is used: the unions are made in its windows,
+    # from the pieces the walk clipped to them
+    faces = cones_to_face_geoms(cones, None if domain is None else domain_windows(domain),
+                                pieces or None)
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1
 
 
