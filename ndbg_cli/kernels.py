@@ -219,6 +219,8 @@ def _cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: flo
                 pos = False
             if not d <= lim:
                 neg = False
+            if not (pos or neg):  # generators on both sides: not a facet
+                break
         sign = 1.0 if pos else (-1.0 if neg else 0.0)
         out[c, 0] = n0 * sign
         out[c, 1] = n1 * sign

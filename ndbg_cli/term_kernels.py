@@ -38,7 +38,10 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     half-spaces (:func:`ndbg_cli.cover_kernels.open_misses`). The facets are the candidates
     ``pa``, ``pb`` (:func:`ndbg_cli.kernels.cone_normals`, ``rel_tol``), compacted
     (:func:`ndbg_cli.kernels.compact`); a cone with two rows ``m . m' <= -1 + flat_tol``
-    (:func:`ndbg_cli.kernels.flat`) is dropped."""
+    (:func:`ndbg_cli.kernels.flat`) is dropped. Two such cones are known early and dropped
+    then, the same ones: facing rows anti-parallel (parallel faces facing the same way, as
+    in a row of identical bolts: half the terms some pairs of AS1 make), and every generator
+    in one candidate's plane (its rows ``n`` and ``-n``)."""
     n = len(ia)
     q = len(pa)
     width = 2 * q + 2
@@ -62,6 +65,11 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
         inset = near[k] and dot_einsum(ni[a, 0], ni[a, 1], ni[a, 2],
                                        nj[b, 0], nj[b, 1], nj[b, 2]) > -0.7071067811865476
         if inset and (gi[a] or gj[b]):
+            continue
+        # facing rows n_i and -n_j anti-parallel (parallel faces facing the same way): the
+        # flat test below would drop the cone, whatever its facets
+        if dot_einsum(ni[a, 0], ni[a, 1], ni[a, 2],
+                      -nj[b, 0], -nj[b, 1], -nj[b, 2]) <= -1.0 + flat_tol:
             continue
         if near[k]:
             s0 = grow * (ni[a, 0] - nj[b, 0])
@@ -87,7 +95,9 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
         if use_cover and spanned_misses(gens, facing, corners, sides):
             continue
         normals[:] = 0.0
-        _cone_normals(gens, pa, pb, rel_tol, normals, scale)
+        if _cone_normals(gens, pa, pb, rel_tol, normals, scale):
+            # every generator in one plane: rows n and -n, anti-parallel, so flat
+            continue
         if use_cover and open_misses(normals, facing, corners):
             continue
         nz = 0

@@ -264,8 +264,8 @@ def _ref_terms(ti, ni, tj, nj, ia, jb, eps, near, cover):
 @pytest.mark.parametrize("with_cover", [False, True])
 def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
     """:func:`ndbg_cli.term_kernels.terms` against the batched kernels it replaced: the same
-    cones in the same order, each with the same nonzero rows, bit for bit (touching and
-    coplanar triangles included: flat terms and erosion)."""
+    cones in the same order, each with the same nonzero rows, bit for bit (touching,
+    coplanar and parallel triangles included: flat terms and erosion)."""
     from ndbg_cli import term_kernels
     from ndbg_cli.blocking_cones import FLAT
 
@@ -275,6 +275,9 @@ def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
         ti = rng.normal(size=(40, 3, 3))
         tj = ti[rng.permutation(40)] + rng.normal(size=(40, 1, 3)) * [0.0, 0.5, 3.0][trial % 3]
         tj[:10] = ti[:10] + np.array([0.0, 0.0, 1e-3])  # nearly coplanar, nearly touching
+        # translated copies (a row of identical bolts): parallel faces facing the same way,
+        # flat terms the kernel drops before their facets
+        tj[10:15] = ti[10:15] + rng.normal(size=(5, 1, 3))
         ni = np.cross(ti[:, 1] - ti[:, 0], ti[:, 2] - ti[:, 0])
         ni /= np.linalg.norm(ni, axis=1, keepdims=True)
         nj = np.cross(tj[:, 1] - tj[:, 0], tj[:, 2] - tj[:, 0])
