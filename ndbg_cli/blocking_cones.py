@@ -21,7 +21,9 @@ node pair adds nothing: every one of its directions is already strictly inside s
 cone. "Inside" is decided conservatively on a raster per cube face
 (:class:`~ndbg_cli.cover.Cover`: the cells wholly inside some eroded kept polygon; a cone is
 inside when the bounding box of its chart image meets only such cells), which costs the same
-however many terms are kept; a new term inside it is dropped the same way. So the union of the
+however many terms are kept; a new term inside it is dropped the same way (on the whole
+sphere: with a domain, the window pieces' containment test below drops the terms, and the
+raster test would drop 2% of AS1's 402k before it at the cost of 0.2 s). So the union of the
 kept terms equals ``B_ij``, both as a closed chart set and as a union of open cones (which the
 open-set re-test of :class:`ndbg_cli.infinite.BlockedSets` relies on). Node pairs within
 ``4 eps`` of each other (contacts) are never pruned, so every near triangle pair is kept and
@@ -218,9 +220,15 @@ def _stack(parts: list[np.ndarray]) -> np.ndarray:
     parts = [p for p in parts if len(p)]
     if not parts:
         return np.zeros((0, 1, 3))
+    if len(parts) == 1:
+        return parts[0]
     width = max(p.shape[1] for p in parts)
-    return np.concatenate([np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0)))
-                           for p in parts], axis=0)
+    out = np.zeros((sum(len(p) for p in parts), width, 3))
+    at = 0
+    for p in parts:
+        out[at:at + len(p), :p.shape[1]] = p
+        at += len(p)
+    return out
 
 
 def unique_circles(normals: np.ndarray) -> np.ndarray:
@@ -505,7 +513,8 @@ class _Walk:
 
     def emit(self, ia: np.ndarray, jb: np.ndarray) -> None:
         """Compute the terms of the triangle pairs ``(ia[k], jb[k])``; keep those not already
-        inside the cover and add them to it."""
+        inside the cover (on the whole sphere) or inside single kept pieces in the windows
+        (with a domain, :func:`_new_pieces_of`), and add them to the cover."""
         cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps,
                             boxes=self.boxes, cover=None if self.cover.empty else self.cover)
         self.stats["terms"] += len(cones)
@@ -513,7 +522,7 @@ class _Walk:
             self.circles.append(circ)
         if not len(cones):
             return
-        if not self.cover.empty:
+        if not self.cover.empty and self.windows is None:
             cones = cones[~self.cover.covers(cones)]
             if not len(cones):
                 return
