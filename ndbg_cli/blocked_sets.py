@@ -25,7 +25,7 @@ from .blocking_cones import (
     unique_circles,
 )
 from .cache import PairCache
-from .chart_union import GRID
+from .chart_union import GRID, cut_to_domain, reverse_entries  # noqa: F401 (reverse_entries: API)
 from .cubemap import face_of
 from .dbg import DBG
 from .domain import domain_polygons
@@ -289,9 +289,12 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     # each pair cached as soon as it is done (an interrupted run keeps them); the times are
     # summed over the workers (CPU seconds, not wall time, with several)
     done = pair_sets(tris, todo, eps, domain, workers)
-    for k, (cones, circ, entries, dt_cones, dt_union) in bar(done, len(todo), "part pairs",
-                                                             quiet=not progress):
+    cuts: list[dict] = [{} for _ in range(6)]
+    for k, (cones, circ, entries, dt_cones, dt_union, made) in bar(
+            done, len(todo), "part pairs", quiet=not progress):
         found[todo[k]] = (cones, circ, entries)
+        for face, memo in enumerate(made):
+            cuts[face].update(memo)
         t_cones += dt_cones
         t_union += dt_union
         if cache is not None:
@@ -308,15 +311,10 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
             if dom[face] is None:
                 fd.clear()
                 continue
-            # many sets are the same polygon there (the whole window, a half-plane's part):
-            # each distinct one is cut once
-            cut: dict[bytes, object] = {}
+            # the pairs computed here came with their cuts (made by the workers)
             for pair in list(fd):
-                key = shapely.to_wkb(fd[pair])
-                g = cut.get(key)
+                g = cut_to_domain(fd[pair], dom[face], cuts[face])
                 if g is None:
-                    g = cut[key] = shapely.intersection(fd[pair], dom[face], grid_size=GRID)
-                if g.is_empty or g.area <= 0:
                     del fd[pair]
                 else:
                     fd[pair] = g
@@ -336,33 +334,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
 def antipodal_symmetric(domain: np.ndarray) -> bool:
     """Whether the cube-map cells ``domain`` ``(6, r, r)`` are symmetric under ``d -> -d``
     (cell ``(row, col)`` of face ``f`` maps to ``(r-1-col, r-1-row)`` of face ``f ^ 1``,
-    see :data:`_ANTIPODAL`)."""
+    see :data:`ndbg_cli.chart_union.ANTIPODAL`)."""
     return all(np.array_equal(domain[f ^ 1], domain[f].T[::-1, ::-1]) for f in range(6))
-
-
-#: The chart map of the antipodal map ``d -> -d``: a direction at ``(s, t)`` on face ``f``
-#: goes to ``(-t, -s)`` on the opposite face ``f ^ 1``, the same for all six faces (their
-#: chart axes are paired that way, see :data:`ndbg_cli.cubemap.FACES`).
-_ANTIPODAL = np.array([[0.0, -1.0], [-1.0, 0.0]])
-
-
-def reverse_entries(entries: list) -> list:
-    """The per-face chart geometry of ``B_ji`` from that of ``B_ij``
-    (:func:`~ndbg_cli.chart_union.cones_to_face_geoms`): ``P_i`` moving along ``d`` meets
-    ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
-    the antipodal map is a chart isometry onto the opposite cube face. The cone index of each
-    piece is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""
-    def flip(g):
-        return shapely.transform(g, lambda xy: xy @ _ANTIPODAL.T)
-
-    out: list = [None] * 6
-    for face, e in enumerate(entries):
-        if e is None:
-            continue
-        union, boxes, index = e
-        # the box (x0, y0, x1, y1) of the image is (-y1, -x1, -y0, -x0), exactly
-        out[face ^ 1] = (flip(union), None if boxes is None else -boxes[:, ::-1], index)
-    return out
 
 
 def _freeze(cones: np.ndarray, circ: np.ndarray, entries: list) -> tuple:

@@ -237,3 +237,40 @@ def loses_area(out: object, polys: np.ndarray) -> bool:
 #: Chart units the box of a piece is grown by before the union is cut to it
 #: (:func:`loses_area`): far above the coordinates' rounding, far below the pieces.
 CLIP_MARGIN = 1e-6
+
+
+#: The chart map of the antipodal map ``d -> -d``: a direction at ``(s, t)`` on face ``f``
+#: goes to ``(-t, -s)`` on the opposite face ``f ^ 1``, the same for all six faces (their
+#: chart axes are paired that way, see :data:`ndbg_cli.cubemap.FACES`).
+ANTIPODAL = np.array([[0.0, -1.0], [-1.0, 0.0]])
+
+
+def reverse_entries(entries: list) -> list:
+    """The per-face chart geometry of ``B_ji`` from that of ``B_ij``
+    (:func:`~ndbg_cli.chart_union.cones_to_face_geoms`): ``P_i`` moving along ``d`` meets
+    ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
+    the antipodal map is a chart isometry onto the opposite cube face. The cone index of each
+    piece is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""
+    def flip(g):
+        return shapely.transform(g, lambda xy: xy @ ANTIPODAL.T)
+
+    out: list = [None] * 6
+    for face, e in enumerate(entries):
+        if e is None:
+            continue
+        union, boxes, index = e
+        # the box (x0, y0, x1, y1) of the image is (-y1, -x1, -y0, -x0), exactly
+        out[face ^ 1] = (flip(union), None if boxes is None else -boxes[:, ::-1], index)
+    return out
+
+
+def cut_to_domain(g: object, dom: object, memo: dict) -> object | None:
+    """``g`` (a set's polygons on one face) cut to the domain's polygons ``dom`` there, snapped
+    to :data:`GRID`; ``None`` when nothing of area remains. ``memo`` (WKB -> cut) keeps the
+    cuts made: many sets are the same polygon there (the whole window, a half-plane's part),
+    each distinct one is cut once."""
+    key = shapely.to_wkb(g)
+    if key not in memo:
+        cut = shapely.intersection(g, dom, grid_size=GRID)
+        memo[key] = None if cut.is_empty or cut.area <= 0 else cut
+    return memo[key]

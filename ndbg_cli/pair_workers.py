@@ -24,8 +24,8 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 
 from .blocking_cones import pruned_pair_cones
-from .chart_union import cones_to_face_geoms
-from .domain import domain_windows
+from .chart_union import cones_to_face_geoms, cut_to_domain, reverse_entries
+from .domain import domain_polygons, domain_windows
 from .pools import end_pool
 from .tritree import LEAF, tri_tree
 
@@ -45,10 +45,13 @@ _STATE: dict = {}
 
 
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
-             eps: float, domain: np.ndarray | None) -> tuple:
-    """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union)``, ``faces`` as
-    :func:`~ndbg_cli.chart_union.cones_to_face_geoms` gives them. ``trees`` caches each part's
-    pruning tree (``None`` until built)."""
+             eps: float, domain: np.ndarray | None, dom: list | None = None) -> tuple:
+    """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union, cuts)``, ``faces``
+    as :func:`~ndbg_cli.chart_union.cones_to_face_geoms` gives them. ``trees`` caches each
+    part's pruning tree (``None`` until built). With ``dom`` (the domain's polygons per face,
+    :func:`~ndbg_cli.domain.domain_polygons`), ``cuts`` holds per face the memo of
+    :func:`~ndbg_cli.chart_union.cut_to_domain` for the faces of ``B_ab`` and ``B_ba``: what
+    the caller would cut next, made here in parallel (else empty dicts)."""
     t0 = time.perf_counter()
     for k in (a, b):
         if trees[k] is None:
@@ -61,7 +64,13 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     # from the pieces the walk clipped to them
     faces = cones_to_face_geoms(cones, None if domain is None else domain_windows(domain),
                                 pieces or None)
-    return cones, circ, faces, t1 - t0, time.perf_counter() - t1
+    cuts: list[dict] = [{} for _ in range(6)]
+    if dom is not None:
+        for entries in (faces, reverse_entries(faces)):
+            for face, e in enumerate(entries):
+                if e is not None and dom[face] is not None:
+                    cut_to_domain(e[0], dom[face], cuts[face])
+    return cones, circ, faces, t1 - t0, time.perf_counter() - t1, cuts
 
 
 def _watch_parent(parent: int) -> None:
@@ -76,12 +85,13 @@ def _init(tris: list, eps: float, domain: np.ndarray | None, parent: int) -> Non
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
-    _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris))
+    _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris),
+                  dom=None if domain is None else domain_polygons(domain))
 
 
 def _work(pair: tuple[int, int]) -> tuple:
     return one_pair(_STATE["tris"], _STATE["trees"], pair[0], pair[1], _STATE["eps"],
-                    _STATE["domain"])
+                    _STATE["domain"], _STATE["dom"])
 
 
 def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, int]],
@@ -93,8 +103,9 @@ def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, 
     cost = sum(len(tris[a][0]) * len(tris[b][0]) for a, b in pairs)
     trees: list = [None] * len(tris)
     if workers <= 1 or len(pairs) < 2 or cost < MIN_PARALLEL_PAIRS:
+        dom = None if domain is None else domain_polygons(domain)
         for k, (a, b) in enumerate(pairs):
-            yield k, one_pair(tris, trees, a, b, eps, domain)
+            yield k, one_pair(tris, trees, a, b, eps, domain, dom)
         return
     # the costliest pairs first, so that no worker is left with a long one at the end
     order = sorted(range(len(pairs)), key=lambda k: -len(tris[pairs[k][0]][0])
@@ -109,7 +120,7 @@ def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, 
     except BrokenProcessPool:  # a worker died: the rest here
         for k in order:
             if k not in done:
-                yield k, one_pair(tris, trees, *pairs[k], eps, domain)
+                yield k, one_pair(tris, trees, *pairs[k], eps, domain)  # cut by the caller
     finally:
         # normal end: the workers are idle; else (Ctrl-C, an error, the caller stopping)
         # they are ended now rather than after the pairs under way
