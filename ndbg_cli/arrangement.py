@@ -9,7 +9,7 @@ linework is snapped to :data:`~ndbg_cli.chart_union.GRID`.
 from __future__ import annotations
 
 import itertools
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -55,19 +55,22 @@ def arrangement_cells(bs: BlockedSets, workers: int = 1) -> list[Cell]:
     slot's or a bore's free directions). ``workers`` threads take the faces (GEOS releases
     the GIL; the cells are listed face by face whatever their number).
     """
-    crossings = circle_crossings(bs.circles, bs.eta, bs.domain)
     faces = [f for f in range(6) if bs.domain is None or bs.domain[f] is not None]
     if workers > 1 and len(faces) > 1:
-        with ThreadPoolExecutor(max_workers=min(workers, len(faces))) as pool:
-            done = list(pool.map(lambda f: _face_cells(bs, f, crossings[f]), faces))
+        with ThreadPoolExecutor(max_workers=min(workers, len(faces)) + 1) as pool:
+            # the crossings (a compiled kernel, without the GIL) are made while the faces'
+            # linework is noded; a face waits for them only when it needs them
+            crossings = pool.submit(circle_crossings, bs.circles, bs.eta, bs.domain)
+            done = list(pool.map(lambda f: _face_cells(bs, f, crossings), faces))
     else:
-        done = [_face_cells(bs, f, crossings[f]) for f in faces]
+        crossings = circle_crossings(bs.circles, bs.eta, bs.domain)
+        done = [_face_cells(bs, f, crossings) for f in faces]
     return [c for cells in done for c in cells]
 
 
-def _face_cells(bs: BlockedSets, face: int, crossings: np.ndarray) -> list[Cell]:
-    """The cells of :func:`arrangement_cells` on ``face`` (``crossings``: its contact
-    circles' crossings)."""
+def _face_cells(bs: BlockedSets, face: int, crossings: list | Future) -> list[Cell]:
+    """The cells of :func:`arrangement_cells` on ``face`` (``crossings``: the contact
+    circles' crossings per face, :func:`circle_crossings`, or a future of them)."""
     r = 1.0 + SQUARE_MARGIN
     square = shapely.box(-r, -r, r, r)
     dom = None if bs.domain is None else bs.domain[face]
@@ -78,7 +81,9 @@ def _face_cells(bs: BlockedSets, face: int, crossings: np.ndarray) -> list[Cell]
         lines.append(shapely.boundary(dom))
     # chains between the nodes of degree other than 2: one 1-dimensional cell each
     noded = shapely.line_merge(shapely.union_all(merged_segments(lines), grid_size=GRID))
-    cells.extend(seam_cells(noded, bs.circles, face, dom, crossings))
+    if isinstance(crossings, Future):
+        crossings = crossings.result()
+    cells.extend(seam_cells(noded, bs.circles, face, dom, crossings[face]))
     faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     faces = faces[shapely.area(faces) > 0]
     if dom is not None and len(faces):

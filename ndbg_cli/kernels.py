@@ -527,7 +527,7 @@ def _inside_rectilinear(x: float, y: float, edges: np.ndarray, m: int) -> bool:
     return cross % 2 == 1
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def first_crossings(n: np.ndarray, meets: np.ndarray, inside: float, boxes: np.ndarray,
                     edges: np.ndarray, nedges: np.ndarray, q: float, chunk: int,
                     key_lo: np.ndarray, key_n: np.ndarray
