@@ -359,7 +359,10 @@ def test_box_cone_facets_come_from_box_edges():
 
 def test_walk_with_a_domain_gives_the_dense_set_inside_it():
     # near leaf pairs first (domain given): the pruned union equals the dense terms on every
-    # sampled direction of the domain cells, for the blind peg and the bolt (bore contacts)
+    # sampled direction of the domain cells, for the blind peg and the bolt (bore contacts);
+    # some triangle pairs are left out before their terms are made, their facing half-space
+    # already inside a kept piece (_Walk._open_sides)
+    skipped = 0
     for name in ("peg-blind", "bolt-plain"):
         asm = ndbg_cli.load(f"assemblies/{name}.yaml")
         ca = analyze_contacts(asm)
@@ -386,6 +389,8 @@ def test_walk_with_a_domain_gives_the_dense_set_inside_it():
         assert _same_open_set(dense, walked, d)
         assert _inside(dense, d).any() and not _inside(dense, d).all()
         assert len(circ) == len(circ_dense)
+        skipped += stats["side_skipped"]
+    assert skipped > 0
 
 
 def test_worker_processes_give_the_same_ndbg(monkeypatch):
