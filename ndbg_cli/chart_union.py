@@ -264,12 +264,13 @@ def reverse_entries(entries: list) -> list:
     return out
 
 
-def cut_to_domain(g: object, dom: object, memo: dict) -> object | None:
+def cut_to_domain(g: object, dom: object, memo: dict, key: bytes | None = None
+                  ) -> object | None:
     """``g`` (a set's polygons on one face) cut to the domain's polygons ``dom`` there, snapped
     to :data:`GRID`; ``None`` when nothing of area remains. ``memo`` (WKB -> cut) keeps the
     cuts made: many sets are the same polygon there (the whole window, a half-plane's part),
-    each distinct one is cut once."""
-    key = shapely.to_wkb(g)
+    each distinct one is cut once. ``key``: ``g``'s WKB, when the caller has it."""
+    key = shapely.to_wkb(g) if key is None else key
     if key not in memo:
         cut = shapely.intersection(g, dom, grid_size=GRID)
         memo[key] = None if cut.is_empty or cut.area <= 0 else cut

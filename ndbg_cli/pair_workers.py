@@ -22,6 +22,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
+import shapely
 
 from .blocking_cones import pruned_pair_cones
 from .chart_union import cones_to_face_geoms, cut_to_domain, reverse_entries
@@ -45,13 +46,15 @@ _STATE: dict = {}
 
 
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
-             eps: float, domain: np.ndarray | None, dom: list | None = None) -> tuple:
+             eps: float, domain: np.ndarray | None, dom: list | None = None,
+             memo: list | None = None) -> tuple:
     """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union, cuts)``, ``faces``
     as :func:`~ndbg_cli.chart_union.cones_to_face_geoms` gives them. ``trees`` caches each
     part's pruning tree (``None`` until built). With ``dom`` (the domain's polygons per face,
     :func:`~ndbg_cli.domain.domain_polygons`), ``cuts`` holds per face the memo of
     :func:`~ndbg_cli.chart_union.cut_to_domain` for the faces of ``B_ab`` and ``B_ba``: what
-    the caller would cut next, made here in parallel (else empty dicts)."""
+    the caller would cut next, made here in parallel (else empty dicts); ``memo`` (per face
+    a dict, kept by the caller over its pairs) holds the cuts made so far."""
     t0 = time.perf_counter()
     for k in (a, b):
         if trees[k] is None:
@@ -66,10 +69,12 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
                                 pieces or None)
     cuts: list[dict] = [{} for _ in range(6)]
     if dom is not None:
+        memo = memo if memo is not None else [{} for _ in range(6)]
         for entries in (faces, reverse_entries(faces)):
             for face, e in enumerate(entries):
                 if e is not None and dom[face] is not None:
-                    cut_to_domain(e[0], dom[face], cuts[face])
+                    key = shapely.to_wkb(e[0])
+                    cuts[face][key] = cut_to_domain(e[0], dom[face], memo[face], key)
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1, cuts
 
 
@@ -86,12 +91,13 @@ def _init(tris: list, eps: float, domain: np.ndarray | None, parent: int) -> Non
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
     _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris),
-                  dom=None if domain is None else domain_polygons(domain))
+                  dom=None if domain is None else domain_polygons(domain),
+                  memo=[{} for _ in range(6)])
 
 
 def _work(pair: tuple[int, int]) -> tuple:
     return one_pair(_STATE["tris"], _STATE["trees"], pair[0], pair[1], _STATE["eps"],
-                    _STATE["domain"], _STATE["dom"])
+                    _STATE["domain"], _STATE["dom"], _STATE["memo"])
 
 
 def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, int]],
@@ -104,8 +110,9 @@ def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, 
     trees: list = [None] * len(tris)
     if workers <= 1 or len(pairs) < 2 or cost < MIN_PARALLEL_PAIRS:
         dom = None if domain is None else domain_polygons(domain)
+        memo: list[dict] = [{} for _ in range(6)]
         for k, (a, b) in enumerate(pairs):
-            yield k, one_pair(tris, trees, a, b, eps, domain, dom)
+            yield k, one_pair(tris, trees, a, b, eps, domain, dom, memo)
         return
     # the costliest pairs first, so that no worker is left with a long one at the end
     order = sorted(range(len(pairs)), key=lambda k: -len(tris[pairs[k][0]][0])
