@@ -17,15 +17,10 @@ import numpy as np
 import shapely
 
 from .assembly import Assembly, content_hash
-from .blocking_cones import (
-    convex_entries,
-    convex_pairs,
-    far_convex,
-    part_triangles,
-    unique_circles,
-)
+from .blocking_cones import part_triangles, unique_circles
 from .cache import PairCache
 from .chart_union import GRID, cut_to_domain, reverse_entries  # noqa: F401 (reverse_entries: API)
+from .convex_cones import convex_entries, convex_pairs, far_convex
 from .cubemap import face_of
 from .dbg import DBG
 from .domain import domain_polygons
@@ -193,7 +188,7 @@ def triangle_pairs(asm: Assembly) -> int:
     driver, twice what the builder examines (it computes each unordered pair once) and an
     upper bound of even that, since the pruning walk skips most of them. An ordered pair of
     convex parts more than ``4 eps`` apart, whose set is one cone
-    (:func:`~ndbg_cli.blocking_cones.far_convex` decides), counts as
+    (:func:`~ndbg_cli.convex_cones.far_convex` decides), counts as
     :data:`CONVEX_PAIR_COST` plus one per :data:`CONVEX_DIFFERENCES_PER_PAIR` difference
     vectors. The CLI skips the NDBG with a warning above
     ``--infinite-budget`` (AS1: 1.1e8 pairs; a grid of 100 separate boxes: 1.4e6 triangle

@@ -22,7 +22,7 @@ but the triangle pairs whose terms lie strictly inside the terms already kept ar
 wholesale by a walk over bounding-box trees (:func:`ndbg_cli.blocking_cones.
 pruned_pair_cones`; same union, same open cones, same contact circles). Two convex parts
 more than ``4 eps`` apart need no terms: ``B_ij`` is the one open cone spanned by their
-Minkowski difference (:func:`ndbg_cli.blocking_cones.convex_pair_cone`, the same set).
+Minkowski difference (:func:`ndbg_cli.convex_cones.convex_pair_cone`, the same set).
 
 Tolerance (``eps = asm.length_tolerance``)
 ------------------------------------------

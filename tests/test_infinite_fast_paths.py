@@ -1,6 +1,6 @@
 """Fast paths of the infinite-translation NDBG, each against the general route and against
 answers worked out by hand: one cone for convex parts far apart
-(:func:`ndbg_cli.blocking_cones.convex_pair_cone`), the merging of collinear boundary
+(:func:`ndbg_cli.convex_cones.convex_pair_cone`), the merging of collinear boundary
 segments before the arrangement is noded (:func:`ndbg_cli.arrangement.merged_segments`), the
 candidate facets of difference and box cones, and the near-first walk inside a domain."""
 
@@ -15,6 +15,7 @@ import ndbg_cli
 from ndbg_cli import arrangement, blocked_sets, infinite
 from ndbg_cli import blocking_cones as bc
 from ndbg_cli import chart_union as cu
+from ndbg_cli import convex_cones as cc
 from ndbg_cli.assembly import Assembly
 from ndbg_cli.contacts import analyze_contacts
 from ndbg_cli.cover import RASTER
@@ -49,12 +50,12 @@ def test_two_cubes_block_exactly_the_directions_of_one_cube_face():
     # {d_x > 0, |d_y| < d_x, |d_z| < d_x}: the +x face of the cube map, nothing else.
     a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
     b = trimesh.creation.box(bounds=[[2, 0, 0], [3, 1, 1]])
-    cone = bc.convex_pair_cone(a.vertices, b.vertices, 1e-6)
+    cone = cc.convex_pair_cone(a.vertices, b.vertices, 1e-6)
     assert cone is not None and cone.shape == (1, 4, 3)
     d = np.array([[1, 0, 0], [1, 0.9, 0.9], [1, -0.9, 0.5], [1, 1.1, 0], [1, 0, -1.1],
                   [-1, 0, 0], [0, 1, 0]], dtype=float)
     assert _inside(cone, d).tolist() == [True, True, True, False, False, False, False]
-    entries = bc.convex_entries([cone])[0]
+    entries = cc.convex_entries([cone])[0]
     # face 0 is +x: its whole chart square; the others only reach past their border by
     # the chart margin (SQUARE_MARGIN), on the cube edges
     assert entries[0][0].area == pytest.approx(4.0, rel=1e-9)
@@ -66,19 +67,19 @@ def test_two_cubes_block_exactly_the_directions_of_one_cube_face():
 def test_touching_or_overlapping_boxes_take_the_terms():
     a = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
     b = trimesh.creation.box(bounds=[[1, 0, 0], [2, 1, 1]])  # face contact: erosion applies
-    assert bc.convex_pair_cone(a.vertices, b.vertices, 1e-3) is None
+    assert cc.convex_pair_cone(a.vertices, b.vertices, 1e-3) is None
     c = trimesh.creation.box(bounds=[[1.003, 0, 0], [2, 1, 1]])  # gap 3 eps < 4 eps: near
-    assert bc.convex_pair_cone(a.vertices, c.vertices, 1e-3) is None
+    assert cc.convex_pair_cone(a.vertices, c.vertices, 1e-3) is None
 
 
 def test_convexity_test():
     box = trimesh.creation.box(extents=[1, 2, 3])
-    assert bc.is_convex(*_tris(box))
-    assert bc.is_convex(*_tris(trimesh.creation.cylinder(radius=1, height=2, sections=16)))
+    assert cc.is_convex(*_tris(box))
+    assert cc.is_convex(*_tris(trimesh.creation.cylinder(radius=1, height=2, sections=16)))
     ell = trimesh.boolean.union([trimesh.creation.box(bounds=[[0, 0, 0], [2, 1, 1]]),
                                  trimesh.creation.box(bounds=[[0, 0, 0], [1, 2, 1]])],
                                 engine="manifold")
-    assert not bc.is_convex(*_tris(ell))
+    assert not cc.is_convex(*_tris(ell))
     # a dent of 1e-6 of the size is a dent: push the middle vertex of a face inward
     fine = box.subdivide().subdivide()
     v = fine.vertices.copy()
@@ -86,8 +87,8 @@ def test_convexity_test():
     assert len(mid) == 1
     v[mid[0], 2] -= 1e-6
     dented = trimesh.Trimesh(v, fine.faces, process=False)
-    assert not bc.is_convex(*_tris(dented))
-    assert bc.is_convex(*_tris(fine))  # subdivided but flat: convex
+    assert not cc.is_convex(*_tris(dented))
+    assert cc.is_convex(*_tris(fine))  # subdivided but flat: convex
 
 
 def _random_convex(rng: np.random.Generator) -> trimesh.Trimesh:
@@ -110,7 +111,7 @@ def test_convex_cone_is_the_union_of_the_terms_on_random_pairs():
     while checked < 40:
         a, b = _random_convex(rng), _random_convex(rng)
         b.apply_translation(rng.normal(size=3) * 2 + np.sign(rng.normal(size=3)) * 2.5)
-        cone = bc.convex_pair_cone(a.vertices, b.vertices, 1e-3)
+        cone = cc.convex_pair_cone(a.vertices, b.vertices, 1e-3)
         if cone is None:
             continue
         ta, na = _tris(a)
@@ -118,7 +119,7 @@ def test_convex_cone_is_the_union_of_the_terms_on_random_pairs():
         terms, circles = bc.pair_cones(ta, na, tb, nb, 1e-3)
         assert not len(circles)
         np.testing.assert_array_equal(_inside(cone, d, 1e-6), _inside(terms, d, 1e-6))
-        fast, slow = bc.convex_entries([cone])[0], cu.cones_to_face_geoms(terms)
+        fast, slow = cc.convex_entries([cone])[0], cu.cones_to_face_geoms(terms)
         for f in range(6):
             assert (fast[f] is None) == (slow[f] is None)
             if fast[f] is not None:
@@ -232,9 +233,9 @@ def test_open_mesh_is_not_taken_for_convex():
     cup = trimesh.Trimesh(box.vertices, box.faces[~top], process=False)
     peg = trimesh.creation.box(bounds=[[0.3, 0.3, 2], [0.7, 0.7, 3]])
     tris = [_tris(cup), _tris(peg)]
-    assert bc.is_convex(*tris[0])  # the test itself cannot tell: the mesh must be closed
-    assert bc.convex_pairs(tris, [10, 12], 1e-4, [False, True]) == {}
-    assert list(bc.convex_pairs(tris, [10, 12], 1e-4, [True, True])) == [(0, 1)]
+    assert cc.is_convex(*tris[0])  # the test itself cannot tell: the mesh must be closed
+    assert cc.convex_pairs(tris, [10, 12], 1e-4, [False, True]) == {}
+    assert list(cc.convex_pairs(tris, [10, 12], 1e-4, [True, True])) == [(0, 1)]
 
 
 def test_many_facet_cone_is_clipped_whole():
@@ -243,12 +244,12 @@ def test_many_facet_cone_is_clipped_whole():
     b = a.copy()
     b.apply_transform(trimesh.transformations.rotation_matrix(0.7, [1, 1, 0]))
     b.apply_translation([4.0, 1.0, 0.5])
-    cone = bc.convex_pair_cone(a.vertices, b.vertices, 1e-4)
+    cone = cc.convex_pair_cone(a.vertices, b.vertices, 1e-4)
     assert cone is not None and cone.shape[1] > 44
     terms, _ = bc.pair_cones(*_tris(a), *_tris(b), 1e-4)
     d = random_directions(4000, seed=9)
     np.testing.assert_array_equal(_inside(cone, d, 1e-6), _inside(terms, d, 1e-6))
-    fast, slow = bc.convex_entries([cone])[0], cu.cones_to_face_geoms(terms)
+    fast, slow = cc.convex_entries([cone])[0], cu.cones_to_face_geoms(terms)
     for f in range(6):
         assert (fast[f] is None) == (slow[f] is None)
         if fast[f] is not None:
@@ -277,7 +278,7 @@ def test_hull_rounding_falls_back_to_the_terms():
                    [-0.8816138092549795, 0.8750972933859902, -1.032859185623773],
                    [-0.2457680652709897, 2.1051599226652824, -0.4738270267187472],
                    [0.08632293737661545, 1.5408701709090404, -3.375527671415915]])
-    cone = bc.convex_pair_cone(va, vb, 1e-9)
+    cone = cc.convex_pair_cone(va, vb, 1e-9)
     if cone is not None:  # then it must hold every generator
         diff = (vb[:, None] - va[None]).reshape(-1, 3)
         diff /= np.linalg.norm(diff, axis=1, keepdims=True)
