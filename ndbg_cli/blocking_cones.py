@@ -204,6 +204,22 @@ def insets(tri: np.ndarray, nrm: np.ndarray, r: float) -> tuple[np.ndarray, np.n
     return out
 
 
+_BOXES: dict[int, tuple] = {}
+
+
+def _boxes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding boxes ``(lo, hi)`` of one part's triangles, kept for the same array (by
+    identity, up to :data:`INSET_MEMO` parts: each walk asks for both of its parts')."""
+    got = _BOXES.get(id(tri))
+    if got is not None and got[0] is tri:
+        return got[1]
+    if len(_BOXES) >= INSET_MEMO:
+        _BOXES.clear()
+    out = tri.min(axis=1), tri.max(axis=1)
+    _BOXES[id(tri)] = (tri, out)
+    return out
+
+
 def triangle_boxes(ti: np.ndarray, tj: np.ndarray) -> tuple[np.ndarray, ...]:
     """``(lo_i, hi_i, lo_j, hi_j)``: the bounding boxes ``(n, 3)`` of two triangle sets."""
     return ti.min(axis=1), ti.max(axis=1), tj.min(axis=1), tj.max(axis=1)
@@ -363,7 +379,7 @@ class _Walk:
         self.ti, self.ni, self.tree_i = ti, ni, tree_i
         self.tj, self.nj, self.tree_j = tj, nj, tree_j
         self.eps = eps
-        self.boxes = triangle_boxes(ti, tj)
+        self.boxes = (*_boxes(ti), *_boxes(tj))
         self.kept: list[np.ndarray] = []
         self.circles: list[np.ndarray] = []
         self.cover = Cover(domain=domain)

@@ -43,14 +43,14 @@ def cells_window(cells: np.ndarray, row0: int = 0, col0: int = 0, r: int | None 
     return lo[0], lo[1], hi[0], hi[1]
 
 
-_last_raster: list = [None, None, None, None]  # (domain key, raster, cells, blocks) made last
+_last_raster: list = [None] * 5  # (domain key, raster, cells, blocks, any) made last
 
 
-def _outside_raster(domain: np.ndarray, raster: int) -> tuple[np.ndarray, list]:
+def _outside_raster(domain: np.ndarray, raster: int) -> tuple[np.ndarray, list, bool]:
     """The cells ``(6, raster, raster)`` outside ``domain`` (``(6, c, c)``, ``c`` dividing
-    ``raster``), and per face the ``(row0, row1, col0, col1)`` block holding every cell
-    inside it (``None``: none). Every pair's walk (two covers each) starts from the same
-    domain: the last one is kept (do not write to it)."""
+    ``raster``), per face the ``(row0, row1, col0, col1)`` block holding every cell inside it
+    (``None``: none), and whether any cell is outside. Every pair's walk (two covers each)
+    starts from the same domain: the last one is kept (do not write to it)."""
     key = (domain.tobytes(), domain.shape)
     if _last_raster[0] != key or _last_raster[1] != raster:
         k = raster // domain.shape[1]
@@ -61,8 +61,8 @@ def _outside_raster(domain: np.ndarray, raster: int) -> tuple[np.ndarray, list]:
             cols = np.nonzero(~cells[face].all(axis=0))[0]
             blocks.append(None if not len(rows) else (
                 int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1))
-        _last_raster[:] = key, raster, cells, blocks
-    return _last_raster[2], _last_raster[3]
+        _last_raster[:] = key, raster, cells, blocks, bool(cells.any())
+    return _last_raster[2], _last_raster[3], _last_raster[4]
 
 
 class Cover:
@@ -98,10 +98,10 @@ class Cover:
             # Cells outside the domain ((6, c, c), c dividing the raster) need no terms: they
             # count as covered from the start, so whatever lies only there is pruned.
             # the cells left open lie in a block per face: windows are sought there only
-            outside, blocks = _outside_raster(domain, raster)
+            outside, blocks, some = _outside_raster(domain, raster)
             self.covered = outside.copy()
             self.block = list(blocks)
-            self.empty = not self.covered.any()
+            self.empty = not some
 
     def window(self, face: int) -> tuple[float, float, float, float] | None:
         """The chart rectangle ``(x0, y0, x1, y1)`` of the cells of ``face`` not yet covered

@@ -193,5 +193,12 @@ def domain_polygons(dom: np.ndarray) -> list[object]:
 def domain_windows(dom: np.ndarray) -> list[tuple[float, float, float, float] | None]:
     """Per face, the chart rectangle round the domain cells (:func:`ndbg_cli.cover.
     cells_window`), ``None`` where the face has none: what the blocked sets are clipped to
-    before their union (nothing outside it is used)."""
-    return [cells_window(dom[f]) for f in range(6)]
+    before their union (nothing outside it is used). The last domain's are kept (every
+    pair's walk asks)."""
+    key = (dom.tobytes(), dom.shape)
+    if _last_windows[0] != key:
+        _last_windows[:] = key, [cells_window(dom[f]) for f in range(6)]
+    return list(_last_windows[1])
+
+
+_last_windows: list = [None, None]  # (domain key, windows)
