@@ -114,3 +114,72 @@ def inside_kept(poly: np.ndarray, cnt: np.ndarray, boxes: np.ndarray, test: np.n
                 out[a] = True
                 break
     return out
+
+
+@njit(cache=True)
+def inset_convex(xy: np.ndarray, start: np.ndarray, cnt: np.ndarray, delta: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Convex polygons moved inward: polygon ``i`` has the vertices ``xy[start[i]:start[i] +
+    cnt[i]]`` (``(v, 2)``, either orientation, not closed); its inset is the polygon cut by
+    each edge's line moved ``delta[i]`` inward (the points at least ``delta[i]`` inside every
+    edge). Returns the vertices ``(p, w, 2)`` and counts ``(p,)`` (0: nothing left, or the
+    polygon is not convex: a turn against its orientation)."""
+    p = len(cnt)
+    w = 2 * (cnt.max() if p else 0) + 2
+    out = np.zeros((p, w, 2))
+    num = np.zeros(p, dtype=np.int64)
+    cur = np.empty((w, 2))
+    buf = np.empty((w, 2))
+    f = np.empty(w)
+    for i in range(p):
+        n0, s0 = cnt[i], start[i]
+        if n0 < 3:
+            continue
+        area = 0.0
+        for k in range(n0):
+            a, b = xy[s0 + k], xy[s0 + (k + 1) % n0]
+            area += a[0] * b[1] - b[0] * a[1]
+        sign = 1.0 if area > 0.0 else -1.0  # counter-clockwise: the inside is on the left
+        convex = True
+        for k in range(n0):
+            a, b, c = xy[s0 + k], xy[s0 + (k + 1) % n0], xy[s0 + (k + 2) % n0]
+            turn = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+            if turn * sign < 0.0:
+                convex = False
+                break
+        if not convex:
+            continue
+        for k in range(n0):
+            cur[k, 0], cur[k, 1] = xy[s0 + k, 0], xy[s0 + k, 1]
+        n = n0
+        for e in range(n0):
+            px, py = xy[s0 + e, 0], xy[s0 + e, 1]
+            qx, qy = xy[s0 + (e + 1) % n0, 0], xy[s0 + (e + 1) % n0, 1]
+            dx, dy = qx - px, qy - py
+            ln = np.sqrt(dx * dx + dy * dy)
+            if ln == 0.0 or n < 3:
+                continue
+            # inward unit normal (-dy, dx) sign / ln; keep (v - p) . nin >= delta
+            ax, ay = -dy * sign / ln, dx * sign / ln
+            for j in range(n):
+                f[j] = (cur[j, 0] - px) * ax + (cur[j, 1] - py) * ay - delta[i]
+            m = 0
+            for j in range(n):
+                nx = j + 1 if j + 1 < n else 0
+                fa, fb = f[j], f[nx]
+                if fa >= 0.0:
+                    buf[m, 0], buf[m, 1] = cur[j, 0], cur[j, 1]
+                    m += 1
+                if (fa >= 0.0) != (fb >= 0.0):
+                    t = fa / (fa - fb)
+                    buf[m, 0] = cur[j, 0] + t * (cur[nx, 0] - cur[j, 0])
+                    buf[m, 1] = cur[j, 1] + t * (cur[nx, 1] - cur[j, 1])
+                    m += 1
+            for j in range(m):
+                cur[j, 0], cur[j, 1] = buf[j, 0], buf[j, 1]
+            n = m
+        if n >= 3:
+            num[i] = n
+            for j in range(n):
+                out[i, j, 0], out[i, j, 1] = cur[j, 0], cur[j, 1]
+    return out, num

@@ -141,3 +141,26 @@ def test_kept_pieces_union_is_the_union_of_all(seed):
         assert shapely.symmetric_difference(got[0], plain).area < 1e-12
         kept = len(cu.face_pieces(cones, face, rect=rect)[0])
         assert kept < len(pieces) / 2  # a fan's pieces are mostly nested or repeated
+
+
+def test_inset_convex_by_hand():
+    # the unit square either way round, a right triangle, and an L (not convex: left out)
+    polys = [_sq(0, 0, 1, 1), _sq(0, 0, 1, 1)[::-1], [(0, 0), (4, 0), (0, 3)],
+             [(0, 0), (2, 0), (2, 1), (1, 1), (1, 2), (0, 2)]]
+    xy = np.array([v for p in polys for v in p], dtype=float)
+    cnt = np.array([len(p) for p in polys], dtype=np.int64)
+    start = np.r_[0, np.cumsum(cnt)[:-1]]
+    inner, num = uk.inset_convex(xy, start, cnt, np.array([0.1, 0.25, 0.5, 0.1]))
+    assert num.tolist() == [4, 4, 3, 0]
+    for k, (lo, hi) in enumerate(((0.1, 0.9), (0.25, 0.75))):
+        got = inner[k, :4]
+        np.testing.assert_allclose(got.min(axis=0), [lo, lo], atol=1e-12)
+        np.testing.assert_allclose(got.max(axis=0), [hi, hi], atol=1e-12)
+    # 3-4-5 triangle: the incircle has radius 1, so the inset by 0.5 is the triangle scaled
+    # by 1/2 about the incentre (1, 1)
+    tri = inner[2, :3]
+    want = np.array([(0, 0), (4, 0), (0, 3)]) * 0.5 + 0.5 * np.array([1.0, 1.0])
+    np.testing.assert_allclose(tri[np.lexsort(tri.T[::-1])], want[np.lexsort(want.T[::-1])],
+                               atol=1e-12)
+    # an inset wider than the polygon leaves nothing
+    assert uk.inset_convex(xy[:4], start[:1], cnt[:1], np.array([0.6]))[1].tolist() == [0]

@@ -575,6 +575,10 @@ def test_a_union_that_loses_a_piece_is_redone():
     assert not cu.loses_area(shapely.union_all(polys), polys)
     assert cu.loses_area(shapely.box(0, 0, 1.9, 1), polys)  # 0.1 of the second piece lost
     assert not cu.loses_area(shapely.box(0, 0, 2 - 1e-16, 1), polys)  # rounding only
+    # just above and below LOST_AREA (1e-12): a band 1 high, the pieces' insets (the quick
+    # test, cu._inset_covered) must not hide the first
+    assert cu.loses_area(shapely.box(0, 0, 2 - 3e-12, 1), polys)
+    assert not cu.loses_area(shapely.box(0, 0, 2 - 3e-13, 1), polys)
 
 
 def test_coplanar_triangles_make_no_term():
