@@ -141,8 +141,8 @@ _EMPTY = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
 
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
           jb: np.ndarray, eps: float, boxes: tuple[np.ndarray, ...] | None = None,
-          cover: Cover | None = None, skip: tuple | None = None
-          ) -> tuple[np.ndarray, np.ndarray]:
+          cover: Cover | None = None, skip: tuple | None = None,
+          raw_circles: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other:
     open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs.
     ``boxes``: the triangles' bounding boxes ``(lo_i, hi_i, lo_j, hi_j)`` (each ``(n, 3)``),
@@ -151,7 +151,9 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     that miss every cell it leaves open are left out early, by its quick tests on the
     generators (:meth:`~ndbg_cli.cover.Cover.misses_spanned_open`) before the facets are
     computed, then on the facets (:meth:`~ndbg_cli.cover.Cover.misses_open`), made pair by
-    pair in :func:`ndbg_cli.term_kernels.terms`."""
+    pair in :func:`ndbg_cli.term_kernels.terms`. ``skip``: a function of ``(ia, jb)`` giving
+    the pairs to keep (after the contact normals are taken); ``raw_circles``: the contact
+    normals as they are, not deduplicated (a walk deduplicates them once, at its end)."""
     from . import term_kernels
     if not len(ia):
         return _EMPTY
@@ -163,7 +165,8 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     ia, jb, near = ia[ok], jb[ok], near[ok]
     if not len(ia):
         return _EMPTY
-    circles = unique_circles(np.concatenate([ni[ia[near]], nj[jb[near]]]))
+    circles = np.concatenate([ni[ia[near]], nj[jb[near]]])
+    circles = circles if raw_circles else unique_circles(circles)
     if skip is not None:
         keep = skip(ia, jb)
         ia, jb, near = ia[keep], jb[keep], near[keep]
@@ -439,7 +442,8 @@ class _Walk:
         (with a domain, :func:`_new_pieces_of`), and add them to the cover."""
         cones, circ = terms(self.ti, self.ni, self.tj, self.nj, ia, jb, self.eps,
                             boxes=self.boxes, cover=None if self.cover.empty else self.cover,
-                            skip=None if self.windows is None else self._open_sides)
+                            skip=None if self.windows is None else self._open_sides,
+                            raw_circles=True)
         self.stats["terms"] += len(cones)
         if len(circ):
             self.circles.append(circ)
