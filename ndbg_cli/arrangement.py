@@ -225,7 +225,11 @@ def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object,
     at another circle's crossing, both candidates here."""
     circ = circle_lines(normals, face)
     if dom is not None and circ:
-        circ = [g for g in shapely.intersection(circ, dom) if not g.is_empty]
+        shapely.prepare(dom)
+        meets = shapely.intersects(dom, circ)
+        # past SEAM_CIRCLES the pieces are not used (below): only whether any meets it
+        circ = ([g for g in shapely.intersection(np.asarray(circ, dtype=object)[meets], dom)
+                 if not g.is_empty] if meets.sum() <= SEAM_CIRCLES else [None] * int(meets.sum()))
     if not circ:
         return []
     mids = []
