@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,31 +61,46 @@ class BlockedSets:
     _by_face: list = field(default_factory=lambda: [None] * 6, repr=False,
                            compare=False)
 
-    def blocked_pairs(self, d: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
+    def blocked_pairs(self, d: np.ndarray, workers: int = 1
+                      ) -> list[tuple[np.ndarray, int, int]]:
         """For directions ``d`` ``(m, 3)``: list of ``(index, i, j)``, ``index`` the sorted
-        indices ``k`` of the directions ``d[k]`` along which ``P_j`` blocks ``P_i``."""
+        indices ``k`` of the directions ``d[k]`` along which ``P_j`` blocks ``P_i``.
+        ``workers`` threads take the faces (GEOS releases the GIL; the result is the same)."""
         d = np.atleast_2d(np.asarray(d, dtype=float))
         f, st = face_of(d)
+        faces = [(face, np.nonzero(f == face)[0]) for face in range(6)]
+        faces = [(face, sel) for face, sel in faces if len(sel) and self.geoms[face]]
+        if workers > 1 and len(faces) > 1:
+            with ThreadPoolExecutor(max_workers=min(workers, len(faces))) as pool:
+                found = list(pool.map(lambda fs: self._face_hits(*fs, st), faces))
+        else:
+            found = [self._face_hits(face, sel, st) for face, sel in faces]
         out: dict[tuple[int, int], list[np.ndarray]] = {}
-        for face in range(6):
-            sel = np.nonzero(f == face)[0]
-            if not len(sel) or not self.geoms[face]:
-                continue
-            keys, geoms = self._face_pairs(face)
-            x, y = st[sel, 0], st[sel, 1]
-            # each pair's exact test only on the directions inside its bounding box
-            gi, pt = shapely.STRtree(shapely.points(x, y)).query(geoms)
-            if np.any(gi[1:] < gi[:-1]):  # shapely lists them by pair already
-                order = np.argsort(gi, kind="stable")
-                gi, pt = gi[order], pt[order]
-            starts = np.flatnonzero(np.r_[True, gi[1:] != gi[:-1]]) if len(gi) else []
-            ends = np.r_[starts[1:], len(gi)] if len(gi) else []
-            for a, b in zip(starts, ends):
-                k = pt[a:b]
-                hit = shapely.contains_xy(geoms[gi[a]], x[k], y[k])
-                if hit.any():
-                    out.setdefault(keys[gi[a]], []).append(sel[k[hit]])
+        for hits in found:  # face by face, as one thread finds them
+            for key, idx in hits:
+                out.setdefault(key, []).append(idx)
         return [(np.sort(np.concatenate(v)), i, j) for (i, j), v in sorted(out.items())]
+
+    def _face_hits(self, face: int, sel: np.ndarray, st: np.ndarray
+                   ) -> list[tuple[tuple[int, int], np.ndarray]]:
+        """The pairs blocking the directions ``sel`` (indices, all on ``face``; chart points
+        ``st``), each with the indices of those it blocks, pair by pair."""
+        keys, geoms = self._face_pairs(face)
+        x, y = st[sel, 0], st[sel, 1]
+        # each pair's exact test only on the directions inside its bounding box
+        gi, pt = shapely.STRtree(shapely.points(x, y)).query(geoms)
+        if np.any(gi[1:] < gi[:-1]):  # shapely lists them by pair already
+            order = np.argsort(gi, kind="stable")
+            gi, pt = gi[order], pt[order]
+        starts = np.flatnonzero(np.r_[True, gi[1:] != gi[:-1]]) if len(gi) else []
+        ends = np.r_[starts[1:], len(gi)] if len(gi) else []
+        out = []
+        for a, b in zip(starts, ends):
+            k = pt[a:b]
+            hit = shapely.contains_xy(geoms[gi[a]], x[k], y[k])
+            if hit.any():
+                out.append((keys[gi[a]], sel[k[hit]]))
+        return out
 
     def _face_pairs(self, face: int) -> tuple[list[tuple[int, int]], np.ndarray]:
         """The pairs with a set on ``face`` and their geometries (an array, made once)."""
@@ -94,21 +110,22 @@ class BlockedSets:
                                                   dtype=object))
         return self._by_face[face]
 
-    def dbgs(self, d: np.ndarray, exact: bool = False) -> list[DBG]:
+    def dbgs(self, d: np.ndarray, exact: bool = False, workers: int = 1) -> list[DBG]:
         """The DBG at each direction of ``d`` ``(m, 3)`` (region lookup, vectorised).
 
         The chart lookup tests the interior of the closure of ``B_ij``; it is right for every
         direction off the contact circles. With ``exact``, a direction inside that closure is
         re-tested against the open cones themselves (the open-set semantics of ``B_ij``),
         which is what the 1- and 0-dimensional cells need: a slot, a bore or a sliding face
-        leaves free directions on seams between blocked cones.
+        leaves free directions on seams between blocked cones. ``workers``: threads for the
+        chart lookup (:meth:`blocked_pairs`).
         """
         d = np.atleast_2d(np.asarray(d, dtype=float))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         # successor bits, packed as they are set (a (m, n, n) bool matrix would take
         # 270 MB for a 100-box grid's 26,694 regions)
         bits = np.zeros((len(d), self.n, (self.n + 7) // 8), dtype=np.uint8)
-        for k, i, j in self.blocked_pairs(d):
+        for k, i, j in self.blocked_pairs(d, workers):
             if exact:
                 k = self._exact(k, i, j, d)
             bits[k, i, j >> 3] |= np.uint8(1 << (j & 7))

@@ -106,7 +106,7 @@ def _regions_3d(bs: BlockedSets, workers: int = 1) -> tuple[list[Region], int]:
                        f"DBGs would take {need / 2**30:.1f} GiB (limit "
                        f"{MAX_DBG_BYTES / 2**30:.0f} GiB)")
     dirs = np.array([c.direction for c in cells]) if cells else np.zeros((0, 3))
-    dbgs = bs.dbgs(dirs) if len(dirs) else []
+    dbgs = bs.dbgs(dirs, workers=workers) if len(dirs) else []
     # Seam candidates: keep those where the open-set semantics frees something.
     seam = np.array([c.seam for c in cells], dtype=bool)
     dims = np.array([c.dimension for c in cells], dtype=int)
