@@ -21,9 +21,9 @@ node pair adds nothing: every one of its directions is already strictly inside s
 cone. "Inside" is decided conservatively on a raster per cube face
 (:class:`~ndbg_cli.cover.Cover`: the cells wholly inside some eroded kept polygon; a cone is
 inside when the bounding box of its chart image meets only such cells), which costs the same
-however many terms are kept; a new term inside it is dropped the same way (on the whole
-sphere: with a domain, the window pieces' containment test below drops the terms, and the
-raster test would drop 2% of AS1's 402k before it at the cost of 0.2 s). So the union of the
+however many terms are kept; on the whole sphere a new term inside it is dropped the same way
+(with a domain the containment test of its window pieces, below, does that: the raster
+test dropped only 2% of AS1's 402k terms there, for 0.2 s). So the union of the
 kept terms equals ``B_ij``, both as a closed chart set and as a union of open cones (which the
 open-set re-test of :class:`ndbg_cli.infinite.BlockedSets` relies on). Node pairs within
 ``4 eps`` of each other (contacts) are never pruned, so every near triangle pair is kept and
@@ -78,6 +78,8 @@ same half-window: AS1's term kernel took 2.0 million pairs, now 0.85 million.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 import trimesh
@@ -141,7 +143,8 @@ _EMPTY = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
 
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
           jb: np.ndarray, eps: float, boxes: tuple[np.ndarray, ...] | None = None,
-          cover: Cover | None = None, skip: tuple | None = None,
+          cover: Cover | None = None,
+          skip: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
           raw_circles: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other:
     open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs.
@@ -182,45 +185,44 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     pa, pb = DIFFERENCE_PAIRS
     di, gi = insets(ti, ni, 1.5 * eps)
     dj, gj = insets(tj, nj, 1.5 * eps)
-    cones = stack_cones([term_kernels.terms(ti, ni, tj, nj, ia[s:s + CHUNK], jb[s:s + CHUNK],
-                                       near[s:s + CHUNK], eps, pa, pb, 1e-9, FLAT,
-                                       cover is not None, corners, sides, di, gi, dj, gj)[0]
-                    for s in range(0, len(ia), CHUNK)])
+    cones = stack_cones([
+        term_kernels.terms(ti, ni, tj, nj, ia[s:s + CHUNK], jb[s:s + CHUNK], near[s:s + CHUNK],
+                           eps, pa, pb, 1e-9, FLAT, cover is not None, corners, sides, di, gi,
+                           dj, gj)[0]
+        for s in range(0, len(ia), CHUNK)])
     return cones, circles
 
 
-_INSETS: dict[int, tuple] = {}
-#: Parts whose :func:`insets` are kept (a walk asks for the same two parts hundreds of times).
+#: Parts whose :func:`insets` and triangle boxes are kept (a walk asks for the same two parts
+#: hundreds of times, and every pair's walk for its two parts').
 INSET_MEMO = 64
+_INSETS: dict[int, tuple] = {}
+_BOXES: dict[int, tuple] = {}
+
+
+def _kept_for(memo: dict, arrays: tuple, extra: object, make: Callable[[], object]
+              ) -> object:
+    """``make()``, kept in ``memo`` for the same ``arrays`` (by identity: do not change
+    them in place) and ``extra``, up to :data:`INSET_MEMO` entries."""
+    got = memo.get(id(arrays[0]))
+    if got is not None and all(a is b for a, b in zip(got[0], arrays)) and got[1] == extra:
+        return got[2]
+    if len(memo) >= INSET_MEMO:
+        memo.clear()
+    out = make()
+    memo[id(arrays[0])] = (arrays, extra, out)
+    return out
 
 
 def insets(tri: np.ndarray, nrm: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
     """:func:`ndbg_cli.erosion.edge_insets` of one part's triangles, kept for the same arrays
     (by identity) and ``r``."""
-    got = _INSETS.get(id(tri))
-    if got is not None and got[0] is tri and got[1] is nrm and got[2] == r:
-        return got[3]
-    if len(_INSETS) >= INSET_MEMO:
-        _INSETS.clear()
-    out = edge_insets(tri, nrm, r)
-    _INSETS[id(tri)] = (tri, nrm, r, out)
-    return out
-
-
-_BOXES: dict[int, tuple] = {}
+    return _kept_for(_INSETS, (tri, nrm), r, lambda: edge_insets(tri, nrm, r))
 
 
 def _boxes(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The bounding boxes ``(lo, hi)`` of one part's triangles, kept for the same array (by
-    identity, up to :data:`INSET_MEMO` parts: each walk asks for both of its parts')."""
-    got = _BOXES.get(id(tri))
-    if got is not None and got[0] is tri:
-        return got[1]
-    if len(_BOXES) >= INSET_MEMO:
-        _BOXES.clear()
-    out = tri.min(axis=1), tri.max(axis=1)
-    _BOXES[id(tri)] = (tri, out)
-    return out
+    """The bounding boxes ``(lo, hi)`` of one part's triangles, kept for the same array."""
+    return _kept_for(_BOXES, (tri,), None, lambda: (tri.min(axis=1), tri.max(axis=1)))
 
 
 def triangle_boxes(ti: np.ndarray, tj: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -246,7 +248,8 @@ def flat(cones: np.ndarray) -> np.ndarray:
 
 
 def stack_cones(parts: list[np.ndarray]) -> np.ndarray:
-    """Concatenate padded cone batches of different widths."""
+    """Concatenate cone batches of different widths, zero-padded (a single batch is
+    returned as it is)."""
     parts = [p for p in parts if len(p)]
     if not parts:
         return np.zeros((0, 1, 3))
@@ -412,7 +415,7 @@ class _Walk:
             # tested again once the kept pieces have doubled since
             u = np.flatnonzero(seen & ~inside & (total >= 2 * at))
             if len(u):
-                inside[u] = _inside_kept_pieces(self, sign * nrm[u][:, None, :])
+                inside[u] = _window_pieces(self, sign * nrm[u][:, None, :])[0]
                 at[u] = total
         keep = ~(self.side_in[0][ia] | self.side_in[1][jb])
         self.stats["side_skipped"] += len(keep) - int(keep.sum())
@@ -502,28 +505,13 @@ class _Pieces:
         return self.poly[:n], self.cnt[:n], self.area[:n], self.boxes[:n], self.index[:n]
 
 
-def _inside_kept_pieces(walk: _Walk, cones: np.ndarray) -> np.ndarray:
-    """``(p,)`` whether each cone's window pieces all lie inside single pieces the walk kept
-    (or have area at most ``GRID**2``)."""
+def _window_pieces(walk: _Walk, cones: np.ndarray) -> tuple[np.ndarray, list]:
+    """The chart pieces of ``cones`` in the walk's windows: ``(inside, found)``, whether each
+    cone's pieces all lie inside single pieces kept so far (or have area at most
+    ``GRID**2``), and per face with some piece ``(face, poly, cnt, area, boxes, has)``
+    (:func:`~ndbg_cli.chart_union.clipped_pieces`)."""
     from . import union_kernels as kernels
-    out = np.ones(len(cones), dtype=bool)
-    for face, rect in enumerate(walk.windows):
-        if rect is None:
-            continue
-        poly, cnt, _, boxes, has = clipped_pieces(cones, face, rect, _Pieces.WIDTH)
-        kp = walk.pieces[face]
-        out &= ~has | kernels.inside_kept(poly, cnt, boxes, has, kp.poly, kp.cnt, kp.boxes,
-                                          kp.n)
-    return out
-
-
-def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
-    """The terms among ``cones`` with a chart piece (of area above ``GRID**2``) in some
-    window of the walk's domain that lies inside no single piece kept so far; their pieces
-    are kept. The others add nothing to the unions, which are made in those windows only
-    (:func:`~ndbg_cli.chart_union.cones_to_face_geoms`)."""
-    from . import union_kernels as kernels
-    keep = np.zeros(len(cones), dtype=bool)
+    inside = np.ones(len(cones), dtype=bool)
     found = []
     for face, rect in enumerate(walk.windows):
         if rect is None:
@@ -532,9 +520,19 @@ def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
         if not has.any():
             continue
         kp = walk.pieces[face]
-        inside = kernels.inside_kept(poly, cnt, boxes, has, kp.poly, kp.cnt, kp.boxes, kp.n)
-        keep |= has & ~inside
+        inside &= ~has | kernels.inside_kept(poly, cnt, boxes, has, kp.poly, kp.cnt,
+                                             kp.boxes, kp.n)
         found.append((face, poly, cnt, area, boxes, has))
+    return inside, found
+
+
+def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
+    """The terms among ``cones`` with a chart piece (of area above ``GRID**2``) in some
+    window of the walk's domain that lies inside no single piece kept so far; their pieces
+    are kept. The others add nothing to the unions, which are made in those windows only
+    (:func:`~ndbg_cli.chart_union.cones_to_face_geoms`)."""
+    inside, found = _window_pieces(walk, cones)
+    keep = ~inside
     # the kept terms' indices among all those the walk keeps
     index = walk.stats["kept"] + np.cumsum(keep) - 1
     for face, poly, cnt, area, boxes, has in found:
