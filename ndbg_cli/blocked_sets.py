@@ -187,7 +187,8 @@ def succ_from_bits(bits: np.ndarray) -> list[tuple[int, ...]]:
 
 
 #: Against the budget, a pair of convex parts far apart (one cone, about 0.3 ms) counts as
-#: this many triangle pairs (each 20-70 microseconds through the terms), plus one per
+#: this many triangle pairs (set when a pair cost 20-70 microseconds through the terms; about
+#: 1 on AS1 now, so the count errs towards computing them), plus one per
 #: :data:`CONVEX_DIFFERENCES_PER_PAIR` difference vectors (``|V_i| |V_j|``).
 CONVEX_PAIR_COST = 16
 CONVEX_DIFFERENCES_PER_PAIR = 128
