@@ -9,6 +9,7 @@ linework is snapped to :data:`~ndbg_cli.chart_union.GRID`.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
-from .chart_union import GRID
+from .chart_union import GRID, antipodal
 from .cubemap import FACES, SQUARE_MARGIN, direction_of
 
 if TYPE_CHECKING:
@@ -38,6 +39,9 @@ class Cell:
     face: int
     geom: object
     seam: bool = False
+    #: The index (in the list of :func:`arrangement_cells`) of the cell this one is the
+    #: antipodal image of, or -1: its DBG is that cell's reversed (``G(-d)``).
+    mirror_of: int = -1
 
 
 def arrangement_cells(bs: BlockedSets, workers: int = 1) -> list[Cell]:
@@ -54,18 +58,45 @@ def arrangement_cells(bs: BlockedSets, workers: int = 1) -> list[Cell]:
     :func:`build_infinite` keeps those whose exact DBG differs from the one around them (a
     slot's or a bore's free directions). ``workers`` threads take the faces (GEOS releases
     the GIL; the cells are listed face by face whatever their number).
+
+    With ``bs.paired`` (the sets on each odd face are the exact antipodal images of those on
+    the even one, ``B_ji = -B_ij``, and so are the domain and the contact circles), the
+    arrangement on an odd face is the image of the even face's: its cells are mapped, not
+    computed (``mirror_of`` says from which), which halves the work.
     """
     faces = [f for f in range(6) if bs.domain is None or bs.domain[f] is not None]
-    if workers > 1 and len(faces) > 1:
-        with ThreadPoolExecutor(max_workers=min(workers, len(faces)) + 1) as pool:
+    mirrored = [f for f in faces if bs.paired and f & 1 and f ^ 1 in faces]
+    made = [f for f in faces if f not in mirrored]
+    if workers > 1 and len(made) > 1:
+        with ThreadPoolExecutor(max_workers=min(workers, len(made)) + 1) as pool:
             # the crossings (a compiled kernel, without the GIL) are made while the faces'
             # linework is noded; a face waits for them only when it needs them
-            crossings = pool.submit(circle_crossings, bs.circles, bs.eta, bs.domain)
-            done = list(pool.map(lambda f: _face_cells(bs, f, crossings), faces))
+            crossings = pool.submit(circle_crossings, bs.circles, bs.eta, bs.domain, made)
+            done = list(pool.map(lambda f: _face_cells(bs, f, crossings), made))
     else:
-        crossings = circle_crossings(bs.circles, bs.eta, bs.domain)
-        done = [_face_cells(bs, f, crossings) for f in faces]
-    return [c for cells in done for c in cells]
+        crossings = circle_crossings(bs.circles, bs.eta, bs.domain, made)
+        done = [_face_cells(bs, f, crossings) for f in made]
+    by_face = dict(zip(made, done))
+    out: list[Cell] = []
+    start: dict[int, int] = {}
+    for f in faces:
+        if f in mirrored:
+            out.extend(mirror_cells(by_face[f ^ 1], start[f ^ 1]))
+        else:
+            start[f] = len(out)
+            out.extend(by_face[f])
+    return out
+
+
+def mirror_cells(cells: list[Cell], first: int) -> list[Cell]:
+    """The antipodal images of ``cells`` (one face's, listed from index ``first``) on the
+    opposite face: geometry mapped exactly (:func:`~ndbg_cli.chart_union.antipodal`),
+    directions negated (``0.0 - d``: no negative zeros)."""
+    if not cells:
+        return []
+    geoms = antipodal(np.array([c.geom for c in cells], dtype=object))
+    return [Cell(c.dimension, 0.0 - c.direction, c.face ^ 1, g, c.seam, first + k)
+            for k, (c, g) in enumerate(zip(cells, geoms))]
 
 
 def _face_cells(bs: BlockedSets, face: int, crossings: list | Future) -> list[Cell]:
@@ -289,13 +320,13 @@ def _ends(segs: np.ndarray) -> np.ndarray:
 CROSS_CHUNK = 1_000_000
 
 
-def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
-                     ) -> list[np.ndarray]:
+def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None,
+                     faces: Sequence[int] = range(6)) -> list[np.ndarray]:
     """Per cube face, chart points ``(k, 2)`` of the crossings of two great circles (normals
     ``(c, 3)``; both antipodal points ``+-n_a x n_b``) strictly inside the face's square and,
     with ``domain`` (per face chart geometry or ``None``), inside it. Crossings closer than
     ``eta`` are merged (the first kept), as the nearly concurrent circles of a tessellated
-    cylinder's facets all are near its axis."""
+    cylinder's facets all are near its axis. Only on ``faces`` (the others: none)."""
     from . import kernels
     n = np.ascontiguousarray(normals, dtype=float)
     npairs = len(n) * (len(n) - 1) // 2
@@ -314,35 +345,35 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     # box (a crossing lies on both circles), chunk by chunk of the same pairs, so that the
     # crossings come in the same order and the same ones are kept first.
     groups: list[tuple[np.ndarray, tuple[int, ...]]] = [(np.ones(len(n), dtype=bool),
-                                                         tuple(range(6)))]
+                                                         tuple(faces))]
     boxes = np.tile([-np.inf, -np.inf, np.inf, np.inf], (6, 1))
     if domain is not None and len(n):
         groups = []
         for f in range(0, 6, 2):
-            faces = tuple(g for g in (f, f + 1) if domain[g] is not None)
-            if faces:
+            pair = tuple(g for g in (f, f + 1) if domain[g] is not None and g in faces)
+            if pair:
                 meets = np.zeros(len(n), dtype=bool)
-                for g in faces:
+                for g in pair:
                     e, u, v = FACES[g]
                     x0, y0, x1, y1 = boxes[g] = domain[g].bounds
                     at = np.stack([n @ u * x + n @ v * y + n @ e
                                    for x in (x0, x1) for y in (y0, y1)])
                     # rounding slack: a pair too many only adds crossings outside
                     meets |= (at.min(axis=0) <= 1e-12) & (at.max(axis=0) >= -1e-12)
-                groups.append((meets, faces))
+                groups.append((meets, pair))
     fused = _fused_inputs(groups, boxes, domain, max(eta, GRID), len(n))
     if fused is not None:
         meets, edges, nedges, key_lo, key_n = fused
         pts, lab = kernels.first_crossings(n, meets, _INSIDE, boxes, edges, nedges,
                                            max(eta, GRID), CROSS_CHUNK, key_lo, key_n)
         return [pts[lab == f] for f in range(6)]
-    for s0, (meets, faces) in itertools.product(range(0, npairs, CROSS_CHUNK), groups):
+    for s0, (meets, pair) in itertools.product(range(0, npairs, CROSS_CHUNK), groups):
         # the crossings of the chunk's pairs on these faces, outside the domain's boxes
         # left out (contains_xy would drop them)
-        flags = np.isin(np.arange(6), faces)
+        flags = np.isin(np.arange(6), pair)
         pts, lab = kernels.circle_crossings(n, s0, min(s0 + CROSS_CHUNK, npairs), meets,
                                             flags, _INSIDE, boxes)
-        for face in faces:
+        for face in pair:
             st = pts[lab == face]
             if domain is not None and len(st):
                 st = st[shapely.contains_xy(domain[face], st[:, 0], st[:, 1])]

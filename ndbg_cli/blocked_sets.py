@@ -20,7 +20,7 @@ import shapely
 from .assembly import Assembly, content_hash
 from .blocking_cones import part_triangles, unique_circles
 from .cache import PairCache
-from .chart_union import GRID, cut_to_domain, reverse_entries  # noqa: F401 (reverse_entries: API)
+from .chart_union import GRID, antipodal, cut_to_domain, reverse_entries  # noqa: F401 (reverse_entries: API)
 from .convex_cones import convex_entries, convex_pairs, far_convex
 from .cubemap import face_of
 from .dbg import DBG
@@ -58,6 +58,9 @@ class BlockedSets:
     #: 2D assemblies: each ordered pair's open arcs on the equator (radians,
     #: :func:`ndbg_cli.equator.cone_arcs`), set by :func:`build_infinite`.
     arcs: dict | None = None
+    #: Whether the sets on each odd face are the exact antipodal images of those on the
+    #: even one (:func:`blocked_sets` stores them so; the arrangement then maps them).
+    paired: bool = False
     _by_face: list = field(default_factory=lambda: [None] * 6, repr=False,
                            compare=False)
 
@@ -120,6 +123,11 @@ class BlockedSets:
         leaves free directions on seams between blocked cones. ``workers``: threads for the
         chart lookup (:meth:`blocked_pairs`).
         """
+        return [DBG(row) for row in succ_from_bits(self.dbg_bits(d, exact, workers))]
+
+    def dbg_bits(self, d: np.ndarray, exact: bool = False, workers: int = 1) -> np.ndarray:
+        """:meth:`dbgs` as packed successor rows ``(m, n, ceil(n / 8))`` (bit ``j`` of row
+        ``i``, little-endian: ``P_j`` blocks ``P_i``), before they are made DBGs."""
         d = np.atleast_2d(np.asarray(d, dtype=float))
         d = d / np.linalg.norm(d, axis=1, keepdims=True)
         # successor bits, packed as they are set (a (m, n, n) bool matrix would take
@@ -129,7 +137,7 @@ class BlockedSets:
             if exact:
                 k = self._exact(k, i, j, d)
             bits[k, i, j >> 3] |= np.uint8(1 << (j & 7))
-        return [DBG(row) for row in succ_from_bits(bits)]
+        return bits
 
     def _exact(self, sel: np.ndarray, i: int, j: int, d: np.ndarray) -> np.ndarray:
         """Re-test the directions ``d[sel]`` (indices) against the open cones of pair
@@ -166,6 +174,23 @@ class BlockedSets:
 
 #: Directions within this (radians, about) of a cone's facet count as outside the open cone.
 OPEN_TOL = 1e-6
+
+
+def transposed_bits(bits: np.ndarray) -> np.ndarray:
+    """Packed successor rows ``(m, n, ceil(n / 8))`` (:meth:`BlockedSets.dbg_bits`) with
+    every arc reversed: each distinct ``n x n`` bit matrix transposed once (regions share
+    DBGs), in blocks of about 16 million bits."""
+    m, n, width = bits.shape
+    first: dict[bytes, int] = {}
+    which = np.array([first.setdefault(row.tobytes(), len(first)) for row in bits],
+                     dtype=np.int64).reshape(m)
+    uniq = bits[np.unique(which, return_index=True)[1]] if m else bits
+    out = np.empty_like(uniq)
+    step = max(1, (1 << 24) // max(n * n, 1))
+    for lo in range(0, len(uniq), step):
+        rows = np.unpackbits(uniq[lo:lo + step], axis=2, count=n, bitorder="little")
+        out[lo:lo + step] = np.packbits(rows.transpose(0, 2, 1), axis=2, bitorder="little")
+    return out[which]
 
 
 def succ_from_bits(bits: np.ndarray) -> list[tuple[int, ...]]:
@@ -320,17 +345,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     dom = None if domain is None else domain_polygons(domain)
     if dom is not None:
         # only the domain's part is right (and needed): the arrangement is built there
-        for face, fd in enumerate(geoms):
-            if dom[face] is None:
-                fd.clear()
-                continue
-            # the pairs computed here came with their cuts (made by the workers)
-            for pair in list(fd):
-                g = cut_to_domain(fd[pair], dom[face], cuts[face])
-                if g is None:
-                    del fd[pair]
-                else:
-                    fd[pair] = g
+        for face in range(0, 6, 2):
+            _cut_face_pair(geoms, face, dom[face], cuts[face])
     for fd in geoms:
         for g in fd.values():
             shapely.prepare(g)
@@ -341,7 +357,31 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     circ = unique_circles(np.concatenate(circles)) if circles else np.zeros((0, 3))
     stats["contact_circles"] = len(circ)
     return BlockedSets(n=n, geoms=geoms, eta=eta, cones=all_cones, boxes=boxes, circles=circ,
-                       space_dimension=asm.dimension, stats=stats, domain=dom)
+                       space_dimension=asm.dimension, stats=stats, domain=dom, paired=True)
+
+
+def _cut_face_pair(geoms: list[dict], face: int, dom: object, memo: dict) -> None:
+    """Cut the sets on the even ``face`` to the domain's polygons ``dom`` there (``None``:
+    none), and set those on the opposite face to their antipodal images: every set there is
+    the image of one here (``B_ji = -B_ij``, as :func:`blocked_sets` stores them) and so is
+    the domain (:func:`~ndbg_cli.domain.domain_polygons`), so the images are the cuts, made
+    once and exactly symmetric. ``memo``: cuts made already (the workers')."""
+    fd, od = geoms[face], geoms[face ^ 1]
+    if dom is None:
+        fd.clear()
+        od.clear()
+        return
+    pairs = list(fd)
+    got = [cut_to_domain(fd[p], dom, memo) for p in pairs]
+    images = iter(antipodal(np.array([g for g in got if g is not None], dtype=object)))
+    for (i, j), g in zip(pairs, got):
+        if g is None:
+            del fd[(i, j)], od[(j, i)]
+        else:
+            fd[(i, j)] = g
+            od[(j, i)] = next(images)
+    if len(od) != len(fd):  # a set there with no image here would stay uncut
+        raise RuntimeError("the blocked sets are not antipodally paired")
 
 
 def antipodal_symmetric(domain: np.ndarray) -> bool:

@@ -282,17 +282,20 @@ def reverse_entries(entries: list) -> list:
     ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
     the antipodal map is a chart isometry onto the opposite cube face. The cone index of each
     piece is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""
-    def flip(g):
-        return shapely.transform(g, lambda xy: xy @ ANTIPODAL.T)
-
     out: list = [None] * 6
     for face, e in enumerate(entries):
         if e is None:
             continue
         union, boxes, index = e
         # the box (x0, y0, x1, y1) of the image is (-y1, -x1, -y0, -x0), exactly
-        out[face ^ 1] = (flip(union), None if boxes is None else -boxes[:, ::-1], index)
+        out[face ^ 1] = (antipodal(union), None if boxes is None else -boxes[:, ::-1], index)
     return out
+
+
+def antipodal(g: object) -> object:
+    """The chart geometry ``g`` (one geometry or an array of them) of a face mapped onto the
+    opposite face by ``d -> -d`` (:data:`ANTIPODAL`; exact: coordinates swapped and negated)."""
+    return shapely.transform(g, lambda xy: xy @ ANTIPODAL.T)
 
 
 def cut_to_domain(g: object, dom: object, memo: dict, key: bytes | None = None

@@ -24,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 
+from .chart_union import antipodal
 from .cover import RASTER, cells_window
 from .cubemap import FACES
 from .dbg import DBG, strong_components
@@ -171,11 +172,17 @@ def _may_free(n: int, pairs: Sequence[tuple], tol: float, d: np.ndarray, rad: np
 
 def domain_polygons(dom: np.ndarray) -> list[object]:
     """Per face, the chart geometry (shapely, closed) of the domain cells; ``None`` where the
-    face has none."""
+    face has none. A face whose cells are the antipodal image of the opposite face's (a
+    symmetric domain, as the infinite NDBG takes) gets that face's geometry mapped exactly
+    (:func:`~ndbg_cli.chart_union.antipodal`), so that the sets cut to it, and their
+    arrangement, are exact antipodal images too."""
     r = dom.shape[1]
     h = 2.0 / r
     out: list[object] = []
     for f in range(6):
+        if f & 1 and np.array_equal(dom[f], dom[f ^ 1].T[::-1, ::-1]):
+            out.append(None if out[f ^ 1] is None else antipodal(out[f ^ 1]))
+            continue
         # one box per run of domain cells in a row
         pad = np.zeros((r, r + 2), dtype=np.int8)
         pad[:, 1:-1] = dom[f]

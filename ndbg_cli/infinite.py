@@ -65,7 +65,14 @@ import shapely
 from . import equator
 from .arrangement import Cell, arrangement_cells
 from .assembly import Assembly
-from .blocked_sets import OPEN_TOL, BlockedSets, blocked_sets, triangle_pairs
+from .blocked_sets import (
+    OPEN_TOL,
+    BlockedSets,
+    blocked_sets,
+    succ_from_bits,
+    transposed_bits,
+    triangle_pairs,
+)
 from .blocking_cones import pair_cones
 from .cache import PairCache
 from .cubemap import face_of
@@ -94,46 +101,60 @@ class TooLarge(NdbgError):
     """The NDBG has too many regions x parts to hold (:data:`MAX_DBG_BYTES`)."""
 
 
-def _regions_3d(bs: BlockedSets, workers: int = 1) -> tuple[list[Region], int]:
+def _regions_3d(bs: BlockedSets, workers: int = 1) -> tuple[list[Region], int, float]:
     """The regions of S^2 (:func:`~ndbg_cli.arrangement.arrangement_cells`), each with its DBG,
-    the seam candidates kept where the open-set semantics frees something; and the number of
-    lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`).
+    the seam candidates kept where the open-set semantics frees something; the number of
+    lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`); and the
+    ``perf_counter`` time when the arrangement was done (its DBGs are read after).
     :class:`TooLarge` when their DBGs would pass :data:`MAX_DBG_BYTES`."""
     cells = arrangement_cells(bs, workers)
-    need = len(cells) * bs.n * ((bs.n + 7) // 8)
-    if need > MAX_DBG_BYTES:
+    t_cells = time.perf_counter()
+    size = len(cells) * bs.n * ((bs.n + 7) // 8)
+    if size > MAX_DBG_BYTES:
         raise TooLarge(f"its arrangement has {len(cells):,} regions over {bs.n} parts: their "
-                       f"DBGs would take {need / 2**30:.1f} GiB (limit "
+                       f"DBGs would take {size / 2**30:.1f} GiB (limit "
                        f"{MAX_DBG_BYTES / 2**30:.0f} GiB)")
-    dirs = np.array([c.direction for c in cells]) if cells else np.zeros((0, 3))
-    dbgs = bs.dbgs(dirs, workers=workers) if len(dirs) else []
+    # The DBGs are read at the cells made, and reversed for their antipodal images
+    # (G(-d) is G(d) reversed, exactly: B_ji = -B_ij).
+    mirror = np.array([c.mirror_of for c in cells], dtype=np.int64)
+    made = np.flatnonzero(mirror < 0)
+    cells_m = [cells[k] for k in made]
+    dirs = np.array([c.direction for c in cells_m]).reshape(-1, 3)
+    bits = bs.dbg_bits(dirs, workers=workers)
     # Seam candidates: keep those where the open-set semantics frees something.
-    seam = np.array([c.seam for c in cells], dtype=bool)
-    dims = np.array([c.dimension for c in cells], dtype=int)
+    seam = np.array([c.seam for c in cells_m], dtype=bool)
+    dims = np.array([c.dimension for c in cells_m], dtype=int)
     lower = dims < 2
     counts = sliding_counts(bs.circles, dirs)  # per cell; the kept ones' are the regions'
     on_circle = counts > 0
-    recheck = np.nonzero(seam | (lower & on_circle))[0]
+    need = seam | (lower & on_circle)
+    recheck = np.nonzero(need)[0]
     keep = ~seam
-    skipped = 0
     if len(recheck) > EXACT_CELLS:
         order = np.lexsort((recheck, ~seam[recheck], dims[recheck]))
-        skipped = len(recheck) - EXACT_CELLS
         recheck = np.sort(recheck[order[:EXACT_CELLS]])
+    need[recheck] = False  # now: those left with the closed sets' DBG
     if len(recheck):
-        for k, g in zip(recheck, bs.dbgs(dirs[recheck], exact=True)):
-            if seam[k] and g.succ != dbgs[k].succ:
-                keep[k] = True
-            dbgs[k] = g
-    cells = [c for c, ok in zip(cells, keep) if ok]
-    dbgs = [g for g, ok in zip(dbgs, keep) if ok]
-    dirs = np.array([c.direction for c in cells]).reshape(-1, 3)
-    sliding = counts[keep]
-    lower = np.array([c.dimension < 2 for c in cells], dtype=bool)
-    dirs, sliding = _snap_to_circles(bs, dirs, sliding, dbgs, lower)
-    regions = [Region(dimension=c.dimension, direction=tuple(d), dbg=g, sliding=k)
-               for c, d, g, k in zip(cells, dirs.tolist(), dbgs, sliding.tolist())]
-    return regions, skipped
+        exact = bs.dbg_bits(dirs[recheck], exact=True)
+        changed = np.any(exact != bits[recheck], axis=(1, 2))
+        keep[recheck[seam[recheck] & changed]] = True
+        bits[recheck] = exact
+    dirs, counts = _snap_to_circles(bs, dirs, counts, bits, lower & keep)
+    # the images: each the cell made mapped, in the arrangement's order
+    at = np.empty(len(cells), dtype=np.int64)
+    at[made] = np.arange(len(made))
+    pos = at[np.where(mirror < 0, np.arange(len(cells)), mirror)]
+    flip = mirror >= 0
+    ks = np.flatnonzero(keep[pos])
+    rows = bits[pos[ks]]
+    rows[flip[ks]] = transposed_bits(rows[flip[ks]])
+    regions = []
+    for k, succ in zip(ks.tolist(), succ_from_bits(rows)):
+        p = pos[k]
+        d = 0.0 - dirs[p] if flip[k] else dirs[p]
+        regions.append(Region(dimension=cells[k].dimension, direction=tuple(d.tolist()),
+                              dbg=DBG(succ), sliding=int(counts[p])))
+    return regions, int(need[pos].sum()), t_cells
 
 
 #: How far (chart units, about radians, times ``eta``) from a lower-dimensional region's
@@ -142,7 +163,7 @@ SNAP_ETA = 2.0
 
 
 def _snap_to_circles(bs: BlockedSets, dirs: np.ndarray, sliding: np.ndarray,
-                     dbgs: list[DBG], lower: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                     bits: np.ndarray, lower: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Move the direction of each lower-dimensional region (``lower``) to the point where the
     contact circles near it meet, when that point lies on more circles (within
     :data:`ON_CIRCLE`) and has the region's DBG (exact lookup).
@@ -183,9 +204,9 @@ def _snap_to_circles(bs: BlockedSets, dirs: np.ndarray, sliding: np.ndarray,
             if on_p > sliding[k]:
                 cand.append((k, p, on_p))
     if cand:
-        got = bs.dbgs(np.array([p for _, p, _ in cand]), exact=True)
+        got = bs.dbg_bits(np.array([p for _, p, _ in cand]), exact=True)
         for (k, p, on_p), g in zip(cand, got):
-            if g.succ == dbgs[k].succ:
+            if np.array_equal(g, bits[k]):
                 dirs[k] = p
                 sliding[k] = on_p
     return dirs, sliding
@@ -250,8 +271,7 @@ def _build(asm: Assembly, cache: PairCache | None, domain: np.ndarray | None, wo
                           thin=dim == 1 and equator.narrow(span[1] - span[0], bs.eta))
                    for (dim, phi, g, span), k in zip(regs, sliding)]
     else:
-        regions, skipped = _regions_3d(bs, workers)
-        t2 = time.perf_counter()
+        regions, skipped, t2 = _regions_3d(bs, workers)
     t3 = time.perf_counter()
     ndbg = NDBG(family=FAMILY, ids=tuple(asm.ids), regions=tuple(regions),
                 space_dimension=asm.dimension, stats={}, geometry=bs)

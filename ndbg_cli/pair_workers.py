@@ -25,7 +25,7 @@ import numpy as np
 import shapely
 
 from .blocking_cones import pruned_pair_cones
-from .chart_union import cones_to_face_geoms, cut_to_domain, reverse_entries
+from .chart_union import antipodal, cones_to_face_geoms, cut_to_domain
 from .domain import domain_polygons, domain_windows
 from .pools import end_pool
 from .tritree import LEAF, tri_tree
@@ -54,7 +54,9 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     :func:`~ndbg_cli.domain.domain_polygons`), ``cuts`` holds per face the memo of
     :func:`~ndbg_cli.chart_union.cut_to_domain` for the faces of ``B_ab`` and ``B_ba``: what
     the caller would cut next, made here in parallel (else empty dicts); ``memo`` (per face
-    a dict, kept by the caller over its pairs) holds the cuts made so far."""
+    a dict, kept by the caller over its pairs) holds the cuts made so far. Only the even
+    faces' cuts are made (the domain is symmetric under ``d -> -d``: the odd faces' are their
+    images, :func:`~ndbg_cli.blocked_sets.blocked_sets`)."""
     t0 = time.perf_counter()
     for k in (a, b):
         if trees[k] is None:
@@ -70,11 +72,14 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     cuts: list[dict] = [{} for _ in range(6)]
     if dom is not None:
         memo = memo if memo is not None else [{} for _ in range(6)]
-        for entries in (faces, reverse_entries(faces)):
-            for face, e in enumerate(entries):
-                if e is not None and dom[face] is not None:
-                    key = shapely.to_wkb(e[0])
-                    cuts[face][key] = cut_to_domain(e[0], dom[face], memo[face], key)
+        # the caller cuts the sets on the even faces only, B_ab's and B_ba's (the antipodal
+        # image of B_ab's on the odd face), and maps the cuts onto the odd faces
+        for face, e in enumerate(faces):
+            even = face & ~1
+            if e is not None and dom[even] is not None:
+                g = e[0] if face == even else antipodal(e[0])
+                key = shapely.to_wkb(g)
+                cuts[even][key] = cut_to_domain(g, dom[even], memo[even], key)
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1, cuts
 
 
