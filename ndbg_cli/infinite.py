@@ -87,8 +87,10 @@ from .ndbg import NDBG, Region
 # --------------------------------------------------------------------------------------------
 
 #: Most cells re-tested with the open-set semantics (0-dimensional first, then seams, then
-#: 1-dimensional cells on contact circles); the others keep the closed sets' DBG, which has
-#: more arcs: a partitioning may be missed there, none is made up. The section says how many.
+#: 1-dimensional cells on contact circles), counted on the even cube faces (the odd faces'
+#: cells are their antipodal images and share the answer); the others keep the closed sets'
+#: DBG, which has more arcs: a partitioning may be missed there, none is made up. The section
+#: says how many.
 EXACT_CELLS = 2000
 
 
