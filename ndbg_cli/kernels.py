@@ -69,6 +69,28 @@ def dot_einsum(x0, x1, x2, y0, y1, y2):
     return (x0 * y0 + x2 * y2) + x1 * y1
 
 
+@njit(cache=True, inline="always")
+def cut_polygon(cur: np.ndarray, n: int, f: np.ndarray, buf: np.ndarray) -> int:
+    """One Sutherland-Hodgman step: the part of the polygon ``cur[:n]`` (``(., 2)``) where
+    ``f`` (its values at the vertices ``f[:n]``, affine along the edges) is ``>= 0``, written
+    to ``buf`` (room for ``2 n`` vertices); returns its vertex count. A crossing of edge
+    ``p -> q`` is ``p + w (q - p)``, ``w = f(p) / (f(p) - f(q))``."""
+    m = 0
+    for j in range(n):
+        nx = j + 1 if j + 1 < n else 0
+        fa, fb = f[j], f[nx]
+        if fa >= 0.0:
+            buf[m, 0] = cur[j, 0]
+            buf[m, 1] = cur[j, 1]
+            m += 1
+        if (fa >= 0.0 and fb < 0.0) or (fa < 0.0 and fb >= 0.0):
+            w = fa / (fa - fb)
+            buf[m, 0] = cur[j, 0] + w * (cur[nx, 0] - cur[j, 0])
+            buf[m, 1] = cur[j, 1] + w * (cur[nx, 1] - cur[j, 1])
+            m += 1
+    return m
+
+
 @njit(cache=True)
 def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f: np.ndarray):
     """Clip the quadrilateral ``sq`` ``(4, 2)`` by the half-planes ``coef`` ``(k, 3)`` of one
@@ -111,19 +133,7 @@ def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f:
             continue
         if 2 * n > len(buf):  # more crossings than a convex polygon has: room for all
             buf = np.empty((2 * n, 2))
-        m = 0
-        for j in range(n):
-            nx = j + 1 if j + 1 < n else 0
-            fa, fb = f[j], f[nx]
-            if fa >= 0.0:
-                buf[m, 0] = cur[j, 0]
-                buf[m, 1] = cur[j, 1]
-                m += 1
-            if (fa >= 0.0 and fb < 0.0) or (fa < 0.0 and fb >= 0.0):
-                w = fa / (fa - fb)
-                buf[m, 0] = cur[j, 0] + w * (cur[nx, 0] - cur[j, 0])
-                buf[m, 1] = cur[j, 1] + w * (cur[nx, 1] - cur[j, 1])
-                m += 1
+        m = cut_polygon(cur, n, f, buf)
         cur, buf = buf, cur
         if len(f) < len(cur):
             f = np.empty(len(cur))

@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .kernels import cut_polygon
+
 
 @njit(cache=True)
 def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -163,18 +165,7 @@ def inset_convex(xy: np.ndarray, start: np.ndarray, cnt: np.ndarray, delta: np.n
             ax, ay = -dy * sign / ln, dx * sign / ln
             for j in range(n):
                 f[j] = (cur[j, 0] - px) * ax + (cur[j, 1] - py) * ay - delta[i]
-            m = 0
-            for j in range(n):
-                nx = j + 1 if j + 1 < n else 0
-                fa, fb = f[j], f[nx]
-                if fa >= 0.0:
-                    buf[m, 0], buf[m, 1] = cur[j, 0], cur[j, 1]
-                    m += 1
-                if (fa >= 0.0) != (fb >= 0.0):
-                    t = fa / (fa - fb)
-                    buf[m, 0] = cur[j, 0] + t * (cur[nx, 0] - cur[j, 0])
-                    buf[m, 1] = cur[j, 1] + t * (cur[nx, 1] - cur[j, 1])
-                    m += 1
+            m = cut_polygon(cur, n, f, buf)
             for j in range(m):
                 cur[j, 0], cur[j, 1] = buf[j, 0], buf[j, 1]
             n = m
