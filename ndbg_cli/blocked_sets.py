@@ -20,7 +20,7 @@ import shapely
 from .assembly import Assembly, content_hash
 from .blocking_cones import part_triangles, unique_circles
 from .cache import PairCache
-from .chart_union import GRID, antipodal, cut_to_domain, reverse_entries  # noqa: F401 (reverse_entries: API)
+from .chart_union import antipodal, cut_to_domain, reverse_entries
 from .convex_cones import convex_entries, convex_pairs, far_convex
 from .cubemap import face_of
 from .dbg import DBG
@@ -326,7 +326,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     todo = [p for p in order if p not in fast and p not in found]
     # each pair cached as soon as it is done (an interrupted run keeps them); the times are
     # summed over the workers (CPU seconds, not wall time, with several)
-    done = pair_sets(tris, todo, eps, domain, workers)
+    dom = None if domain is None else domain_polygons(domain)
+    done = pair_sets(tris, todo, eps, domain, workers, dom)
     cuts: list[dict] = [{} for _ in range(6)]
     for k, (cones, circ, entries, dt_cones, dt_union, made) in bar(
             done, len(todo), "part pairs", quiet=not progress):
@@ -342,7 +343,6 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
             cones, circ, entries = found[(a, b)]
             circles.append(circ)
             store(a, b, cones, entries)
-    dom = None if domain is None else domain_polygons(domain)
     if dom is not None:
         # only the domain's part is right (and needed): the arrangement is built there
         for face in range(0, 6, 2):

@@ -90,13 +90,13 @@ def _watch_parent(parent: int) -> None:
             os._exit(1)
 
 
-def _init(tris: list, eps: float, domain: np.ndarray | None, parent: int) -> None:
+def _init(tris: list, eps: float, domain: np.ndarray | None, dom: list | None,
+          parent: int) -> None:
     gc.disable()  # as in the parent (ndbg_cli.gc_pause.gc_paused); the pool is short-lived
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
-    _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris),
-                  dom=None if domain is None else domain_polygons(domain),
+    _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris), dom=dom,
                   memo=[{} for _ in range(6)])
 
 
@@ -106,15 +106,17 @@ def _work(pair: tuple[int, int]) -> tuple:
 
 
 def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, int]],
-              eps: float, domain: np.ndarray | None = None, workers: int = 1
-              ) -> Iterator[tuple[int, tuple]]:
+              eps: float, domain: np.ndarray | None = None, workers: int = 1,
+              dom: list | None = None) -> Iterator[tuple[int, tuple]]:
     """:func:`one_pair` for each ordered pair ``(a, b)`` of ``pairs``, as ``(k, result)`` for
     ``pairs[k]``, each as soon as it is done (so that a caller can cache it), with up to
-    ``workers`` processes (one: in this process, in order)."""
+    ``workers`` processes (one: in this process, in order). ``dom``: the domain's polygons
+    (:func:`~ndbg_cli.domain.domain_polygons`) when the caller has them, else made here."""
     cost = sum(len(tris[a][0]) * len(tris[b][0]) for a, b in pairs)
     trees: list = [None] * len(tris)
+    if dom is None and domain is not None:
+        dom = domain_polygons(domain)
     if workers <= 1 or len(pairs) < 2 or cost < MIN_PARALLEL_PAIRS:
-        dom = None if domain is None else domain_polygons(domain)
         memo: list[dict] = [{} for _ in range(6)]
         for k, (a, b) in enumerate(pairs):
             yield k, one_pair(tris, trees, a, b, eps, domain, dom, memo)
@@ -123,7 +125,7 @@ def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, 
     order = sorted(range(len(pairs)), key=lambda k: -len(tris[pairs[k][0]][0])
                    * len(tris[pairs[k][1]][0]))
     pool = ProcessPoolExecutor(max_workers=min(workers, len(pairs)), initializer=_init,
-                               initargs=(tris, eps, domain, os.getpid()))
+                               initargs=(tris, eps, domain, dom, os.getpid()))
     done: set[int] = set()
     try:
         for k, r in zip(order, pool.map(_work, [pairs[k] for k in order])):
