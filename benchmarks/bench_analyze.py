@@ -2,7 +2,7 @@
 cache), less the interpreter's start and imports (printed once, ``import_s``).
 
 Per case: ``load`` (reading and validating the meshes; a STEP file is tessellated), then
-``analyze`` (every stage of :func:`ndbg_cli.pipeline.run_stages` and the report), best of
+``analyze`` (every stage of :func:`ndbg_cli.pipeline.stages.run_stages` and the report), best of
 :data:`REPEAT`; ``total`` is their sum, and the three slowest stages are printed with their
 share. The mission's aim is "well under a second for products of tens of parts".
 """
@@ -36,13 +36,13 @@ def _import_s() -> float:
         subprocess.run([sys.executable, "-c", code], check=True)
         return time.perf_counter() - t0
     bare = min(run("pass") for _ in range(3))
-    return min(run("import ndbg_cli.cli") for _ in range(3)) - bare
+    return min(run("import ndbg_cli.cli.main") for _ in range(3)) - bare
 
 
 def run() -> list[tuple[str, float, str]]:
     import ndbg_cli
-    from ndbg_cli.analysis import Options
-    from ndbg_cli.pipeline import run_stages
+    from ndbg_cli.pipeline.analysis import Options
+    from ndbg_cli.pipeline.stages import run_stages
 
     rows: list[tuple[str, float, str]] = [("import_s", _import_s(), "s")]
     for name, path in CASES.items():

@@ -14,10 +14,10 @@ import time
 from pathlib import Path
 
 import ndbg_cli
-from ndbg_cli.cache import PairCache
-from ndbg_cli.contacts import analyze_contacts
-from ndbg_cli.facets import clear_caches
-from ndbg_cli.infinite import blocked_sets
+from ndbg_cli.contacts.contacts3d import analyze_contacts
+from ndbg_cli.contacts.facets import clear_caches
+from ndbg_cli.core.cache import PairCache
+from ndbg_cli.ndbg.infinite.build import blocked_sets
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"

@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 import ndbg_cli
-from ndbg_cli.contacts import analyze_contacts
-from ndbg_cli.facets import clear_caches, fcl_model
+from ndbg_cli.contacts.contacts3d import analyze_contacts
+from ndbg_cli.contacts.facets import clear_caches, fcl_model
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 CASES = (("as1", DATA / "as1" / "as1-oc-214.stp"),

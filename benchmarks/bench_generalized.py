@@ -33,8 +33,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import ROOT, SHARED, best_of  # noqa: E402
 
 import ndbg_cli  # noqa: E402
-from ndbg_cli import generalized as ge  # noqa: E402
-from ndbg_cli import twist as tw  # noqa: E402
+from ndbg_cli.ndbg.generalized import build as ge  # noqa: E402
+from ndbg_cli.ndbg.generalized import twist as tw  # noqa: E402
 
 #: Timed calls per figure (the best one is reported).
 REPEAT = 5
@@ -47,7 +47,7 @@ CASES = {
 
 def _translational(asm, result):
     try:
-        from ndbg_cli.infinitesimal import infinitesimal_ndbg
+        from ndbg_cli.ndbg.infinitesimal.build import infinitesimal_ndbg
     except ImportError:
         return None
     return best_of(lambda: infinitesimal_ndbg(asm, result), repeat=REPEAT)[0]
@@ -56,8 +56,8 @@ def _translational(asm, result):
 def _pipeline(asm, motion: str) -> dict[str, float]:
     """Seconds per stage after the contacts (best of 5 each), the infinite family's left out,
     and their sum under ``"total"``."""
-    from ndbg_cli.analysis import Options
-    from ndbg_cli.pipeline import run_stages
+    from ndbg_cli.pipeline.analysis import Options
+    from ndbg_cli.pipeline.stages import run_stages
 
     best: dict[str, float] = {}
     for _ in range(5):
@@ -71,7 +71,7 @@ def _pipeline(asm, motion: str) -> dict[str, float]:
 
 
 def run() -> list[tuple[str, float, str]]:
-    from ndbg_cli.contacts import analyze_contacts
+    from ndbg_cli.contacts.contacts3d import analyze_contacts
 
     rows_out: list[tuple[str, float, str]] = []
     for name, path in CASES.items():

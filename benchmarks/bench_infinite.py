@@ -1,4 +1,4 @@
-"""Benchmark: the NDBG for infinite translations (:func:`ndbg_cli.infinite.build_infinite`).
+"""Benchmark: the NDBG for infinite translations (:func:`ndbg_cli.ndbg.infinite.build.build_infinite`).
 
 Cases: AS1 (18 parts, 11k triangles), the beam (5 parts, 48k triangles), the engine GLB (115
 open meshes), AS1 and the beam restricted to their free domains (what ``--motion infinite``
@@ -22,12 +22,12 @@ import numpy as np
 import trimesh
 
 import ndbg_cli
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.batch import default_jobs
-from ndbg_cli.blocking_cones import pair_cones, part_triangles
-from ndbg_cli.chart_union import cones_to_face_geoms
-from ndbg_cli.infinite import TooLarge, build_infinite
-from ndbg_cli.validate import make_part
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.io.validate import make_part
+from ndbg_cli.ndbg.infinite.blocking_cones import pair_cones, part_triangles
+from ndbg_cli.ndbg.infinite.build import TooLarge, build_infinite
+from ndbg_cli.ndbg.infinite.chart_union import cones_to_face_geoms
+from ndbg_cli.pipeline.batch import default_jobs
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 #: Cases estimated to take longer than this are skipped (seconds).
@@ -88,15 +88,15 @@ def _time(asm: Assembly) -> tuple[float, str]:
 
 def _restricted(name: str, path: Path, workers: int = 1) -> tuple[str, float, str]:
     """What ``ndbg analyze --motion infinite`` does above the budget: the NDBG only where the
-    infinitesimal NDBG frees a subassembly (:mod:`ndbg_cli.domain`); timed from the contacts
+    infinitesimal NDBG frees a subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`); timed from the contacts
     on (the contact analysis itself is in ``bench_contacts``), with ``workers`` processes for
     the part pairs (``--jobs``)."""
     if not path.exists():
         return name, float("nan"), f"skipped: {path} not found"
-    from ndbg_cli.contacts import analyze_contacts
-    from ndbg_cli.domain import free_domain
-    from ndbg_cli.infinitesimal import contact_pairs
-    from ndbg_cli.ndbg import partitionings
+    from ndbg_cli.contacts.contacts3d import analyze_contacts
+    from ndbg_cli.ndbg.infinite.domain import free_domain
+    from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
+    from ndbg_cli.ndbg.model import partitionings
 
     asm = ndbg_cli.load(path)
     ca = analyze_contacts(asm)

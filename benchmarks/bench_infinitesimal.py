@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from ndbg_cli.infinitesimal import (
+from ndbg_cli.ndbg.infinitesimal.build import (
     build_ndbg_2d,
     build_ndbg_3d,
     candidate_partitionings,

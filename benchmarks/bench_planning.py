@@ -19,10 +19,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ndbg_cli.andor import AndOrGraph, Budget
-from ndbg_cli.classes import andor_section, min_depth_search
-from ndbg_cli.dbg import DBG
-from ndbg_cli.ndbg import NDBG, Region
+from ndbg_cli.ndbg.dbg import DBG
+from ndbg_cli.ndbg.model import NDBG, Region
+from ndbg_cli.planning.andor import AndOrGraph, Budget
+from ndbg_cli.planning.classes import andor_section, min_depth_search
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,7 +89,7 @@ CASES = [
 def _real(path: Path, base: bool):
     """The infinitesimal-translation NDBG of a real assembly (contacts computed once)."""
     import ndbg_cli
-    from ndbg_cli.infinitesimal import infinitesimal_ndbg
+    from ndbg_cli.ndbg.infinitesimal.build import infinitesimal_ndbg
 
     asm = ndbg_cli.load(path)
     return infinitesimal_ndbg(asm), (asm.index(asm.base) if base and asm.base else None)

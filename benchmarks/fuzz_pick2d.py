@@ -1,4 +1,4 @@
-"""Fuzz: is the direction :func:`ndbg_cli.planning.pick_region` reports for a 2D partitioning
+"""Fuzz: is the direction :func:`ndbg_cli.planning.plans.pick_region` reports for a 2D partitioning
 free for the direct sweep test?
 
 Random small 2D polygon assemblies with many short zero-clearance contacts are built
@@ -6,9 +6,9 @@ Random small 2D polygon assemblies with many short zero-clearance contacts are b
 and columns, some cells left empty (pockets, slots, pegs in notches, overhangs); stacks of
 blocks of random widths and offsets; plates with notches holding pegs. Half of them are
 turned by a random angle (and scaled). For each one the infinite-translation NDBG is built
-and, for every partitioning of the whole assembly (:func:`ndbg_cli.ndbg.partitionings`), the
+and, for every partitioning of the whole assembly (:func:`ndbg_cli.ndbg.model.partitionings`), the
 region ``pick_region`` picks among the regions where the moved set is free is checked with
-:class:`ndbg_cli.sweep.SweepChecker` (no erosion, shares no code with :mod:`ndbg_cli.equator`):
+:class:`ndbg_cli.ndbg.infinite.sweep.SweepChecker` (no erosion, shares no code with :mod:`ndbg_cli.ndbg.infinite.equator`):
 ``blocked`` counts picks whose direction the sweep test blocks, ``fixable`` those among them
 where another of the partitioning's regions is free for it.
 
@@ -18,7 +18,7 @@ About 0.1 s an assembly. ``--n 3000 --seed 1``: 26,030 partitionings; 2,929 pick
 (in 733 assemblies, every one a 1-dimensional region at most 25.2 ``eta`` wide that no
 contact slides along, each with another region the sweep test frees) while every
 1-dimensional region ranked ahead of the lower-dimensional ones; none since thin regions
-(:attr:`ndbg_cli.ndbg.Region.thin`) are ranked with them.
+(:attr:`ndbg_cli.ndbg.model.Region.thin`) are ranked with them.
 """
 
 from __future__ import annotations
@@ -31,13 +31,13 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon, box
 
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.equator import equator_extents, sliding_angles
-from ndbg_cli.infinite import build_infinite
-from ndbg_cli.ndbg import partitionings
-from ndbg_cli.planning import pick_region
-from ndbg_cli.sweep import SweepChecker
-from ndbg_cli.validate import make_polygon_part
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.io.validate import make_polygon_part
+from ndbg_cli.ndbg.infinite.build import build_infinite
+from ndbg_cli.ndbg.infinite.equator import equator_extents, sliding_angles
+from ndbg_cli.ndbg.infinite.sweep import SweepChecker
+from ndbg_cli.ndbg.model import partitionings
+from ndbg_cli.planning.plans import pick_region
 
 KINDS = ("grid", "stack", "pegs")
 

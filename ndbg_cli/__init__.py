@@ -7,9 +7,9 @@ Library API (the CLI is a thin layer over it)::
     report = ndbg_cli.analyze(asm)                   # -> dict (the JSON report)
 """
 
-__version__ = "0.1.0"
-
 import os as _os
+
+from ._version import __version__
 
 # Every matrix ndbg hands to BLAS/LAPACK is tiny (6 x 6 systems, m x 6 SVDs): threads buy
 # nothing there, and on a busy machine (a CI runner, ``--jobs N`` workers) their spinning
@@ -19,10 +19,10 @@ import os as _os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
-from .analysis import Options, analyze, analyze_path  # noqa: E402
-from .assembly import Assembly, Diagnostic, Joint, Part  # noqa: E402
-from .errors import InputError, NdbgError  # noqa: E402
-from .loaders import discover, load  # noqa: E402
+from .core.assembly import Assembly, Diagnostic, Joint, Part  # noqa: E402
+from .core.errors import InputError, NdbgError  # noqa: E402
+from .io.loaders import discover, load  # noqa: E402
+from .pipeline.analysis import Options, analyze, analyze_path  # noqa: E402
 
 __all__ = ["__version__", "Assembly", "Part", "Joint", "Diagnostic", "InputError", "NdbgError",
            "load", "discover", "analyze", "analyze_path", "Options"]

@@ -77,7 +77,7 @@ def test_out_dir_reports_and_index(tmp_path):
 def test_out_dir_index_follows_the_schema_and_index_is_not_a_report_name(tmp_path):
     """index.json validates against the shipped schema (each entry has its top-level
     ``source``), and an assembly named ``index`` does not overwrite it."""
-    from ndbg_cli.report import validate_report
+    from ndbg_cli.report.document import validate_report
 
     src = tmp_path / "src"
     src.mkdir()
@@ -133,7 +133,7 @@ def test_sigterm_inside_write_atomic_leaves_no_temporary_file(tmp_path, monkeypa
     created. The report is completed (or not started), the signal still stops the caller."""
     import tempfile
 
-    from ndbg_cli import report
+    from ndbg_cli.report import document as report
 
     real_mkstemp = tempfile.mkstemp
 

@@ -95,34 +95,41 @@ def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
     import sys
 
     import ndbg_cli
-    from ndbg_cli.cache import stage_modules
+    from ndbg_cli.core.cache import stage_modules
+
+    import importlib.util
 
     here = Path(ndbg_cli.__file__).parent
     for stage in ("contacts", "infinite"):
         mods = set(stage_modules(stage))
         for name in mods:  # closed under the package's relative imports
-            for node in ast.walk(ast.parse((here / f"{name}.py").read_text())):
-                if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
-                    assert node.module.split(".")[0] in mods
-    assert {"gap_cones", "facets", "sphere"} <= set(stage_modules("contacts"))
-    assert {"blocking_cones", "cover", "tritree", "domain"} <= set(stage_modules("infinite"))
-    assert "text" not in stage_modules("infinite")
+            spec = importlib.util.find_spec(f"ndbg_cli.{name}")
+            package = f"ndbg_cli.{name}".rpartition(".")[0]
+            for node in ast.walk(ast.parse(Path(spec.origin).read_text())):
+                if isinstance(node, ast.ImportFrom) and node.level and node.module:
+                    target = importlib.util.resolve_name("." * node.level + node.module, package)
+                    assert target.removeprefix("ndbg_cli.") in mods, (name, target)
+    assert {"contacts.gap_cones", "contacts.facets", "geometry.sphere"} <= set(
+        stage_modules("contacts"))
+    assert {"ndbg.infinite.blocking_cones", "ndbg.infinite.cover", "ndbg.infinite.tritree",
+            "ndbg.infinite.domain", "ndbg.infinite._kernels"} <= set(stage_modules("infinite"))
+    assert "report.text" not in stage_modules("infinite")
 
     copy = tmp_path / "pkg" / "ndbg_cli"
     shutil.copytree(here, copy, ignore=shutil.ignore_patterns("__pycache__"))
 
     def digests() -> list[str]:
-        code = ("from ndbg_cli.cache import code_digest; "
+        code = ("from ndbg_cli.core.cache import code_digest; "
                 "print(code_digest('contacts'), code_digest('infinite'))")
         out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path / "pkg",
                              capture_output=True, text=True, check=True)
         return out.stdout.split()
 
     before = digests()
-    with open(copy / "text.py", "a") as f:
+    with open(copy / "report" / "text.py", "a") as f:
         f.write("\n# an edit elsewhere\n")
     assert digests() == before
-    with open(copy / "gap_cones.py", "a") as f:
+    with open(copy / "contacts" / "gap_cones.py", "a") as f:
         f.write("\n# an edit of a helper\n")
     after = digests()
     assert after[0] != before[0] and after[1] != before[1]
@@ -133,7 +140,7 @@ def test_trim_removes_the_least_recently_used_entries(tmp_path):
     the limit removes the oldest others until the cache holds at most TRIM_TO of it."""
     import os
 
-    from ndbg_cli.cache import TRIM_TO, PairCache, clear, trim, usage
+    from ndbg_cli.core.cache import TRIM_TO, PairCache, clear, trim, usage
 
     c = PairCache(tmp_path / "c")
     keys = [c.key("contacts", k) for k in range(6)]
@@ -194,7 +201,7 @@ def test_trim_and_clear_touch_only_ndbg_entries(tmp_path):
     """A cache pointed at a folder of one's own: its other files (pickles included, even
     in folders shaped like the cache's) survive a trim and a clear; the cache folder gets a
     CACHEDIR.TAG; an entry another run removed first counts as freed (no extra removals)."""
-    from ndbg_cli.cache import PairCache, clear, trim, usage
+    from ndbg_cli.core.cache import PairCache, clear, trim, usage
 
     mine = [tmp_path / "results" / "run1" / "model.pkl",
             tmp_path / "contacts" / "ab" / "notes.pkl",
@@ -219,7 +226,7 @@ def test_trim_and_clear_touch_only_ndbg_entries(tmp_path):
         c.put("contacts", key, bytes(10_000))
     size = usage(tmp_path)["bytes"]
     limit = int(size * 0.9)  # target 0.8 * 0.9 of it: two of the four entries go
-    import ndbg_cli.cache as cache_mod
+    import ndbg_cli.core.cache as cache_mod
     listing = cache_mod._entries(tmp_path)
     assert trim(tmp_path, limit)[0] == 2
     left = usage(tmp_path)["bytes"]
@@ -239,7 +246,7 @@ def test_trim_removes_stale_temporary_files_only(tmp_path):
     import os
     import time
 
-    from ndbg_cli.cache import STALE_TEMP_S, PairCache, trim, usage
+    from ndbg_cli.core.cache import STALE_TEMP_S, PairCache, trim, usage
 
     c = PairCache(tmp_path)
     key = c.key("infinite", 1)

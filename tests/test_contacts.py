@@ -18,10 +18,8 @@ import trimesh
 from scipy.spatial.transform import Rotation
 
 import ndbg_cli
-import ndbg_cli.contacts as contacts_module
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.contact_features import _distinct_points, _unique_rows, classify_pairs
-from ndbg_cli.contacts import (
+import ndbg_cli.contacts.contacts3d as contacts_module
+from ndbg_cli.contacts.contacts3d import (
     DEFAULT_ANGLE_TOLERANCE,
     _tree_rank,
     analyze_contacts,
@@ -30,10 +28,12 @@ from ndbg_cli.contacts import (
     contacts_text,
     fcl_model,
 )
-from ndbg_cli.errors import InterferenceError
-from ndbg_cli.facets import box_pairs, fcl_object, part_geometry, sat_gap
-from ndbg_cli.normals import _one_cluster, cluster_normals
-from ndbg_cli.validate import make_part
+from ndbg_cli.contacts.facets import box_pairs, fcl_object, part_geometry, sat_gap
+from ndbg_cli.contacts.features import _distinct_points, _unique_rows, classify_pairs
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.core.errors import InterferenceError
+from ndbg_cli.geometry.normals import _one_cluster, cluster_normals
+from ndbg_cli.io.validate import make_part
 
 from conftest import shared
 
@@ -657,7 +657,7 @@ def test_apart_is_a_proof_of_distance():
 
 
 def test_near_triangles_equals_the_r_tree_search(monkeypatch):
-    import ndbg_cli.contact_features as features
+    import ndbg_cli.contacts.features as features
     _, _, (ga, gb) = shaft_block_geometry()
     rng = np.random.default_rng(9)
     for g in (ga, gb):

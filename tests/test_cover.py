@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ndbg_cli import blocking_cones as bc
-from ndbg_cli.cover import Cover
-from ndbg_cli.cubemap import FACES, clip_halfplanes, compact, cone_normals
+from ndbg_cli.ndbg.infinite.cover import Cover
+from ndbg_cli.ndbg.infinite.cubemap import FACES, clip_halfplanes, compact, cone_normals
+from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
 
 def _random_cones(rng: np.random.Generator, p: int, spread: float) -> np.ndarray:
@@ -108,7 +108,7 @@ def test_compact_keeps_different_facets_with_equal_keys() -> None:
     """``compact`` sorts a cone's facets by one number per row (n . (1, pi, e)); two
     different unit normals on the circle where that number is 1 share it and must both stay
     (dropping one would enlarge the cone); true duplicates and zero rows go."""
-    from ndbg_cli.cubemap import compact
+    from ndbg_cli.ndbg.infinite.cubemap import compact
 
     v = np.array([1.0, np.pi, np.e])
     a = v / np.linalg.norm(v) ** 2  # n . v = 1 for n = a + b w, w unit and orthogonal to v
@@ -125,9 +125,9 @@ def test_compact_keeps_different_facets_with_equal_keys() -> None:
 
 def test_windows_sought_in_the_domain_block_are_the_whole_face_ones() -> None:
     """A cover with a domain seeks its windows in the block of cells the domain leaves open;
-    they are the rectangles :func:`~ndbg_cli.cover.cells_window` finds on the whole face,
+    they are the rectangles :func:`~ndbg_cli.ndbg.infinite.cover.cells_window` finds on the whole face,
     cube-edge margins included (blocks touching the face's border), as cells get marked."""
-    from ndbg_cli.cover import cells_window
+    from ndbg_cli.ndbg.infinite.cover import cells_window
 
     rng = np.random.default_rng(3)
     for trial in range(20):

@@ -12,8 +12,8 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from ndbg_cli import batch  # noqa: E402
-from ndbg_cli.analysis import Options  # noqa: E402
+from ndbg_cli.pipeline.analysis import Options  # noqa: E402
+from ndbg_cli.pipeline import batch  # noqa: E402
 
 from helpers import run_cli  # noqa: E402
 
@@ -74,7 +74,7 @@ def test_malformed_address_is_a_one_line_error(tmp_path, address):
 def test_without_distributed_the_cli_says_what_to_install(tmp_path):
     src, _ = make_three(tmp_path)
     code = ("import sys; sys.modules['distributed'] = None\n"
-            "from ndbg_cli.cli import main\n"
+            "from ndbg_cli.cli.main import main\n"
             f"main(['analyze', {str(src)!r}, '--scheduler', 'local'])\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2

@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 import random
 
-from ndbg_cli.dbg import DBG, bits, condensation, free_subsets, mask_of, strong_components
+from ndbg_cli.ndbg.dbg import DBG, bits, condensation, free_subsets, mask_of, strong_components
 
 
 def brute_free(g: DBG, mask: int) -> set[int]:

@@ -1,4 +1,4 @@
-"""The free domain (:mod:`ndbg_cli.domain`) and the infinite NDBG restricted to it."""
+"""The free domain (:mod:`ndbg_cli.ndbg.infinite.domain`) and the infinite NDBG restricted to it."""
 
 from __future__ import annotations
 
@@ -8,14 +8,19 @@ import numpy as np
 import pytest
 
 import ndbg_cli
-from ndbg_cli.contacts import analyze_contacts
-from ndbg_cli.cover import RASTER
-from ndbg_cli.cubemap import face_of, random_directions
-from ndbg_cli.dbg import strong_components
-from ndbg_cli.domain import cell_directions, domain_polygons, domain_windows, free_domain
-from ndbg_cli.infinite import boundary_distance, build_infinite, lookup
-from ndbg_cli.infinitesimal import contact_pairs, dbg_at
-from ndbg_cli.ndbg import partitionings
+from ndbg_cli.contacts.contacts3d import analyze_contacts
+from ndbg_cli.ndbg.dbg import strong_components
+from ndbg_cli.ndbg.infinite.build import boundary_distance, build_infinite, lookup
+from ndbg_cli.ndbg.infinite.cover import RASTER
+from ndbg_cli.ndbg.infinite.cubemap import face_of, random_directions
+from ndbg_cli.ndbg.infinite.domain import (
+    cell_directions,
+    domain_polygons,
+    domain_windows,
+    free_domain,
+)
+from ndbg_cli.ndbg.infinitesimal.build import contact_pairs, dbg_at
+from ndbg_cli.ndbg.model import partitionings
 
 from helpers import run_cli
 
@@ -56,9 +61,9 @@ def test_domain_holds_every_direction_where_something_is_free(name, restricted):
 
 @pytest.mark.parametrize("name", ["peg-37", "slot-37", "bolt-screw", "fig11-nonlinear"])
 def test_pre_pass_skips_only_cells_the_coarse_test_drops(name, monkeypatch):
-    """The :data:`~ndbg_cli.domain.PRE` pass (parents tested with radii over their children)
+    """The :data:`~ndbg_cli.ndbg.infinite.domain.PRE` pass (parents tested with radii over their children)
     gives the very domain of the plain coarse-then-fine test, with far fewer cells tested."""
-    from ndbg_cli import domain
+    from ndbg_cli.ndbg.infinite import domain
     asm, pairs, tol, dom = _domain(name)
     tested = []
     plain_may_free = domain._may_free
@@ -162,7 +167,7 @@ def test_domain_windows_bound_the_domain_cells():
 def test_an_asymmetric_domain_is_refused():
     """The blocked sets make B_ji from B_ij on the opposite face, so a domain must be
     symmetric under d -> -d (free_domain's always is); one that is not is an error."""
-    from ndbg_cli.blocked_sets import antipodal_symmetric, blocked_sets
+    from ndbg_cli.ndbg.infinite.blocked_sets import antipodal_symmetric, blocked_sets
 
     asm, _, _, dom = _domain("peg-37")
     assert antipodal_symmetric(dom)
@@ -198,7 +203,7 @@ def test_domain_beyond_64_parts_equals_the_short_chain():
 def test_domain_is_everything_at_once_when_the_contact_graph_falls_apart(monkeypatch):
     """Two groups that touch each other nowhere separate in every direction: no restriction,
     decided before any cell is tested (an engine with loose parts spent minutes on them)."""
-    import ndbg_cli.domain as domain_mod
+    import ndbg_cli.ndbg.infinite.domain as domain_mod
 
     ring = [[np.cos(a), np.sin(a), 0.0] for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)]
     pairs = [(k, k + 1, ring) for k in range(59)] + [(k, k + 1, ring) for k in range(60, 199)]

@@ -1,4 +1,4 @@
-"""The in-plane part of the erosion of near triangles (:mod:`ndbg_cli.erosion`): hand-worked
+"""The in-plane part of the erosion of near triangles (:mod:`ndbg_cli.ndbg.infinite.erosion`): hand-worked
 insets on a cube, none on a cylinder's smooth edges nor along a concave edge."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from ndbg_cli.erosion import edge_insets
+from ndbg_cli.ndbg.infinite.erosion import edge_insets
 
 
 def _soup(mesh: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:

@@ -1,5 +1,5 @@
 """Near misses (edge and point contacts whose faces admit no common separating cone): the
-triangle gap, the sweep cones of :mod:`ndbg_cli.gap_cones`, checked against independent
+triangle gap, the sweep cones of :mod:`ndbg_cli.contacts.gap_cones`, checked against independent
 computations (python-fcl's distance, an LP on the Minkowski difference, dense direction
 samples), and the beam, whose bars the old every-normal rule locked onto their pegs."""
 
@@ -14,9 +14,9 @@ import trimesh
 from scipy.optimize import linprog
 
 import ndbg_cli
-from ndbg_cli.contacts import analyze_contacts
-from ndbg_cli.facets import triangle_gap
-from ndbg_cli.gap_cones import (
+from ndbg_cli.contacts.contacts3d import analyze_contacts
+from ndbg_cli.contacts.facets import triangle_gap
+from ndbg_cli.contacts.gap_cones import (
     maximal,
     meets_free,
     near_miss_cones,
@@ -24,8 +24,8 @@ from ndbg_cli.gap_cones import (
     touching,
     widen,
 )
-from ndbg_cli.infinitesimal import contact_pairs, dbg_at
-from ndbg_cli.sweep import SweepChecker
+from ndbg_cli.ndbg.infinite.sweep import SweepChecker
+from ndbg_cli.ndbg.infinitesimal.build import contact_pairs, dbg_at
 
 from conftest import shared
 
@@ -228,7 +228,7 @@ def test_widened_cones_block_all_of_the_cone_under_the_tolerance():
         assert (d @ w.T).min() > tol  # the whole cone, its boundary included
         # and not much more: every direction of the widened cone is within 1.2 degrees of
         # the cone (its corners, from the chart hull, are; the cone is convex)
-        from ndbg_cli.gap_cones import _cone
+        from ndbg_cli.contacts.gap_cones import _cone
 
         corners = _cone(np.array(w_rays(w, c.normal)), c.normal)[0]
         for q in corners:
@@ -264,8 +264,8 @@ def test_two_cones_side_by_side_leave_no_seam():
     directions within the angular tolerance of that plane (+z tilted a little)."""
     from types import SimpleNamespace
 
-    from ndbg_cli.contact_features import _pair_by_pair
-    from ndbg_cli.infinitesimal import blocking_sides
+    from ndbg_cli.contacts.features import _pair_by_pair
+    from ndbg_cli.ndbg.infinitesimal.build import blocking_sides
 
     tol, ang = 1e-3, np.radians(1.0)
     h = 0.5 * tol
@@ -311,8 +311,8 @@ def _ring_of_near_misses(count: int, gap: float, size: float):
 def test_a_ring_of_near_misses_becomes_one_conservative_contact():
     from types import SimpleNamespace
 
-    from ndbg_cli.contact_features import MAX_GAP_CONES, _pair_by_pair
-    from ndbg_cli.infinitesimal import blocking_sides
+    from ndbg_cli.contacts.features import MAX_GAP_CONES, _pair_by_pair
+    from ndbg_cli.ndbg.infinitesimal.build import blocking_sides
 
     tol, ang = 1e-3, np.radians(1.0)
     rng = np.random.default_rng(6)
@@ -358,7 +358,7 @@ def test_triangle_gap_on_coplanar_and_piercing_pairs():
 
 
 def test_surrounds_and_meets_free_hints():
-    from ndbg_cli.gap_cones import surrounds
+    from ndbg_cli.contacts.gap_cones import surrounds
 
     axes = np.vstack([np.eye(3), -np.eye(3)])
     assert surrounds(axes)

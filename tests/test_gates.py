@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from ndbg_cli.rules import RuleSet, evaluate, load_rules
+from ndbg_cli.report.rules import RuleSet, evaluate, load_rules
 
 from helpers import run_cli
 
@@ -303,8 +303,8 @@ def test_check_reads_an_out_dir_of_saved_reports(tmp_path):
 
 
 def test_read_reports_of_a_folder_follows_its_index(tmp_path):
-    from ndbg_cli.diff import read_reports
-    from ndbg_cli.errors import InputError
+    from ndbg_cli.core.errors import InputError
+    from ndbg_cli.report.diff import read_reports
 
     rep = {"schema": "ndbg.report/1", "assembly": {"name": "a"}, "classes": {}}
     (tmp_path / "a.json").write_text(json.dumps(rep))

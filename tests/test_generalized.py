@@ -4,7 +4,7 @@ rotations and screws, threads, and the report section.
 Every expected answer is worked out by hand in the test's comments or docstrings. The
 end-to-end tests run on real meshes (STL written here, loaded by the real loader) twice: with
 contacts worked out by hand (``hand``) and with the real contact stage's
-:func:`ndbg_cli.contacts.analyze_contacts` (``real``).
+:func:`ndbg_cli.contacts.contacts3d.analyze_contacts` (``real``).
 
 Tolerances: points on axes within ``10 * asm.length_tolerance`` (the assembly's length
 tolerance, 1e-4 of the bounding-box diagonal); unit axes within 1e-6; pitches within
@@ -29,16 +29,16 @@ import yaml
 from scipy.linalg import expm
 
 import ndbg_cli
-from ndbg_cli import generalized as ge
-from ndbg_cli import motion_lp as lp
-from ndbg_cli import twist as tw
-from ndbg_cli.dbg import DBG, mask_of
-from ndbg_cli.ndbg import NDBG, Region
+from ndbg_cli.ndbg.dbg import DBG, mask_of
+from ndbg_cli.ndbg.model import NDBG, Region
+from ndbg_cli.ndbg.generalized import build as ge
+from ndbg_cli.ndbg.generalized import motion_lp as lp
+from ndbg_cli.ndbg.generalized import twist as tw
 
 from conftest import ASSEMBLIES
 
 try:
-    from ndbg_cli.contacts import analyze_contacts
+    from ndbg_cli.contacts.contacts3d import analyze_contacts
 except ImportError:  # pragma: no cover - the contact stage is written concurrently
     analyze_contacts = None
 
@@ -221,7 +221,7 @@ def contacts_for(asm: ndbg_cli.Assembly, hand: list[C], source: str) -> list:
     if source == "hand":
         return hand
     if analyze_contacts is None:
-        pytest.skip("ndbg_cli.contacts not available yet")
+        pytest.skip("ndbg_cli.contacts.contacts3d not available yet")
     result = analyze_contacts(asm)
     assert not result.interferences
     return list(result.contacts)
@@ -897,8 +897,8 @@ def test_threaded_infinite_ndbg_keeps_its_blocked_sets():
     along +z the bolt of bolt-screw.yaml lifts out of its blind hole, unless the declared
     thread blocks it; the lookup then agrees with the regions, and the grasp holds the
     regions' whole extents."""
-    from ndbg_cli.infinite import build_infinite, lookup
-    from ndbg_cli.pieces import region_pieces
+    from ndbg_cli.ndbg.infinite.build import build_infinite, lookup
+    from ndbg_cli.planning.pieces import region_pieces
 
     asm = ndbg_cli.load(ASSEMBLIES / "bolt-screw.yaml")
     nd = build_infinite(asm)
@@ -997,10 +997,10 @@ def test_answers_do_not_depend_on_the_unit(tmp_path, factor):
 
 def test_planar_fig5(tmp_path):
     """The Fig. 5 plate in 2D (dimension 2, polygons, real 2D contacts from
-    :func:`ndbg_cli.contacts2d.find_contacts_2d`): the same pinwheel analysis as in 3D
+    :func:`ndbg_cli.contacts.contacts2d.find_contacts_2d`): the same pinwheel analysis as in 3D
     without floor and lid: no in-plane translation; the counter-clockwise turn about (5, 5)
     is the only freeing motion (twists stay in the plane: v_z = w_x = w_y = 0)."""
-    from ndbg_cli.contacts2d import find_contacts_2d
+    from ndbg_cli.contacts.contacts2d import find_contacts_2d
 
     sq = {k: v for k, v in FIG5.items() if k not in ("floor", "lid")}
     parts = [{"id": k, "polygon": [[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]],
@@ -1026,7 +1026,7 @@ def brute_force_candidates(nd: NDBG, nb: list[int], mask: int) -> dict[int, set[
     """Every proper non-empty subset S of ``mask``, free in some region's DBG inside ``mask``
     and with S and ``mask \\ S`` connected in ``nb``, with the regions where S is free: the
     definition, by exhaustion."""
-    from ndbg_cli.ndbg import ConnectivityTest
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     conn = ConnectivityTest(nb)
     out: dict[int, set[int]] = {}

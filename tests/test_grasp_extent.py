@@ -10,11 +10,11 @@ import math
 import numpy as np
 
 import ndbg_cli
-from ndbg_cli.analysis import Options, analyze
-from ndbg_cli.classes import label, verdict
-from ndbg_cli.dbg import condensation
-from ndbg_cli.grasp import grasp, region_pieces
-from ndbg_cli.infinitesimal import build_ndbg_2d, build_ndbg_3d, locate_region
+from ndbg_cli.ndbg.dbg import condensation
+from ndbg_cli.ndbg.infinitesimal.build import build_ndbg_2d, build_ndbg_3d, locate_region
+from ndbg_cli.pipeline.analysis import Options, analyze
+from ndbg_cli.planning.classes import label, verdict
+from ndbg_cli.planning.grasp import grasp, region_pieces
 
 
 def _deg(t: float) -> list[float]:
@@ -92,8 +92,8 @@ def test_2d_house_assembly_end_to_end(tmp_path):
     """The same B on A as a real 2D assembly: the exposed faces are A's sides and bottom
     and B's three roof edges (A's top and B's bottom touch). Both families need the same 5
     fingers, and no direction of S^1 (sampled every 0.01 deg) escapes them."""
-    from ndbg_cli import pipeline
-    from ndbg_cli.infinite import lookup
+    from ndbg_cli.ndbg.infinite.build import lookup
+    from ndbg_cli.pipeline import stages as pipeline
 
     asm = ndbg_cli.load(_house_yaml(tmp_path))
     seen = {}
@@ -168,7 +168,7 @@ def test_region_pieces_of_the_3d_infinite_family_match_its_regions():
     gets pieces, and each region's representative lies in the closure of one of them."""
     from scipy.optimize import nnls
 
-    from ndbg_cli.infinite import build_infinite
+    from ndbg_cli.ndbg.infinite.build import build_infinite
 
     nd = build_infinite(ndbg_cli.load("assemblies/hover.yaml"))
     pieces = region_pieces(nd)

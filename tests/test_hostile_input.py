@@ -76,7 +76,7 @@ def test_recursive_alias_is_an_input_error(tmp_path):
 
 
 def test_a_few_aliases_are_still_fine(tmp_path):
-    from ndbg_cli.loaders import load
+    from ndbg_cli.io.loaders import load
 
     p = write_two_boxes(tmp_path, extra="metadata: {r: &r [1, 2, 3], s: *r, t: *r}\n")
     assert load(p).metadata == {"r": [1, 2, 3], "s": [1, 2, 3], "t": [1, 2, 3]}
@@ -105,7 +105,7 @@ def test_nesting_at_the_limit_is_read(tmp_path):
     """100 levels (the root mapping, ``metadata``'s mapping, 98 lists) load; the readers
     that walk the data recursively (line map, finiteness, schema) stay within Python's
     recursion limit."""
-    from ndbg_cli.loaders import load
+    from ndbg_cli.io.loaders import load
 
     p = write_two_boxes(tmp_path, extra=f"metadata: {{x: {_nest(98)}}}\n")
     assert load(p).metadata["x"] == json.loads(_nest(98))
@@ -135,8 +135,8 @@ def test_deeply_nested_json_report_is_an_input_error(tmp_path):
 def test_rules_files_read_exponent_floats_as_manifests_do(tmp_path):
     """Was: yaml.safe_load (YAML 1.1) read ``1e1`` as the string '1e1' in a rules file,
     while manifests and configs read it as 10.0 (manifest.YamlLoader)."""
-    from ndbg_cli.errors import InputError
-    from ndbg_cli.rules import load_rules
+    from ndbg_cli.core.errors import InputError
+    from ndbg_cli.report.rules import load_rules
 
     rules = tmp_path / "rules.yaml"
     rules.write_text("rules:\n  max_depth: 1e1\n")
@@ -189,7 +189,7 @@ def _check_names(text: bytes) -> dict:
 
 
 def identity_source(r: dict) -> str:
-    from ndbg_cli.report import identity
+    from ndbg_cli.report.document import identity
 
     return identity(r)[1]
 

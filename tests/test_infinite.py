@@ -1,5 +1,5 @@
 """The NDBG for infinite translations (paper 5.3): answers worked out by hand, and the region
-lookup checked against the independent per-direction sweep test (:mod:`ndbg_cli.sweep`)."""
+lookup checked against the independent per-direction sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`)."""
 
 from __future__ import annotations
 
@@ -9,21 +9,15 @@ import trimesh
 from manifold3d import Manifold
 
 import ndbg_cli
-from ndbg_cli import chart_union as cu
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.cubemap import random_directions
-from ndbg_cli.dbg import free_subsets
-from ndbg_cli.infinite import (
-    boundary_distance,
-    build_infinite,
-    free_directions,
-    infinite_section,
-    infinite_text,
-    lookup,
-)
-from ndbg_cli.ndbg import partitionings
-from ndbg_cli.sweep import SweepChecker, dbg_at
-from ndbg_cli.validate import make_part
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.io.validate import make_part
+from ndbg_cli.ndbg.dbg import free_subsets
+from ndbg_cli.ndbg.infinite.build import boundary_distance, build_infinite, free_directions, lookup
+from ndbg_cli.report.infinite import infinite_section, infinite_text
+from ndbg_cli.ndbg.infinite.cubemap import random_directions
+from ndbg_cli.ndbg.infinite.sweep import SweepChecker, dbg_at
+from ndbg_cli.ndbg.model import partitionings
+from ndbg_cli.ndbg.infinite import chart_union as cu
 
 from conftest import shared
 
@@ -222,7 +216,7 @@ def test_latch_lookup_matches_direct_check_off_the_boundaries():
     test, and manifold3d finds no overlap along it at any distance). With near triangles
     moved along their normals only, two faces meeting at the parts' L-shaped corner crossed
     each other and the NDBG said it does, for 102 of these 199 directions
-    (:mod:`ndbg_cli.erosion`)."""
+    (:mod:`ndbg_cli.ndbg.infinite.erosion`)."""
     asm = ndbg_cli.load("assemblies/fig10-latch.yaml")
     nd = build_infinite(asm)
     dirs = random_directions(200, seed=1)
@@ -282,7 +276,7 @@ def test_section_and_text():
 
     import jsonschema
 
-    from ndbg_cli.report import clean
+    from ndbg_cli.report.document import clean
 
     schema = json.loads(resources.files("ndbg_cli").joinpath(
         "schemas/fragments/infinite.json").read_text())
@@ -292,7 +286,7 @@ def test_section_and_text():
 # -- 2D --------------------------------------------------------------------------------------
 
 def test_2d_peg_in_slot():
-    from ndbg_cli.validate import make_polygon_part
+    from ndbg_cli.io.validate import make_polygon_part
 
     u = make_polygon_part("u", [(0, 0), (3, 0), (3, 2), (2, 2), (2, 1), (1, 1), (1, 2),
                                 (0, 2)])[0]
@@ -310,7 +304,7 @@ def test_2d_peg_in_slot():
 
 
 def stack_2d(n: int = 4) -> Assembly:
-    from ndbg_cli.validate import make_polygon_part
+    from ndbg_cli.io.validate import make_polygon_part
 
     parts = tuple(make_polygon_part(f"b{k}", [(0, 10 * k), (10, 10 * k), (10, 10 * k + 10),
                                               (0, 10 * k + 10)])[0] for k in range(n))
@@ -345,7 +339,7 @@ def test_plan_steps_pass_the_direct_sweep_test(name):
     direct sweep test (``ndbg query``, no erosion) finds it free: among the thin regions of a
     bore's or a slot's free band the one on its contacts' circles is chosen, and its
     direction is where those circles meet (the axis), not a cell's centroid mrad off it."""
-    from ndbg_cli.analysis import Options, analyze
+    from ndbg_cli.pipeline.analysis import Options, analyze
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     rep = analyze(asm, Options(motion="all"))
@@ -412,7 +406,7 @@ def test_pruned_terms_give_the_dense_blocked_sets(name):
     random directions and the same contact circles, from fewer terms."""
     import shapely
 
-    from ndbg_cli import blocking_cones as bc
+    from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     tris = bc.part_triangles(asm)
@@ -447,8 +441,8 @@ def test_reversed_pair_is_the_antipodal_image(name):
     random directions."""
     import shapely
 
-    from ndbg_cli import blocking_cones as bc
-    from ndbg_cli.blocked_sets import blocked_sets, reverse_entries
+    from ndbg_cli.ndbg.infinite.blocked_sets import blocked_sets, reverse_entries
+    from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     tris = bc.part_triangles(asm)
@@ -490,7 +484,7 @@ def test_exact_lookup_on_cell_directions_equals_every_cone_tested(name):
     growing batches): at every region's representative direction (on seams and boundaries,
     where the open-set semantics decides) and at random ones, the same DBG as testing every
     cone of every pair."""
-    from ndbg_cli.infinite import build_infinite
+    from ndbg_cli.ndbg.infinite.build import build_infinite
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     nd = build_infinite(asm)
@@ -508,7 +502,7 @@ def test_dbg_of_the_opposite_direction_is_the_reversed_dbg():
     """``P_j`` blocks ``P_i`` along ``d`` exactly when ``P_i`` blocks ``P_j`` along ``-d``:
     at every region's representative direction (thin 1- and 0-dimensional regions along the
     sliding directions included), the exact lookup at ``-d`` is the reversed DBG."""
-    from ndbg_cli.infinite import build_infinite, lookup
+    from ndbg_cli.ndbg.infinite.build import build_infinite, lookup
 
     asm = ndbg_cli.load("assemblies/hover.yaml")
     nd = build_infinite(asm)
@@ -551,7 +545,7 @@ def test_far_pair_keeps_every_blocked_direction():
     y in [0, 2] then overlaps bottom's box x in [1.5, 3.5], y in [2.5, 4.5] by 0.39 x 1.31,
     so bottom blocks top along ``d`` (and 0.02 rad round it). GEOS 3.14.1's union_all of the
     pair's 71 chart pieces on the +y face lost 0.03 chart units^2 round ``d``, and the NDBG
-    had no arc there (:func:`ndbg_cli.chart_union.robust_union` now checks the union)."""
+    had no arc there (:func:`ndbg_cli.ndbg.infinite.chart_union.robust_union` now checks the union)."""
     top = boxes_part("top", [([0, 0, 2], [1.5, 2, 3.5]), ([1.5, 0, 2], [3.5, 2, 3.5]),
                              ([1.5, 2, 2], [3.5, 2.5, 3.5])])
     bottom = boxes_part("bottom", [([1.5, 0, 0], [3.5, 2, 0.5]),
@@ -585,7 +579,7 @@ def test_coplanar_triangles_make_no_term():
     """Two triangles in one plane (faces of two parts flush with each other, far apart): every
     difference lies in that plane, the open cone is empty and no term is kept; lift one of
     them and the term is back."""
-    from ndbg_cli import blocking_cones as bc
+    from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
     ti = np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]])
     ni = np.array([[0.0, 0.0, 1.0]])
@@ -601,8 +595,8 @@ def test_coplanar_triangles_make_no_term():
 def test_an_arrangement_too_large_to_hold_is_skipped_with_its_size(monkeypatch):
     # a 1000-box grid's 789,702 regions x 1000 parts would need 92 GiB of DBGs (a
     # MemoryError); the limit is lowered here to meet it on hover (3 parts)
-    import ndbg_cli.infinite as inf
-    from ndbg_cli.analysis import Options, analyze
+    import ndbg_cli.ndbg.infinite.build as inf
+    from ndbg_cli.pipeline.analysis import Options, analyze
 
     monkeypatch.setattr(inf, "MAX_DBG_BYTES", 10)
     asm = ndbg_cli.load("assemblies/hover.yaml")
@@ -620,7 +614,7 @@ def pocket_2d(left: float, right: float, clearance: float = 0.0,
     pocket's floor is at ``y = 1 - right``, its left wall ``left`` high, its right wall
     ``right`` high and ``clearance`` right of the block (which touches the left wall). The
     whole turned by ``theta`` (radians) about the origin after scaling by ``scale``."""
-    from ndbg_cli.validate import make_polygon_part
+    from ndbg_cli.io.validate import make_polygon_part
 
     c, s = np.cos(theta), np.sin(theta)
     t = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -645,7 +639,7 @@ def test_2d_short_pocket_is_left_along_its_walls(theta, scale):
     corner ``eps`` into the left wall: the direct test blocks it there. The region is
     represented by +y itself (still 1-dimensional), where the direct test frees the block;
     the same, turned and scaled, for the base coming out along -y."""
-    from ndbg_cli.equator import equator_extents, sliding_angles
+    from ndbg_cli.ndbg.infinite.equator import equator_extents, sliding_angles
 
     asm = pocket_2d(0.1, 0.3, theta=theta, scale=scale)
     nd = build_infinite(asm)
@@ -680,7 +674,7 @@ def test_2d_wide_region_keeps_its_middle():
     left wall) and atan(0.5 / 0.3) = 59 deg right of it, its lower right corner passing over
     the right wall's top. That region (widened a little by the erosion) is wide: its direction
     stays its middle, about 60.8 deg, not the sliding direction +y at its end (the rule for
-    the thin bands, :data:`ndbg_cli.equator.BAND_ETA`, does not reach it)."""
+    the thin bands, :data:`ndbg_cli.ndbg.infinite.equator.BAND_ETA`, does not reach it)."""
     asm = pocket_2d(0.3, 0.3, clearance=0.5)
     nd = build_infinite(asm)
     free = [r for r in nd.regions if r.dbg.is_free(nd.mask(["block"]))]
@@ -705,9 +699,9 @@ def test_2d_pick_prefers_the_sliding_direction_to_tolerance_bands():
     into the right wall (the direct sweep test blocks it). All three are thin (at most
     ``BAND_ETA`` ``eta`` wide): the one sliding along the walls, +y, is picked. The same at -y
     for the sets moving the plate away (4 of the 6 partitionings' picks were blocked)."""
-    from ndbg_cli.equator import BAND_ETA, equator_extents, sliding_angles
-    from ndbg_cli.planning import pick_region, plan, verify
-    from ndbg_cli.validate import make_polygon_part
+    from ndbg_cli.io.validate import make_polygon_part
+    from ndbg_cli.ndbg.infinite.equator import BAND_ETA, equator_extents, sliding_angles
+    from ndbg_cli.planning.plans import pick_region, plan, verify
 
     base = make_polygon_part("base", [(0, 0), (10, 0), (10, 1), (6, 1), (6, 0.8), (4, 0.8),
                                       (4, 0.9), (0, 0.9)])[0]
@@ -757,7 +751,7 @@ FUZZ_SEEDS = [1097657232, 161576974, 2040324895, 643626384, 823941273, 846428920
 
 
 def test_2d_fuzzed_picks_pass_the_direct_sweep_test():
-    """The region :func:`~ndbg_cli.planning.pick_region` picks for each partitioning of a few
+    """The region :func:`~ndbg_cli.planning.plans.pick_region` picks for each partitioning of a few
     fuzzed 2D assemblies with short zero-clearance contacts: its direction frees the moved
     set for the direct sweep test (``benchmarks/fuzz_pick2d.py`` runs thousands)."""
     import importlib.util
@@ -807,13 +801,13 @@ def test_union_drops_points_along_its_clipping_rectangle():
 
 
 def test_open_hits_is_the_box_filtered_open_membership():
-    """The compiled scan (:func:`ndbg_cli.kernels.open_hits`) against the same test written
+    """The compiled scan (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`) against the same test written
     with an STR-tree query and numpy: a direction is hit when some piece's box holds its
     chart point (ends included) and the piece's open cone holds the direction."""
     import shapely
 
-    from ndbg_cli import kernels
-    from ndbg_cli.cubemap import direction_of
+    from ndbg_cli.ndbg.infinite.cubemap import direction_of
+    from ndbg_cli.ndbg.infinite import _kernels as kernels
 
     rng = np.random.default_rng(7)
     cones = rng.normal(size=(60, 5, 3))

@@ -1,7 +1,7 @@
 """Fast paths of the infinite-translation NDBG, each against the general route and against
 answers worked out by hand: one cone for convex parts far apart
-(:func:`ndbg_cli.convex_cones.convex_pair_cone`), the merging of collinear boundary
-segments before the arrangement is noded (:func:`ndbg_cli.arrangement.merged_segments`), the
+(:func:`ndbg_cli.ndbg.infinite.convex_cones.convex_pair_cone`), the merging of collinear boundary
+segments before the arrangement is noded (:func:`ndbg_cli.ndbg.infinite.arrangement.merged_segments`), the
 candidate facets of difference and box cones, and the near-first walk inside a domain."""
 
 from __future__ import annotations
@@ -12,14 +12,11 @@ import shapely
 import trimesh
 
 import ndbg_cli
-from ndbg_cli import arrangement, blocked_sets, infinite
-from ndbg_cli import blocking_cones as bc
-from ndbg_cli import chart_union as cu
-from ndbg_cli import convex_cones as cc
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.contacts import analyze_contacts
-from ndbg_cli.cover import RASTER
-from ndbg_cli.cubemap import (
+from ndbg_cli.contacts.contacts3d import analyze_contacts
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.io.validate import make_part
+from ndbg_cli.ndbg.infinite.cover import RASTER
+from ndbg_cli.ndbg.infinite.cubemap import (
     BOX_EDGE_PAIRS,
     DIFFERENCE_PAIRS,
     FACES,
@@ -28,10 +25,14 @@ from ndbg_cli.cubemap import (
     face_of,
     random_directions,
 )
-from ndbg_cli.domain import free_domain
-from ndbg_cli.infinitesimal import contact_pairs
-from ndbg_cli.sweep import SweepChecker
-from ndbg_cli.validate import make_part
+from ndbg_cli.ndbg.infinite.domain import free_domain
+from ndbg_cli.ndbg.infinite.sweep import SweepChecker
+from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
+from ndbg_cli.ndbg.infinite import arrangement, blocked_sets
+from ndbg_cli.ndbg.infinite import blocking_cones as bc
+from ndbg_cli.ndbg.infinite import build as infinite
+from ndbg_cli.ndbg.infinite import chart_union as cu
+from ndbg_cli.ndbg.infinite import convex_cones as cc
 
 
 def _tris(m: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
@@ -397,7 +398,7 @@ def test_walk_with_a_domain_gives_the_dense_set_inside_it():
 def test_worker_processes_give_the_same_ndbg(monkeypatch):
     # the pairs computed by two worker processes (in an order of their own) give the same
     # NDBG as one process: same regions, directions, DBGs, pieces; with a domain too
-    from ndbg_cli import pair_workers
+    from ndbg_cli.ndbg.infinite import pair_workers
 
     monkeypatch.setattr(pair_workers, "MIN_PARALLEL_PAIRS", 0)
     for name, restricted in (("fig2-sandwich-5", False), ("fig11-nonlinear", True)):

@@ -15,10 +15,18 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.contacts2d import contacts_of_polygons, find_contacts_2d
-from ndbg_cli.dbg import DBG, free_subsets
-from ndbg_cli.infinitesimal import (
+from ndbg_cli.contacts.contacts2d import contacts_of_polygons, find_contacts_2d
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.geometry.sphere import (
+    arrangement_s2,
+    cluster_angles,
+    free_cone_2d,
+    merge_directions,
+    unit,
+)
+from ndbg_cli.io.validate import make_polygon_part
+from ndbg_cli.ndbg.dbg import DBG, free_subsets
+from ndbg_cli.ndbg.infinitesimal.build import (
     build_ndbg_2d,
     build_ndbg_3d,
     candidate_partitionings,
@@ -29,8 +37,6 @@ from ndbg_cli.infinitesimal import (
     iter_regions_2d,
     locate_region,
 )
-from ndbg_cli.sphere import arrangement_s2, cluster_angles, free_cone_2d, merge_directions, unit
-from ndbg_cli.validate import make_polygon_part
 
 ROOT = Path(__file__).resolve().parents[1]
 X, Y, Z = np.eye(3)
@@ -238,7 +244,7 @@ def test_wedge_cone_uses_only_extreme_rays():
 
 
 def test_edge_contact_blocks_only_inside_its_cone():
-    # an "all" contact (edge on a plane, from ndbg_cli.contacts): a -> b iff d.n > 0 for both
+    # an "all" contact (edge on a plane, from ndbg_cli.contacts.contacts3d): a -> b iff d.n > 0 for both
     # normals, i.e. -d_z > |d_y|; b -> a iff d_z > |d_y|.
     n = unit(np.array([[0, 1, -1], [0, -1, -1]], float))
     g = build_ndbg_3d(["a", "b"], [(0, 1, n, "all")])
@@ -251,10 +257,10 @@ def test_edge_contact_blocks_only_inside_its_cone():
     assert {r.dimension for r in g.regions if r.dbg.succ == (0, 0)} == {0, 1, 2}
 
 
-# -- real meshes through ndbg_cli.contacts ----------------------------------------------------
+# -- real meshes through ndbg_cli.contacts.contacts3d ----------------------------------------------------
 
 def mesh_part(pid, mesh):
-    from ndbg_cli.validate import make_part
+    from ndbg_cli.io.validate import make_part
 
     return make_part(pid, np.asarray(mesh.vertices), np.asarray(mesh.faces))[0]
 
@@ -305,7 +311,7 @@ def load_example(name):
     path = ROOT / "assemblies" / f"{name}.yaml"
     if not path.exists():
         pytest.skip(f"assemblies/{name}.yaml not present")
-    from ndbg_cli.loaders import load
+    from ndbg_cli.io.loaders import load
 
     return load(path)
 
@@ -537,7 +543,7 @@ def test_fig3_regions_and_free_sets():
 
 def test_fig3_crossing_rule_equals_scratch():
     asm = polygon_assembly(FIG3)
-    from ndbg_cli.infinitesimal import contact_pairs
+    from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
 
     pairs = contact_pairs(asm)
     for r in iter_regions_2d(4, pairs):
@@ -549,8 +555,8 @@ def test_fig3_manifest():
     path = ROOT / "assemblies" / "fig3-2d.yaml"
     if not path.exists():
         pytest.skip("assemblies/fig3-2d.yaml not written yet")
-    from ndbg_cli.infinitesimal import contact_pairs
-    from ndbg_cli.loaders import load
+    from ndbg_cli.io.loaders import load
+    from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
 
     asm = load(path)
     expect = asm.expect
@@ -652,7 +658,7 @@ def fragment_schema() -> dict:
 
 
 def test_section_matches_schema_and_is_deterministic():
-    from ndbg_cli.report import clean
+    from ndbg_cli.report.document import clean
 
     asm = polygon_assembly(FIG3)
     g = infinitesimal_ndbg(asm)
@@ -691,8 +697,8 @@ def test_as1_bolts_nuts_and_rod():
     # cylinders lean up to 0.09 deg off their axis (tessellation), within the contact stage's
     # 1 deg tolerance: each bolt is free only along +z, each bolt nut along -z, the rod along
     # +-x, all as single vertices of the arrangement.
-    from ndbg_cli.contacts import analyze_contacts
-    from ndbg_cli.loaders import load
+    from ndbg_cli.contacts.contacts3d import analyze_contacts
+    from ndbg_cli.io.loaders import load
 
     from conftest import shared
 

@@ -226,7 +226,7 @@ def test_json_report_is_deterministic_and_valid(tmp_path):
     assert first.returncode == 0, first.stderr
     assert first.stdout == second.stdout
     doc = json.loads(first.stdout)
-    from ndbg_cli.report import validate_report
+    from ndbg_cli.report.document import validate_report
 
     validate_report(doc)
     assert doc["schema"] == "ndbg.report/1"
@@ -241,7 +241,7 @@ def test_batch_continues_past_a_bad_assembly(tmp_path):
     doc = json.loads(r.stdout)
     assert doc["schema"] == "ndbg.batch/1"
     assert doc["summary"] == {"assemblies": 2, "ok": 1, "errors": 1}
-    from ndbg_cli.report import validate_report
+    from ndbg_cli.report.document import validate_report
 
     validate_report(doc)
     out = tmp_path / "reports"
@@ -294,8 +294,8 @@ def test_text_meshes_in_latin_1(tmp_path):
 def test_scientific_notation_is_a_number(tmp_path):
     """YAML 1.2 floats (``1e-3``, ``1.0e1``: no dot or no exponent sign) in manifests and
     config files; PyYAML's YAML 1.1 rules read them as strings. Other scalars are as before."""
-    from ndbg_cli.analysis import read_config
-    from ndbg_cli.manifest import read_manifest
+    from ndbg_cli.io.manifest import read_manifest
+    from ndbg_cli.pipeline.analysis import read_config
 
     path = write_two_boxes(tmp_path).parent / "sci.yaml"
     path.write_text(write_two_boxes(tmp_path).read_text()
@@ -326,8 +326,8 @@ def test_scientific_notation_is_a_number(tmp_path):
     ("units: parsec", "unknown unit 'parsec'"),
 ])
 def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem):
-    from ndbg_cli.analysis import read_config
-    from ndbg_cli.errors import InputError
+    from ndbg_cli.core.errors import InputError
+    from ndbg_cli.pipeline.analysis import read_config
 
     cfg = tmp_path / "c.yaml"
     cfg.write_text(text + "\n")
@@ -342,7 +342,7 @@ def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem
 
 
 def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
-    from ndbg_cli.analysis import read_config
+    from ndbg_cli.pipeline.analysis import read_config
 
     cfg = tmp_path / "c.yaml"
     cfg.write_text("# every setting left at its default\n")  # an empty config sets nothing
@@ -411,8 +411,8 @@ def test_cli_options_share_the_config_ranges_and_defaults():
 
     import click
 
-    from ndbg_cli.analysis import SETTINGS, Options
-    from ndbg_cli.cli import cli
+    from ndbg_cli.cli.main import cli
+    from ndbg_cli.pipeline.analysis import SETTINGS, Options
 
     params = {p.name: p for p in cli.commands["analyze"].params}
     defaults = {f.name: f.default for f in dataclasses.fields(Options)}

@@ -98,7 +98,7 @@ def test_reports_get_the_permissions_of_a_plain_open(hover, tmp_path):
     file's own; for --out, --out-dir's reports and index.json, and cache entries."""
     import os
 
-    from ndbg_cli.report import write_atomic
+    from ndbg_cli.core.files import write_atomic
 
     old = os.umask(0o027)
     try:

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from ndbg_cli.analysis import Options, analyze_path
-from ndbg_cli.report import clean, dumps, validate_report
+from ndbg_cli.pipeline.analysis import Options, analyze_path
+from ndbg_cli.report.document import clean, dumps, validate_report
 
 from conftest import shared
 from helpers import run_cli
@@ -120,9 +120,9 @@ def test_fig3_local_freedom_facts():
     # d1 = +y is a 0-dimensional region (a cone boundary): exactly the paper's facts
     assert {frozenset(s) for s in e["locally_free_d1"]} <= free_at(d1)
     # d2 lies inside an open arc: look its region up and list what is free there
-    from ndbg_cli.dbg import free_subsets
-    from ndbg_cli.infinitesimal import infinitesimal_ndbg, locate_region
-    from ndbg_cli.loaders import load
+    from ndbg_cli.io.loaders import load
+    from ndbg_cli.ndbg.dbg import free_subsets
+    from ndbg_cli.ndbg.infinitesimal.build import infinitesimal_ndbg, locate_region
 
     asm = load(EX / "fig3-2d.yaml")
     nd = infinitesimal_ndbg(asm)
@@ -287,8 +287,8 @@ def test_andor_section_counts_the_hover_trees_by_hand():
 
 
 def test_text_shows_what_the_verified_plan_proves():
-    from ndbg_cli.planning import plan_proves
-    from ndbg_cli.text import render
+    from ndbg_cli.planning.plans import plan_proves
+    from ndbg_cli.report.text import render
 
     rep = report("bell")
     assert rep["plan"]["verified"]["value"] is True

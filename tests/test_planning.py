@@ -12,8 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ndbg_cli.andor import AndOrGraph, Budget, node_splits
-from ndbg_cli.classes import (
+from ndbg_cli.ndbg.dbg import DBG, bits, mask_of
+from ndbg_cli.ndbg.model import NDBG, ConnectivityTest, Region
+from ndbg_cli.planning.andor import AndOrGraph, Budget, node_splits
+from ndbg_cli.planning.classes import (
     andor_section,
     classes_section,
     classes_text,
@@ -22,12 +24,10 @@ from ndbg_cli.classes import (
     min_directions,
     sink_decompose,
 )
-from ndbg_cli.dbg import DBG, bits, mask_of
-from ndbg_cli.grasp import grasp
-from ndbg_cli.interlock import interlock
-from ndbg_cli.ndbg import NDBG, ConnectivityTest, Region
-from ndbg_cli.planning import STRATEGIES, plan, plan_section, plan_text
-from ndbg_cli.removal import remove
+from ndbg_cli.planning.grasp import grasp
+from ndbg_cli.planning.interlock import interlock
+from ndbg_cli.planning.plans import STRATEGIES, plan, plan_section, plan_text
+from ndbg_cli.planning.removal import remove
 
 UP, DOWN = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
 PX, NX, PY, NY = (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0)
@@ -496,8 +496,8 @@ def test_grasp_two_stacked_boxes_needs_ten_fingers():
 
 def _greedy_grasp_reference(nd, faces, tol=1e-9):
     """The plain greedy scan over the dense requirements x faces matrix (the definition)."""
-    from ndbg_cli.dbg import bit_rows
-    from ndbg_cli.grasp import requirements
+    from ndbg_cli.ndbg.dbg import bit_rows
+    from ndbg_cli.planning.grasp import requirements
 
     reqs = requirements(nd)
     part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
@@ -617,7 +617,7 @@ def test_sink_decompose_matches_graph():
 
 
 def test_node_splits_agree_with_shared_partitionings():
-    from ndbg_cli.ndbg import ConnectivityTest, partitionings
+    from ndbg_cli.ndbg.model import ConnectivityTest, partitionings
 
     for seed in range(40):
         rng = random.Random(seed)
@@ -637,7 +637,7 @@ def test_connected_node_splits_with_base_and_limit_against_brute_force():
     # every proper S of the mask free in some region, both sides connected, S missing the
     # base and the avoided parts: the search for connected sets must list exactly these,
     # and a limited list must be a true part of them, cut only when they do not fit
-    from ndbg_cli.ndbg import ConnectivityTest
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     for seed in range(60):
         rng = random.Random(1000 + seed)
@@ -673,7 +673,7 @@ def test_connected_splits_of_a_disconnected_subassembly():
     # contact graph 0-1, 2-3, 4 alone; every part free (no arcs): {0,1,2,3} splits only into
     # its two components, {0,1,2,3,4} (three components) not at all, and a DBG in which 0
     # needs 2 to move along leaves only {2,3} movable
-    from ndbg_cli.ndbg import ConnectivityTest
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     conn = ConnectivityTest([0b00010, 0b00001, 0b01000, 0b00100, 0])
     free = mk("ABCDE", [(UP, [])])
@@ -688,9 +688,9 @@ def test_connected_splits_of_a_disconnected_subassembly():
 def test_a_search_that_ends_on_its_last_budgeted_node_is_not_called_cut(monkeypatch):
     # a contact path 0-1-2-3, nothing blocks: 3 splits. With exactly the search nodes it
     # needs, the list is complete; one node fewer and it is cut.
-    import ndbg_cli.andor as andor
-    from ndbg_cli.candidates import connected_free_sets
-    from ndbg_cli.ndbg import ConnectivityTest
+    import ndbg_cli.planning.andor as andor
+    from ndbg_cli.ndbg.candidates import connected_free_sets
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     nb = [0b0010, 0b0101, 0b1010, 0b0100]
     nd = mk("ABCD", [(UP, [])])
@@ -706,7 +706,7 @@ def test_a_search_that_ends_on_its_last_budgeted_node_is_not_called_cut(monkeypa
 
 
 def test_plan_says_when_its_depth_is_the_minimum_for_connected_subassemblies():
-    from ndbg_cli.ndbg import ConnectivityTest
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     # 4 free parts in a contact path: halving gives depth 2 either way
     nd = mk("ABCD", [(UP, [])])
@@ -743,7 +743,7 @@ def test_generalized_motions_are_reported():
 
 
 def test_connected_filter_in_plans():
-    from ndbg_cli.ndbg import ConnectivityTest
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     # 4 free parts in a path contact graph 0-1-2-3: only splits into two sub-paths are allowed,
     # i.e. the trees of an ordered chain: Catalan(3) = 5 trees, linear orders 2^3 = 8
@@ -760,10 +760,10 @@ def test_connected_filter_in_plans():
 def test_cut_partitioning_lists_never_claim_an_exact_depth():
     """8 mutually free parts, at most 3 partitionings listed per subassembly: the optimum
     (3 = ceil(log2 8)) may be missed, so nothing may be called exact above that bound."""
-    from ndbg_cli.andor import AndOrGraph, Budget
-    from ndbg_cli.classes import andor_section, classify
-    from ndbg_cli.dbg import DBG
-    from ndbg_cli.ndbg import NDBG, Region
+    from ndbg_cli.ndbg.dbg import DBG
+    from ndbg_cli.ndbg.model import NDBG, Region
+    from ndbg_cli.planning.andor import AndOrGraph, Budget
+    from ndbg_cli.planning.classes import andor_section, classify
 
     n = 8
     nd = NDBG("infinitesimal_translation", tuple(f"p{i}" for i in range(n)),
@@ -782,7 +782,7 @@ def test_grouping_by_induced_dbg_merges_regions_on_a_subassembly():
     # Two regions differ only in an arc into part 2: on the whole product they are two
     # DBGs, on {0, 1} one, so the hyperarc there lists both regions for the same moved set.
     nd = mk("ABC", [(UP, [(0, 1), (0, 2)]), (DOWN, [(0, 1)]), (PX, [(1, 0)])])
-    from ndbg_cli.andor import _groups_of
+    from ndbg_cli.planning.andor import _groups_of
 
     groups = _groups_of(nd)
     assert [regs for _, regs in groups.of(0b111)] == [[0], [1], [2]]
@@ -808,7 +808,7 @@ def test_hashed_grouping_equals_exact_grouping(seed):
             arcs.append((rng.randrange(n), n - 1))
         regions.append((UP, arcs))
     nd = mk([f"P{i}" for i in range(n)], regions)
-    from ndbg_cli.andor import _groups_of
+    from ndbg_cli.planning.andor import _groups_of
 
     groups = _groups_of(nd)
     for _ in range(30):
@@ -874,7 +874,7 @@ def test_hybrid_min_depth_follows_from_a_contained_family_at_the_lower_bound():
     # An 8-part stack: up, part i is blocked by every part above it (down, by every part
     # below). Halving it gives depth 3 = ceil(log2 8), the lower bound for any tree, so the
     # hybrid (the same regions plus a rotation freeing part 0) has depth 3 too.
-    from ndbg_cli.classes import min_depth_search
+    from ndbg_cli.planning.classes import min_depth_search
 
     n = 8
     trans = mk([f"P{i}" for i in range(n)],
@@ -915,7 +915,7 @@ def test_hybrid_min_depth_follows_from_a_contained_family_at_the_lower_bound():
 def test_connectivity_test_against_networkx(seed):
     import networkx as nx
 
-    from ndbg_cli.ndbg import ConnectivityTest
+    from ndbg_cli.ndbg.model import ConnectivityTest
 
     rng = random.Random(seed)
     n = rng.choice([6, 12, 70])
@@ -951,7 +951,7 @@ def test_grasp_fingers_only_touch_exposed_faces():
     import trimesh
 
     import ndbg_cli
-    from ndbg_cli.analysis import Options, analyze
+    from ndbg_cli.pipeline.analysis import Options, analyze
 
     asm = ndbg_cli.load("assemblies/fig3-2d.yaml")
     outside = shapely.union_all([p.polygon for p in asm.parts]).boundary
@@ -1040,7 +1040,7 @@ def test_no_candidate_tree_is_proven_without_a_search():
 
 
 def test_verified_steps_state_the_nearest_axis_the_sweep_test_frees():
-    from ndbg_cli.planning import axis_directions
+    from ndbg_cli.planning.plans import axis_directions
 
     def stack_on(d):  # A on B on C; region 0 (removal along d) frees A, then B; region 1 C
         d = tuple(np.array(d) / np.linalg.norm(d))
@@ -1154,7 +1154,7 @@ def test_cut_partitioning_lists_prove_no_failure():
     assert p.found and p.regions_used() == [1]
     # (2) contact-connected plans (no heredity): the pentagon contact graph, one DBG
     # 0 -> 2 -> 4 -> 1; the kept split {0,1,2,4} | {3} dead-ends, {1} | {0,2,3,4} does not
-    from ndbg_cli.andor import greedy_tree
+    from ndbg_cli.planning.andor import greedy_tree
 
     nd = mk([f"P{i}" for i in range(5)], [(UP, [(0, 2), (2, 4), (4, 1)])])
     conn = ConnectivityTest([0b10010, 0b00101, 0b01010, 0b10100, 0b01001])

@@ -11,16 +11,16 @@ from pathlib import Path
 
 import pytest
 
-from ndbg_cli.classes import (
+from ndbg_cli.ndbg.dbg import DBG
+from ndbg_cli.ndbg.model import NDBG, Region
+from ndbg_cli.planning.classes import (
     classes_section,
     classes_text,
     interlock_hands,
     min_directions,
     stack_product,
 )
-from ndbg_cli.dbg import DBG
-from ndbg_cli.ndbg import NDBG, Region
-from ndbg_cli.rules import RuleSet, evaluate
+from ndbg_cli.report.rules import RuleSet, evaluate
 
 from helpers import run_cli
 

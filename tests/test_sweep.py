@@ -1,13 +1,13 @@
-"""The direct per-direction test's polygon kernels (:mod:`ndbg_cli.sweep`), against areas
+"""The direct per-direction test's polygon kernels (:mod:`ndbg_cli.ndbg.infinite.sweep`), against areas
 worked out by hand, and the test itself on two boxes with known answers."""
 
 import numpy as np
 import pytest
 import trimesh
 
-from ndbg_cli.assembly import Assembly
-from ndbg_cli.sweep import SweepChecker, _area, _clip, _plane
-from ndbg_cli.validate import make_part
+from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.io.validate import make_part
+from ndbg_cli.ndbg.infinite.sweep import SweepChecker, _area, _clip, _plane
 
 
 def _poly(*pts):

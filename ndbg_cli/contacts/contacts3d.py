@@ -1,0 +1,525 @@
+"""Contact analysis: which parts touch, where, and with which normals (issue 3).
+
+:func:`analyze_contacts` finds every pair of touching parts of a 3D assembly and describes each
+contact by the unit normals that block part A's translations (``d . n > 0`` penetrates B) and by
+contact points for generalized (6D) motion constraints ``n . (v + w x p) >= 0``.
+
+Tolerance model (all lengths in the assembly unit):
+
+* ``tol``: the length tolerance, ``asm.length_tolerance`` unless given: the manifest's or the
+  command line's ``tolerance``, else 1e-4 times the assembly's bounding-box diagonal. It scales
+  with the model, so a change of unit changes no answer. Planes closer than ``tol`` coincide,
+  gaps up to ``tol`` count as touching, contact polygons thinner than ``tol`` are edges.
+* chord sag: a tessellated cylinder, cone or sphere departs from the true surface by the sag
+  ``r (1 - cos(pi / N))`` of its ``N``-segment tessellation (estimated per triangle from the
+  dihedral angles, see :class:`ndbg_cli.contacts.facets.PartGeometry`). Two tessellations of one
+  nominal surface (a 24-facet shaft in a 64-facet hole) leave gaps up to the coarser side's sag
+  and cross each other by up to the finer side's sag. Hence triangles ``i``, ``j`` touch when
+  their separation is at most ``tol + sag_i + sag_j``, and an overlap counts as an
+  interference only when its mean thickness exceeds ``tol + min(sag_A, sag_B)``
+  (:mod:`ndbg_cli.contacts.interference`).
+* ``angle_tolerance`` (radians, default :data:`DEFAULT_ANGLE_TOLERANCE` = 1 degree): normals
+  closer than this are one normal; faces whose normals are opposite within it can be coplanar.
+  Curved contacts keep the facet normals themselves (clustered within this angle): for a
+  facetted shaft in a hole they are the blocking cone.
+
+Phases (timed in ``stats``, seconds): ``bvh_s`` (python-fcl BVH, R-tree and triangle data
+per part, cached by part hash: :func:`ndbg_cli.contacts.facets.fcl_model`,
+:func:`ndbg_cli.contacts.facets.part_geometry`), ``broad_s`` (bounding-box pruning, then
+``fcl.collide`` and, unless the triangle boxes already prove the parts apart, ``fcl.distance``
+per candidate pair), ``narrow_s`` (triangle pairs whose boxes meet, listed in the parts'
+R-tree order; plane and separating-axis tests; features: :mod:`ndbg_cli.contacts.features`),
+``interference_s`` (manifold3d overlap volumes, or the open-mesh fallback). The numpy
+shortcuts taken for speed (dense box tests, batched distance calls, vectorised clustering)
+reproduce the straightforward computation exactly, numbers and order included.
+
+Pairs that interfere get no contacts. Parts wholly inside another (surfaces apart, boxes
+nested) are found by overlap volume when both are closed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import weakref
+from dataclasses import dataclass, field
+
+import fcl
+import numpy as np
+
+from ..core.assembly import Assembly, content_hash
+from ..core.cache import PairCache
+from ..core.errors import InputError
+from .facets import (
+    PartGeometry,
+    box_pairs,
+    fcl_model,
+    fcl_object,
+    manifold_model,
+    max3,
+    min3,
+    part_geometry,
+    sat_gap,
+)
+from .features import classify_pairs, curved_contacts, edge_point_contacts, planar_contacts
+from .interference import Interference, check_interference_policy, interference, meshes_intersect
+
+__all__ = ["Contact", "Interference", "ContactAnalysis", "analyze_contacts", "contacts_section",
+           "contacts_text", "check_interference_policy", "fcl_model", "DEFAULT_ANGLE_TOLERANCE"]
+
+#: Default angular tolerance (radians): 1 degree.
+DEFAULT_ANGLE_TOLERANCE = float(np.radians(1.0))
+
+#: Triangle pairs processed per numpy batch (bounds memory to ~100 MB).
+_CHUNK = 200_000
+
+#: Triangle pairs per batch of the 11-axis separating test (its arrays are 11 times bigger;
+#: smaller batches stay in cache).
+_SAT_CHUNK = 16_384
+
+#: Candidate search (:func:`_triangle_candidates`): largest number of query x target triangle
+#: box tests done densely with numpy (about 6 ns each; an R-tree query costs about 0.5 us a
+#: hit); bigger pairs of parts query the R-tree.
+_DENSE_PAIRS = 16_000_000
+
+#: Per part geometry: the R-tree traversal rank of each triangle (:func:`_tree_rank`) and the
+#: box of the triangles (:func:`_tri_box`).
+_TREE_RANK: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_TRI_BOX: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One contact between parts ``a < b`` (indices in ``asm.parts``).
+
+    ``kind``: ``"planar" | "curved" | "edge" | "point"``. ``normals`` ``(k, 3)``: distinct unit
+    normals pointing out of A into B (clustered within the angular tolerance). For planar and
+    curved contacts A translating along ``d`` penetrates B iff ``d . n > 0`` for some ``n``
+    (``blocking == "any"``). For edge and point contacts they generate the cone of admissible
+    separating normals, and A penetrates B iff ``d . n > 0`` for all of them
+    (``blocking == "all"``; treating them as ``"any"`` is conservative).
+    ``points`` ``(m, 3)`` (assembly frame and unit): planar = contact polygon's convex-hull
+    vertices; curved = facet centroids of both sides of the patch; edge = the two endpoints;
+    point = the point. ``point_normals`` ``(m, 3)``: the normal (out of A) at each point.
+    ``area``: unit^2 (curved: the smaller side's patch area, an upper bound; edge/point: 0).
+    Curved contacts recognised as ``surface`` ``"cylinder"``/``"cone"`` carry a unit ``axis``,
+    a ``center`` on it and the ``radius``; ``"sphere"`` carries ``center`` and ``radius``.
+    """
+
+    a: int
+    b: int
+    kind: str
+    normals: np.ndarray
+    points: np.ndarray
+    point_normals: np.ndarray
+    area: float
+    axis: np.ndarray | None = None
+    center: np.ndarray | None = None
+    radius: float | None = None
+    surface: str | None = None
+    blocking: str = "any"
+
+
+@dataclass(frozen=True)
+class ContactAnalysis:
+    """The result of :func:`analyze_contacts`. ``contacts`` sorted by ``(a, b, kind, normals,
+    points)``; ``interferences`` by ``(a, b)``; ``tolerance`` in the assembly unit;
+    ``angle_tolerance`` in radians; ``stats`` counts and phase timings (seconds)."""
+
+    contacts: tuple[Contact, ...]
+    interferences: tuple[Interference, ...]
+    tolerance: float
+    angle_tolerance: float
+    stats: dict = field(default_factory=dict)
+
+    def pairs(self) -> list[tuple[int, int]]:
+        """Touching part pairs ``(a, b)``, ``a < b``, sorted."""
+        return sorted({(c.a, c.b) for c in self.contacts})
+
+    def normals_by_pair(self) -> dict[tuple[int, int], np.ndarray]:
+        """All contact normals ``(k, 3)`` of each touching pair (out of ``a`` into ``b``)."""
+        out: dict[tuple[int, int], list[np.ndarray]] = {}
+        for c in self.contacts:
+            out.setdefault((c.a, c.b), []).append(c.normals)
+        return {k: np.concatenate(v) for k, v in sorted(out.items())}
+
+
+def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
+                     angle_tolerance: float = DEFAULT_ANGLE_TOLERANCE,
+                     cache: PairCache | None = None) -> ContactAnalysis:
+    """Find the contacts and interferences between the parts of a 3D assembly.
+
+    ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
+    radians. See the module documentation for the tolerance model. With ``cache``, each
+    candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
+    tolerances (:mod:`ndbg_cli.core.cache`). Raises :class:`InputError` for a 2D assembly or a
+    non-positive tolerance.
+    """
+    if asm.dimension != 3:
+        raise InputError("contact analysis needs a 3D assembly", file=asm.source or None)
+    tol = float(asm.length_tolerance if tolerance is None else tolerance)
+    ang = float(angle_tolerance)
+    if not tol > 0 or not 0 < ang < np.pi / 2:
+        raise InputError(f"tolerances must be positive (got {tol}, {ang} rad)",
+                         file=asm.source or None)
+    stats: dict = {"parts": len(asm), "triangles": int(sum(p.check.triangles for p in asm))}
+    t0 = time.perf_counter()
+    geos = [part_geometry(p, tol, ang) for p in asm.parts]
+    for p in asm.parts:
+        fcl_model(p)
+    t1 = time.perf_counter()
+    pairs, nested = _broad_phase(asm, geos, tol)
+    t2 = time.perf_counter()
+    contacts: list[Contact] = []
+    interferences: list[Interference] = []
+    approx: list[tuple[str, str]] = []
+    tri_pairs = 0
+    t_int = 0.0
+    # content hashes of the validated, placed meshes (what this stage really reads), once each
+    gkeys = ([content_hash(np.asarray(p.mesh.vertices), np.asarray(p.mesh.faces))
+              for p in asm.parts] if cache is not None else [])
+    for a, b, crossing in pairs:
+        ga, gb = geos[a], geos[b]
+        key = None
+        if cache is not None:
+            key = cache.key("contacts", gkeys[a], gkeys[b], tol, ang, bool(crossing))
+            got = cache.get("contacts", key, _check_entry)
+            if got is not None:
+                found, approximate, cs, count = got
+                if approximate:
+                    approx.append((asm.parts[a].id, asm.parts[b].id))
+                if found is not None:
+                    interferences.append(dataclasses.replace(found, a=a, b=b))
+                contacts += [dataclasses.replace(c, a=a, b=b) for c in cs]
+                tri_pairs += count
+                continue
+        found, approximate, before = None, False, len(contacts)
+        count = 0
+        if crossing:
+            ti = time.perf_counter()
+            allowance = tol + min(float(ga.sag.max()), float(gb.sag.max()))
+            found, approximate = interference(a, b, asm.parts[a], asm.parts[b], ga, gb,
+                                              allowance, tol)
+            t_int += time.perf_counter() - ti
+            if approximate:
+                approx.append((asm.parts[a].id, asm.parts[b].id))
+            if found is not None:
+                interferences.append(found)
+        if found is None:
+            i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
+            count = len(i)
+            tri_pairs += count
+            if len(i):
+                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang, offsets)
+        if key is not None:
+            cache.put("contacts", key, (found, approximate, contacts[before:], count))
+    ti = time.perf_counter()
+    interferences += _nested(asm, nested, tol)
+    t_int += time.perf_counter() - ti
+    t3 = time.perf_counter()
+    contacts.sort(key=_sort_key)
+    stats.update({
+        "candidate_pairs": len(pairs), "triangle_pairs": tri_pairs,
+        "touching_pairs": len({(c.a, c.b) for c in contacts}), "contacts": len(contacts),
+        "by_kind": {k: sum(1 for c in contacts if c.kind == k)
+                    for k in ("planar", "curved", "edge", "point")},
+        "interferences": len(interferences),
+        "interference_approximate_pairs": [list(p) for p in approx],
+        "interference_method": ("manifold3d overlap volume; open meshes: fcl crossing-triangle "
+                                "depth (approximate)"),
+        "bvh_s": t1 - t0, "broad_s": t2 - t1, "narrow_s": t3 - t2 - t_int,
+        "interference_s": t_int,
+    })
+    return ContactAnalysis(tuple(contacts), tuple(sorted(interferences, key=lambda x: (x.a, x.b))),
+                           tol, ang, stats)
+
+
+def _check_entry(value):
+    """A cached pair result, validated (any mismatch raises: a cache miss)."""
+    found, approximate, cs, count = value
+    if found is not None and not isinstance(found, Interference):
+        raise TypeError("not an interference")
+    if not all(isinstance(c, Contact) for c in cs):
+        raise TypeError("not contacts")
+    return found, bool(approximate), list(cs), int(count)
+
+
+def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
+                 ) -> tuple[list[tuple[int, int, bool]], list[tuple[int, int]]]:
+    """Part pairs ``(a, b, crossing)``, ``a < b``, whose distance is within the gap allowance
+    ``tol + max sag_a + max sag_b``: their bounding boxes inflated by ``tol + max sag`` overlap
+    (numpy), then python-fcl confirms: ``fcl.collide`` (``crossing``: the surfaces meet, touching
+    included) or else ``fcl.distance``. Also returns the pairs farther apart whose boxes nest
+    (one part may lie wholly inside the other).
+
+    Before ``fcl.distance``, :func:`_apart` proves most distant pairs apart from the triangle
+    boxes alone (a lower bound of the distance, so the answer is the same)."""
+    n = len(asm)
+    if n < 2:
+        return [], []
+    reach = np.array([tol + (g.sag.max() if len(g.sag) else 0.0) for g in geos])
+    tri_box = [_tri_box(g) if len(g.lo) else None for g in geos]
+    b = np.array([p.bounds for p in asm.parts])
+    lo, hi = b[:, 0] - reach[:, None], b[:, 1] + reach[:, None]
+    overlap = np.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), axis=2)
+    inside = np.all((b[:, None, 0] >= b[None, :, 0]) & (b[:, None, 1] <= b[None, :, 1]), axis=2)
+    ia, ib = np.nonzero(np.triu(overlap, 1))
+    out, nested = [], []
+    for a, c in zip(ia.tolist(), ib.tolist()):
+        if meshes_intersect(asm.parts[a], asm.parts[c]):
+            out.append((a, c, True))
+            continue
+        allowed = reach[a] + reach[c] - tol
+        if tri_box[a] is not None and tri_box[c] is not None and _apart(
+                geos[a], geos[c], tri_box[c], allowed):
+            near = False
+        else:
+            near = fcl.distance(fcl_object(asm.parts[a]), fcl_object(asm.parts[c]),
+                                fcl.DistanceRequest(), fcl.DistanceResult()) <= allowed
+        if near:
+            out.append((a, c, False))
+        elif inside[a, c] or inside[c, a]:
+            nested.append((a, c))
+    return out, nested
+
+
+def _apart(ga: PartGeometry, gb: PartGeometry, box_b: tuple[np.ndarray, np.ndarray],
+           gap: float) -> bool:
+    """Whether the triangle boxes alone prove parts A and B more than ``gap`` apart (``box_b``:
+    the box of B's triangles). Two triangles within ``gap`` have boxes within ``gap`` on every
+    axis, so a close pair needs a triangle of A near B's box and then a triangle of B near the
+    box of those; when either set is empty the distance exceeds ``gap``. Costs two numpy box
+    tests, against about 0.5 ms for ``fcl.distance``."""
+    sa = _near_box(ga, box_b[0] - gap, box_b[1] + gap)
+    if len(sa) == 0:
+        return True
+    lo, hi = ga.lo[sa].min(axis=0), ga.hi[sa].max(axis=0)
+    return len(_near_box(gb, lo - gap, hi + gap)) == 0
+
+
+def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Triangle pairs ``(i, j)`` whose boxes, inflated by the largest possible gap allowance,
+    overlap: each part's triangles near the other's box, the fewer of them querying the other
+    part's triangles, grouped by query triangle (ascending) and in each group in the order the
+    other part's R-tree reports its hits.
+
+    Up to :data:`_DENSE_PAIRS` query x target triangles, the boxes are compared all at once
+    with numpy (:func:`ndbg_cli.contacts.facets.box_pairs`), the targets taken in R-tree
+    order (:func:`_tree_rank`): the same pairs in the same order as the R-tree query, which
+    bigger pairs of parts use."""
+    reach = tol + float(ga.sag.max()) + float(gb.sag.max())
+    (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
+    sa = _near_box(ga, lo_b - reach, hi_b + reach)
+    sb = _near_box(gb, lo_a - reach, hi_a + reach)
+    if len(sa) == 0 or len(sb) == 0:
+        return sa[:0], sb[:0]
+    swap = len(sa) > len(sb)
+    q, qs, t, ts = (gb, sb, ga, sa) if swap else (ga, sa, gb, sb)
+    if len(qs) * len(ts) <= _DENSE_PAIRS:
+        ts = ts[np.argsort(_tree_rank(t)[ts])]
+        qi, ti = box_pairs(q.lo[qs] - reach, q.hi[qs] + reach, t.lo[ts], t.hi[ts])
+        rows, cols = qs[qi], ts[ti]
+    else:
+        ids, counts = t.tree.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+        rows, cols = np.repeat(qs, np.asarray(counts, dtype=np.int64)), np.asarray(ids)
+    rows, cols = rows.astype(np.int64), cols.astype(np.int64)
+    return (cols, rows) if swap else (rows, cols)
+
+
+def _tri_box(g: PartGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """The box ``(lo, hi)`` of the triangles of ``g`` (once per part geometry)."""
+    box = _TRI_BOX.get(g)
+    if box is None:
+        box = _TRI_BOX[g] = (g.lo.min(axis=0), g.hi.max(axis=0))
+    return box
+
+
+def _tree_rank(g: PartGeometry) -> np.ndarray:
+    """Rank ``(f,)`` of each triangle of ``g`` in the order its R-tree reports query hits.
+
+    The R-tree (libspatialindex) walks its nodes depth first in a fixed order and skips the
+    subtrees a query box misses, so any query lists its hits in the order a query covering
+    everything lists all triangles. Computed once per part geometry (about 0.3 us a triangle);
+    ``tests/test_contacts.py`` checks it against the R-tree's own answers."""
+    rank = _TREE_RANK.get(g)
+    if rank is None:
+        ids, _ = g.tree.intersection_v(np.full((1, 3), -np.inf), np.full((1, 3), np.inf))
+        rank = np.empty(len(g.lo), dtype=np.int64)
+        rank[np.asarray(ids, dtype=np.int64)] = np.arange(len(ids))
+        _TREE_RANK[g] = rank
+    return rank
+
+
+def _near_box(g: PartGeometry, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Indices of the triangles of ``g`` whose boxes meet the box ``[lo, hi]``."""
+    # one axis at a time: ``np.all(..., axis=1)`` over (f, 3) is several times slower
+    near = (g.lo[:, 0] <= hi[0]) & (g.hi[:, 0] >= lo[0])
+    for d in (1, 2):
+        near &= g.lo[:, d] <= hi[d]
+        near &= g.hi[:, d] >= lo[d]
+    return np.nonzero(near)[0]
+
+
+def _plane_filter(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
+                  tol: float) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """Candidate pairs ``(i, j)`` not separated by more than ``g = tol + sag_i + sag_j`` along
+    either triangle's normal (the two cheapest separating axes). Also returns, for the pairs
+    kept, how far (unit) B's vertices reach from A's plane and A's from B's (the largest
+    absolute signed distance): :func:`ndbg_cli.contacts.features.classify_pairs` reuses them.
+
+    A's plane is tested first, and B's only on the pairs that pass it (most candidates fail
+    the first test): the same pairs as testing both everywhere."""
+    keep_i, keep_j = [i[:0]], [j[:0]]
+    off_b, off_a = [np.zeros(0)], [np.zeros(0)]
+    for s in range(0, len(i), _CHUNK):
+        ci, cj = i[s:s + _CHUNK], j[s:s + _CHUNK]
+        g = tol + ga.sag[ci] + gb.sag[cj]
+        # B's vertices over A's plane: some at most g above and some at least g below; the
+        # smallest and largest of three are taken column-wise (``np.any(..., axis=1)`` over
+        # (p, 3) is several times slower) and also give the largest absolute offset
+        sb = np.einsum("pvd,pd->pv", gb.triangles[cj] - ga.triangles[ci, 0][:, None],
+                       ga.normals[ci])
+        lo, hi = min3(sb), max3(sb)
+        k = np.nonzero((lo <= g) & (hi >= -g))[0]
+        ci, cj, g, lo, hi = ci[k], cj[k], g[k], lo[k], hi[k]
+        sa = np.einsum("pvd,pd->pv", ga.triangles[ci] - gb.triangles[cj, 0][:, None],
+                       gb.normals[cj])
+        lo_a, hi_a = min3(sa), max3(sa)
+        ok = (lo_a <= g) & (hi_a >= -g)
+        keep_i.append(ci[ok])
+        keep_j.append(cj[ok])
+        off_b.append(np.maximum(np.abs(lo[ok]), np.abs(hi[ok])))
+        off_a.append(np.maximum(np.abs(lo_a[ok]), np.abs(hi_a[ok])))
+    return (np.concatenate(keep_i), np.concatenate(keep_j),
+            (np.concatenate(off_b), np.concatenate(off_a)))
+
+
+def _touching(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray, tol: float
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The pairs ``(i, j)`` whose separation along all 11 separating axes is at most
+    ``g = tol + sag_i + sag_j`` (:func:`ndbg_cli.contacts.facets.sat_gap`). Returns ``i, j, g`` of
+    those touching pairs."""
+    keep = [sat_gap(ga.triangles[i[s:s + _SAT_CHUNK]], gb.triangles[j[s:s + _SAT_CHUNK]])
+            for s in range(0, len(i), _SAT_CHUNK)]
+    g = tol + ga.sag[i] + gb.sag[j]
+    ok = np.concatenate(keep) <= g if keep else np.zeros(0, dtype=bool)
+    return i[ok], j[ok], g[ok]
+
+
+def _nested(asm: Assembly, nested: list[tuple[int, int]], tol: float) -> list[Interference]:
+    """Interferences of part pairs whose surfaces are apart but where one part's box lies
+    inside the other's: one part may sit wholly inside the other (closed parts only: the
+    overlap volume decides, as in :func:`ndbg_cli.contacts.interference.interference`)."""
+    out = []
+    for a, b in nested:
+        ma, mb = manifold_model(asm.parts[a]), manifold_model(asm.parts[b])
+        if ma is None or mb is None:
+            continue
+        overlap = ma ^ mb
+        vol, area = float(overlap.volume()), float(overlap.surface_area())
+        depth = 2.0 * vol / area if area > 0 else 0.0
+        if depth > tol:
+            out.append(Interference(a, b, vol, depth, "volume"))
+    return out
+
+
+def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.ndarray,
+                   j: np.ndarray, tol: float, ang: float,
+                   offsets: tuple[np.ndarray, np.ndarray] | None = None) -> list[Contact]:
+    """The contact features between parts ``a`` and ``b`` from their candidate triangle pairs
+    (those passing :func:`_plane_filter`, with the plane offsets it measured). Facing pairs go
+    to the planar and curved features as they are (their polygons are intersected exactly; for
+    them the plane test is the separation test); the others must also pass the full
+    separating-axis test."""
+    planar, curved = classify_pairs(ga, gb, i, j, tol, ang, offsets)
+    feats, used = planar_contacts(ga, gb, i[planar], j[planar], tol, ang)
+    planar_used = np.zeros(len(i), dtype=bool)
+    planar_used[np.nonzero(planar)[0][used]] = True
+    feats += curved_contacts(ga, gb, i[curved], j[curved], ang, tol)
+    # pairs with a triangle of a planar or curved contact are that contact's rim (an edge of
+    # B lying on A's contact face adds no normal the face does not already give)
+    in_patch = planar_used | curved
+    patch_a = np.zeros(len(ga.normals), dtype=bool)
+    patch_b = np.zeros(len(gb.normals), dtype=bool)
+    patch_a[i[in_patch]] = True
+    patch_b[j[in_patch]] = True
+    rest = ~in_patch & ~patch_a[i] & ~patch_b[j]
+    ri, rj, gap = _touching(ga, gb, i[rest], j[rest], tol)
+    feats += edge_point_contacts(ga, gb, ri, rj, gap, ang, list(feats), tol)
+    return [Contact(a=a, b=b, **{k: v for k, v in f.items() if not k.startswith("_")})
+            for f in feats]
+
+
+def _sort_key(c: Contact) -> tuple:
+    return (c.a, c.b, c.kind, tuple(np.round(c.normals, 9).ravel()),
+            tuple(np.round(c.points, 9).ravel()))
+
+
+# -- report ---------------------------------------------------------------------------------
+
+def _r(x: float) -> float:
+    """A float rounded to 10 significant digits (stable JSON across platforms)."""
+    return float(f"{float(x):.10g}")
+
+
+def _vecs(a: np.ndarray | None) -> list | None:
+    if a is None:
+        return None
+    a = np.asarray(a, dtype=float)
+    return [_r(x) for x in a] if a.ndim == 1 else [[_r(x) for x in row] for row in a]
+
+
+def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
+    """JSON-ready report sections ``{"contacts": [...], "interferences": [...],
+    "contact_stats": {...}}`` (schema: ``schemas/fragments/contacts.json``). Parts are named by
+    id; vectors are in the assembly frame and unit; order is deterministic."""
+    ids = asm.ids
+    contacts = [{
+        "a": ids[c.a], "b": ids[c.b], "kind": c.kind, "blocking": c.blocking,
+        "normals": _vecs(c.normals), "points": _vecs(c.points),
+        "point_normals": _vecs(c.point_normals), "area": _r(c.area),
+        "surface": c.surface, "axis": _vecs(c.axis), "center": _vecs(c.center),
+        "radius": None if c.radius is None else _r(c.radius),
+    } for c in result.contacts]
+    interferences = [{"a": ids[x.a], "b": ids[x.b], "volume": _r(x.volume),
+                      "depth": _r(x.depth), "method": x.method} for x in result.interferences]
+    s = result.stats
+    stats = {
+        "units": asm.units, "tolerance": _r(result.tolerance),
+        "angle_tolerance_deg": _r(np.degrees(result.angle_tolerance)),
+        "touching_pairs": [[ids[a], ids[b]] for a, b in result.pairs()],
+        "contacts": len(result.contacts), "by_kind": dict(s.get("by_kind", {})),
+        "interferences": len(result.interferences),
+        "candidate_pairs": int(s.get("candidate_pairs", 0)),
+        "triangle_pairs": int(s.get("triangle_pairs", 0)),
+        "interference_method": s.get("interference_method", ""),
+        "interference_approximate_pairs": s.get("interference_approximate_pairs", []),
+        "timings_s": {k: _r(s.get(k, 0.0))
+                      for k in ("bvh_s", "broad_s", "narrow_s", "interference_s")},
+    }
+    return {"contacts": contacts, "interferences": interferences, "contact_stats": stats}
+
+
+def contacts_text(asm: Assembly, result: ContactAnalysis) -> list[str]:
+    """Readable contact table lines: one line per contact (pair, kind, area, normals), then
+    the interferences and a summary line."""
+    ids, unit = asm.ids, asm.units
+    lines = [f"{'part A':<16} {'part B':<16} {'kind':<7} {'area':>12}  normals (out of A)"]
+    for c in result.contacts:
+        ns = " ".join("(" + ", ".join(f"{x:+.3f}" for x in n) + ")" for n in c.normals[:4])
+        if len(c.normals) > 4:
+            ns += f" ... {len(c.normals)} normals"
+        extra = ""
+        if c.surface in ("cylinder", "cone") and c.radius is not None:
+            extra = f"  {c.surface} r={c.radius:.4g} axis=(" + ", ".join(
+                f"{x:+.3f}" for x in c.axis) + ")"
+        area = f"{c.area:.4g} {unit}^2" if c.area else "-"
+        lines.append(f"{ids[c.a]:<16} {ids[c.b]:<16} {c.kind:<7} {area:>12}  {ns}{extra}")
+    for x in result.interferences:
+        lines.append(f"INTERFERENCE {ids[x.a]} / {ids[x.b]}: volume {x.volume:.4g} {unit}^3, "
+                     f"depth {x.depth:.4g} {unit} ({x.method})")
+    lines.append(f"{len(result.pairs())} touching pairs, {len(result.contacts)} contacts, "
+                 f"{len(result.interferences)} interferences (tolerance {result.tolerance:.3g} "
+                 f"{unit}, {np.degrees(result.angle_tolerance):.3g} deg)")
+    return lines

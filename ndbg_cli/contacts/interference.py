@@ -1,0 +1,129 @@
+"""Interference (interpenetration) between two parts, and the interference policy.
+
+Touching parts are the normal case, and tessellated curved faces that nominally touch cross
+each other slightly (a 24-gon shaft's edges poke into the chords of a 64-gon hole by up to the
+hole's chord sag), so "the meshes intersect" is not an interference. A pair interferes when its
+overlap is *thicker* than an allowance:
+
+* closed parts (manifold3d solids): the overlap solid ``I = A ^ B`` is computed exactly; its
+  mean thickness ``2 V / S`` (volume over half its surface area; the depth of a thin slab) is
+  the reported ``depth``. The pair interferes when ``depth > tolerance + sag``, where ``sag``
+  is the smaller of the two parts' largest chord sags (see
+  :class:`ndbg_cli.contacts.facets.PartGeometry`): nominally touching inscribed tessellations overlap by
+  at most the finer side's sag.
+* open meshes (no manifold, e.g. display models): an approximate test. python-fcl lists the
+  intersecting triangle pairs; pairs that only touch (coplanar, or meeting along an edge) are
+  dropped, and for each properly crossing pair the depth is the smaller of the two triangles'
+  reach behind the other's plane (:func:`crossing_depth`). The pair interferes when the
+  largest depth exceeds the same allowance; its ``volume`` is reported as 0 and ``method`` as
+  ``"fcl-depth"``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import fcl
+import numpy as np
+
+from ..core.assembly import Assembly, Diagnostic, Part
+from ..core.errors import InterferenceError
+from .facets import PartGeometry, fcl_object, manifold_model
+
+#: Contacts fcl is asked for when approximating the interference of open meshes.
+FCL_MAX_CONTACTS = 2000
+
+POLICIES = ("error", "warn", "ignore")
+
+
+@dataclass(frozen=True)
+class Interference:
+    """Two parts whose interiors overlap beyond the tolerance (``a < b``, indices in
+    ``asm.parts``). ``volume`` in unit^3 (0 when approximate), ``depth`` in unit (mean
+    thickness of the overlap, or the approximate penetration for open meshes); ``method`` is
+    ``"volume"`` (exact, manifold3d) or ``"fcl-depth"`` (approximate, open meshes)."""
+
+    a: int
+    b: int
+    volume: float
+    depth: float
+    method: str = "volume"
+
+
+def meshes_intersect(pa: Part, pb: Part) -> bool:
+    """Whether python-fcl finds any common point of the two meshes (touching counts)."""
+    req = fcl.CollisionRequest(num_max_contacts=1, enable_contact=False)
+    return fcl.collide(fcl_object(pa), fcl_object(pb), req, fcl.CollisionResult()) > 0
+
+
+def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: PartGeometry,
+                 allowance: float, tol: float) -> tuple[Interference | None, bool]:
+    """Test one pair whose surfaces meet. Returns ``(interference or None, approximate)`` where
+    ``approximate`` tells that the open-mesh fallback was used. ``allowance`` (unit) is the
+    depth up to which an overlap is read as touching: ``tol + min(sag_A, sag_B)`` with each
+    part's largest chord sag."""
+    ma, mb = manifold_model(pa), manifold_model(pb)
+    if ma is not None and mb is not None:
+        overlap = ma ^ mb
+        vol = float(overlap.volume())
+        area = float(overlap.surface_area())
+        depth = 2.0 * vol / area if area > 0 else 0.0
+        if depth > allowance:
+            return Interference(ia, ib, vol, depth, "volume"), False
+        return None, False
+    req = fcl.CollisionRequest(num_max_contacts=FCL_MAX_CONTACTS, enable_contact=True)
+    res = fcl.CollisionResult()
+    fcl.collide(fcl_object(pa), fcl_object(pb), req, res)
+    if not res.contacts:
+        return None, True
+    # the triangle ids of each contact, gathered column by column (faster than pairs)
+    ids = np.array([[c.b1 for c in res.contacts], [c.b2 for c in res.contacts]],
+                   dtype=np.int64).T
+    ids = np.unique(ids, axis=0)
+    depth = float(crossing_depth(ga.triangles[ids[:, 0]], ga.normals[ids[:, 0]],
+                                 gb.triangles[ids[:, 1]], gb.normals[ids[:, 1]], tol).max())
+    if depth > allowance:
+        return Interference(ia, ib, 0.0, depth, "fcl-depth"), True
+    return None, True
+
+
+def crossing_depth(ta: np.ndarray, na: np.ndarray, tb: np.ndarray, nb: np.ndarray,
+                   tol: float) -> np.ndarray:
+    """Approximate penetration ``(p,)`` of triangle pairs ``(p, 3, 3)`` reported by fcl, with
+    unit normals ``(p, 3)``: for a proper crossing (each triangle has vertices more than
+    ``tol`` on both sides of the other's plane) the smaller of how far A's vertices reach
+    behind B's plane and B's behind A's; 0 for pairs that only touch (coplanar faces, faces
+    meeting along an edge)."""
+    sa = np.einsum("pvd,pd->pv", ta - tb[:, :1], nb)  # A's vertices w.r.t. B's plane
+    sb = np.einsum("pvd,pd->pv", tb - ta[:, :1], na)
+    crossing = ((sa.min(axis=1) < -tol) & (sa.max(axis=1) > tol)
+                & (sb.min(axis=1) < -tol) & (sb.max(axis=1) > tol))
+    depth = np.minimum(-sa.min(axis=1), -sb.min(axis=1))
+    return np.where(crossing, depth, 0.0)
+
+
+def check_interference_policy(asm: Assembly, result, policy: str = "error") -> list[Diagnostic]:
+    """Apply the ``interference`` policy to a :class:`ndbg_cli.contacts.contacts3d.ContactAnalysis`.
+
+    ``"error"``: raise :class:`InterferenceError` (exit code 2) naming every interfering pair;
+    ``"warn"``: return one warning :class:`Diagnostic` (code ``"interference"``) per pair;
+    ``"ignore"``: return ``[]``. Raises ``ValueError`` for an unknown policy.
+    """
+    if policy not in POLICIES:
+        raise ValueError(f"unknown interference policy {policy!r} (use {', '.join(POLICIES)})")
+    if policy == "ignore" or not result.interferences:
+        return []
+    unit = asm.units
+    lines = []
+    for it in result.interferences:
+        a, b = asm.parts[it.a].id, asm.parts[it.b].id
+        how = (f"overlap volume {it.volume:.4g} {unit}^3, depth {it.depth:.4g} {unit}"
+               if it.method == "volume" else
+               f"approximate penetration {it.depth:.4g} {unit} (open meshes)")
+        lines.append((a, b, how))
+    if policy == "error":
+        text = "; ".join(f"'{a}' and '{b}' interpenetrate ({how})" for a, b, how in lines)
+        raise InterferenceError(f"interference: {text}", file=asm.source or None)
+    return [Diagnostic("warning", "interference",
+                       f"parts '{a}' and '{b}' interpenetrate: {how}", part=a,
+                       file=asm.source or None) for a, b, how in lines]

@@ -1,0 +1,18 @@
+"""Names and tolerances shared by every stage: the motion families' report keys.
+
+One table, so that a family is spelled the same in the NDBGs, the plans, the classes and the
+report (paper sections 5.1-5.3 and 6 define the three families).
+"""
+
+from __future__ import annotations
+
+#: Infinitesimal translations (paper sections 4.2-4.5, 5.1).
+INFINITESIMAL = "infinitesimal_translation"
+#: Infinite translations, each to infinity along one direction (paper section 5.3).
+INFINITE = "infinite_translation"
+#: Generalized motions: rotations and screws as well as translations (paper section 6).
+GENERALIZED = "generalized"
+#: Every family, in the order the reports list them.
+FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
+
+__all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES"]

@@ -1,0 +1,303 @@
+"""Batches of assemblies: worker processes, results in input order, clean interruption.
+
+:func:`run_batch` analyses every target with ``jobs`` worker processes and yields the reports
+(or error records) **in input order**, whatever order they complete in, so a JSON Lines stream
+or a folder of reports is the same for ``--jobs 1`` and ``--jobs 8``. Each assembly is
+analysed independently by the same pure function, so the reports are byte-identical too.
+
+An internal error in one assembly becomes its error record (exit code 3); the others go on.
+So does a worker process that dies under an assembly (out of memory, a segfault): the pool is
+started again for the assemblies not yet done.
+SIGTERM stops the batch: pending work is cancelled, the workers are ended, and since reports
+are written atomically (:func:`ndbg_cli.core.files.write_atomic`) only complete files remain.
+
+:func:`run_batch_dask` does the same on a dask.distributed cluster (``ndbg analyze
+--scheduler``): an existing one (``tcp://HOST:PORT``) or a local one started for the run
+(``local``). It submits the same :func:`analyze_one`, so the reports are byte-identical to a
+local run. ``distributed`` is imported only there (``pip install 'ndbg-cli[dask]'``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import dataclasses
+import multiprocessing
+import os
+import signal
+import traceback
+from collections.abc import Iterator
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+
+from ..core.errors import InputError, NdbgError
+from ..core.pools import end_pool
+from .analysis import Options, analyze_path, error_record
+
+
+class Interrupted(Exception):
+    """The batch was stopped by SIGTERM."""
+
+
+def analyze_one(target: Path, options: Options, debug: bool = False) -> dict:
+    """Analyse one target; never raises: a bug becomes an error record (exit code 3)."""
+    try:
+        return analyze_path(target, options)
+    except Exception as exc:  # a bug: record it and let the batch go on
+        if debug:
+            traceback.print_exc()
+        return _internal_error(target, exc)
+
+
+def _internal_error(target: Path, exc: BaseException) -> dict:
+    """The error record of an unexpected exception while analysing ``target``."""
+    err = NdbgError(f"internal error: {exc.__class__.__name__}: {exc} "
+                    "(run with --debug for a traceback)", file=str(target))
+    return error_record(target, err)
+
+
+def default_jobs() -> int:
+    """Worker processes by default: the cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _raise_interrupted(signum, frame) -> None:
+    raise Interrupted()
+
+
+#: Pool restarts in a row that may end no assembly (a worker dying before it takes any, or
+#: dying idle) before the remaining assemblies are given up as error records.
+MAX_FRUITLESS_RESTARTS = 2
+
+#: In a worker: the batch's shared array of the pid that took each target (0: not taken).
+_TAKEN: list = []
+
+
+def _worker_init(taken) -> None:
+    """Workers die quietly on SIGTERM (the parent ends them) and leave Ctrl-C to it; they
+    record in ``taken`` (shared, one slot per target) which target each of them takes."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _TAKEN[:] = [taken]
+
+
+def _analyze_taken(k: int, target: Path, options: Options, debug: bool) -> dict:
+    """In a worker: :func:`analyze_one`, after recording that this process took target ``k``
+    (so that if it dies, the parent knows which assembly was under way in it)."""
+    _TAKEN[0][k] = os.getpid()
+    return analyze_one(target, options, debug)
+
+
+def _worker_died(target: Path, exitcode: int | None) -> dict:
+    """The error record (exit code 3) of an assembly whose worker process died under it."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            how = f"killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            how = f"killed by signal {-exitcode}"
+        if exitcode == -signal.SIGKILL:
+            how += ", out of memory?"
+    else:
+        how = f"exit code {exitcode}"
+    err = NdbgError(f"internal error: the worker process analysing it died ({how}); the other "
+                    "assemblies were analysed (run it alone, with --debug)", file=str(target))
+    return error_record(target, err)
+
+
+def _exitcodes(procs: dict | None) -> dict[int, int | None] | None:
+    """``pid -> exit code`` of a pool's (ended) workers, or ``None`` if they are not known."""
+    if procs is None:
+        return None
+    return {pid: p.exitcode for pid, p in list(procs.items())}
+
+
+def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
+              debug: bool = False) -> Iterator[dict]:
+    """Yield one report or error record per target, in the order of ``targets``. A single
+    target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
+    (``Options.workers``; same report).
+
+    A worker process that dies (SIGKILL from the out-of-memory killer, a segfault in a
+    native library) breaks its pool: the assembly it was analysing gets an error record
+    (exit code 3), a new pool is started, and the assemblies the old one had not finished
+    (including those under way in the workers it ended) are analysed again there."""
+    # one target: its pairs in ``jobs`` processes; several: one process each (never nested),
+    # and the batch's own progress bar only
+    one = len(targets) == 1
+    options = dataclasses.replace(options, workers=jobs if one else 1,
+                                  progress=options.progress and one)
+    if jobs <= 1 or len(targets) <= 1:
+        for t in targets:
+            yield analyze_one(t, options, debug)
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_interrupted)
+    try:
+        yield from _pooled(targets, options, min(jobs, len(targets)), debug)
+    finally:  # a SIGTERM during the shutdown still leaves the caller's handler back
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _pooled(targets: list[Path], options: Options, jobs: int, debug: bool) -> Iterator[dict]:
+    """:func:`run_batch` with worker processes, restarting the pool when a worker dies."""
+    taken = multiprocessing.RawArray("q", len(targets))  # pid that took target k, 0: none
+    ready: dict[int, dict] = {}  # results known before their turn to be yielded
+    k = 0  # the next target to yield
+    fruitless = 0
+    while k < len(targets):
+        todo = [j for j in range(k, len(targets)) if j not in ready]
+        if not todo:
+            yield ready.pop(k)
+            k += 1
+            continue
+        pool = ProcessPoolExecutor(max_workers=min(jobs, len(todo)), initializer=_worker_init,
+                                   initargs=(taken,))
+        # the dict of the pool's workers, kept (the pool drops it at shutdown) to read
+        # their exit codes once a broken pool is ended; private, hence checked for
+        procs = getattr(pool, "_processes", None)
+        futures: dict[int, Future] = {}
+        broken = False
+        try:
+            try:
+                for j in todo:
+                    taken[j] = 0
+                    futures[j] = pool.submit(_analyze_taken, j, targets[j], options, debug)
+            except BrokenProcessPool:
+                broken = True
+            while not broken and k < len(targets):
+                if k not in ready:
+                    try:
+                        ready[k] = futures[k].result()
+                    except BrokenProcessPool:
+                        broken = True
+                        break
+                yield ready.pop(k)
+                k += 1
+        finally:
+            if broken or k < len(targets):
+                # a dead worker, an interruption, or the consumer stopping early: end the
+                # workers now (so that the exit codes below are final)
+                end_pool(pool)
+            else:
+                # every worker is idle: a waiting shutdown is quick, and it lets the pool's
+                # manager thread finish before the interpreter's exit (ending the workers
+                # under it once printed an OSError traceback from that thread at exit)
+                pool.shutdown(wait=True)
+        before = len(ready)
+        _collect(futures, ready, taken, _exitcodes(procs), targets)
+        fruitless = 0 if len(ready) > before else fruitless + 1
+        if fruitless > MAX_FRUITLESS_RESTARTS:  # workers die before doing anything
+            for j in range(k, len(targets)):
+                ready.setdefault(j, _worker_died(targets[j], None))
+
+
+def _collect(futures: dict[int, Future], ready: dict[int, dict], taken,
+             exitcodes: dict[int, int | None] | None, targets: list[Path]) -> None:
+    """After a broken pool was ended: into ``ready``, the results it completed, and an error
+    record for each target that was under way in a worker that died by itself (not ended
+    by SIGTERM from the pool or :func:`~ndbg_cli.core.pools.end_pool`). The other targets are
+    left to the next pool. Without the workers' exit codes, every target under way is
+    taken to be the culprit (each restart then ends at least one)."""
+    ended = (0, -signal.SIGTERM, None)
+    for j, f in futures.items():
+        if f.done() and not f.cancelled() and f.exception() is None:
+            ready[j] = f.result()
+            continue
+        pid = taken[j]
+        if pid == 0:
+            continue  # not started: the next pool takes it
+        code = exitcodes.get(pid) if exitcodes is not None else None
+        if exitcodes is None or code not in ended:
+            ready[j] = _worker_died(targets[j], code)
+
+
+DASK_MISSING = "--scheduler needs dask.distributed: pip install 'ndbg-cli[dask]'"
+CONNECT_TIMEOUT = 10.0  # seconds to reach an existing scheduler
+
+
+def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: int = 1, *,
+                   debug: bool = False) -> Iterator[dict]:
+    """Like :func:`run_batch`, on a dask.distributed cluster; yields in the order of ``targets``.
+
+    ``address`` is ``tcp://HOST:PORT`` of a running scheduler (its workers must see the input
+    files at the same paths), or ``local`` to start a :class:`distributed.LocalCluster` on
+    loopback with ``jobs`` single-threaded worker processes for the duration of the batch.
+
+    Connects before returning: a missing ``distributed`` or an unreachable scheduler raises
+    :class:`InputError` (exit code 2) here, not while iterating. A task that fails on the
+    cluster (a worker died, a result could not be sent) becomes the error record
+    :func:`analyze_one` would make (exit code 3); the other targets go on.
+    """
+    # dask workers are daemons (no pools) and their stderr is not ours
+    options = dataclasses.replace(options, workers=1, progress=False)
+    try:
+        import distributed
+    except ImportError:
+        raise InputError(DASK_MISSING) from None
+    if address != "local":
+        from distributed.comm import get_address_host_port
+        try:  # a malformed address would leave a half-made Client behind
+            get_address_host_port(address)
+        except ValueError as exc:
+            raise InputError(f"--scheduler {address}: {exc} (give tcp://HOST:PORT or local)"
+                             ) from None
+    cluster = None
+    try:
+        if address == "local":
+            import logging
+            cluster = distributed.LocalCluster(
+                n_workers=max(1, min(jobs, len(targets))), threads_per_worker=1,
+                processes=True, host="127.0.0.1", dashboard_address=None,
+                # shutdown races (a worker's last heartbeat to a closed scheduler) are logged
+                # as errors with tracebacks: not ours to show unless --debug
+                silence_logs=logging.ERROR if debug else logging.CRITICAL + 1)
+            client = distributed.Client(cluster, set_as_default=False)
+        else:
+            client = distributed.Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+    except Exception as exc:
+        if cluster is not None:
+            cluster.close()
+        where = "start a local dask cluster" if address == "local" else \
+            f"reach the dask scheduler at {address}"
+        raise InputError(f"cannot {where}: {exc.__class__.__name__}: {exc}") from None
+    return _gather_in_order(client, cluster, targets, options, debug)
+
+
+def _gather_in_order(client, cluster, targets: list[Path], options: Options,
+                     debug: bool) -> Iterator[dict]:
+    previous = signal.signal(signal.SIGTERM, _raise_interrupted)
+    futures: list = []
+    try:
+        futures = client.map(analyze_one, targets, options=options, debug=debug, pure=False)
+        for k, target in enumerate(targets):
+            future, futures[k] = futures[k], None  # let the cluster forget finished results
+            try:
+                result = future.result()
+            except Interrupted:
+                raise
+            except (Exception, asyncio.CancelledError) as exc:  # the task failed on the cluster
+                if debug:
+                    traceback.print_exc()
+                result = _internal_error(target, exc)
+            future.release()
+            yield result
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        pending = [f for f in futures if f is not None]
+        quiet = None
+        if cluster is not None and not debug:
+            import logging
+            quiet = logging.getLogger("distributed")
+            level = quiet.level
+            quiet.setLevel(logging.CRITICAL + 1)
+        try:
+            if pending:
+                client.cancel(pending)
+            client.close()
+        finally:
+            if cluster is not None:
+                cluster.close()
+            if quiet is not None:
+                quiet.setLevel(level)

@@ -1,0 +1,334 @@
+"""Decomposition searches over an NDBG: the polynomial decomposition by sink components
+behind the exact yes/no classes, the minimum number of directions, and the exact minimum
+tree height by iterative deepening without the whole AND/OR graph (paper section 7.2).
+
+Freeness is hereditary (see :mod:`andor`): a subassembly's candidate partitioning in a region
+stays one, restricted, in every smaller subassembly. So a sink component of a DBG's
+condensation that avoids the base can always be moved (:func:`sink_split`), and decomposing
+by such splits at every node (:func:`sink_decompose`) finds a candidate tree whenever one
+exists, in polynomial time; its failure names a subassembly with no partitioning at all.
+:mod:`classes` turns these into the report's measures.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from ..core.gc_pause import gc_paused
+from ..ndbg.components import condense
+from ..ndbg.dbg import bits
+from ..ndbg.model import NDBG, ConnectivityTest
+from .andor import AndOrGraph, Budget, Hyperarc, Meter, greedy_tree, lower_bound_depth, node_splits
+
+
+@dataclass
+class DepthResult:
+    """Outcome of :func:`min_depth_search`: ``depth`` is exact when ``exact``; otherwise
+    ``lower <= optimum <= upper`` (``upper`` from the best tree found). ``choice`` holds the
+    hyperarcs of an optimal (or best found) tree; ``expanded`` counts nodes whose splits were
+    enumerated."""
+
+    depth: int | None
+    exact: bool
+    lower: int
+    upper: int | None
+    choice: dict[int, Hyperarc]
+    expanded: int
+    why: str = ""
+
+
+@gc_paused()
+def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
+                     connected: ConnectivityTest | None = None, budget: Budget | None = None,
+                     graph: AndOrGraph | None = None) -> DepthResult:
+    """Exact minimum tree height by iterative deepening without building the whole graph.
+
+    ``fits(M, d)``: a tree of height ``<= d`` exists iff some hyperarc has both sides of at most
+    ``2^(d-1)`` parts that fit in ``d - 1``; memoized per subassembly as the largest refuted and
+    smallest proven height. Starts at ``ceil(log2 n)`` and stops at the greedy balanced tree's
+    height (an upper bound), so a proven optimum usually costs far fewer nodes than the full
+    AND/OR graph. Anytime: when the budget runs out, returns the bounds reached. With
+    ``graph`` (same ``base`` and ``connected``), its memoized hyperarcs are used and its cut
+    partitioning lists count as cuts of this search.
+    """
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    memo: dict[int, list[Hyperarc]] = {}
+    trunc_splits = False
+
+    def get(m: int, meter: Meter) -> list[Hyperarc]:
+        nonlocal trunc_splits
+        got = memo.get(m)
+        if got is None:
+            if graph is not None:
+                got = graph.expand(m, meter)
+            else:
+                got, t = node_splits(ndbg, m, base=base, connected=connected,
+                                     limit=budget.split_limit, meter=meter)
+                trunc_splits |= t
+            memo[m] = got
+        return got
+
+    def cut() -> bool:
+        return trunc_splits or (graph is not None and graph.split_truncated)
+
+    greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
+    lower = lower_bound_depth(root)
+    if not greedy.found:
+        exact = not greedy.truncated and not cut()
+        return DepthResult(None, exact, lower, None, {}, len(memo))
+    upper = greedy.depth()
+    best_choice = dict(greedy.choice)
+    proven: dict[int, int] = {}
+    refuted: dict[int, int] = {}
+    choice: dict[int, Hyperarc] = {}
+    meter = budget.meter()
+
+    class _Stop(Exception):
+        pass
+
+    def fits(m: int, d: int) -> bool:
+        if m.bit_count() == 1:
+            return True
+        if d < lower_bound_depth(m) or refuted.get(m, -1) >= d:
+            return False
+        if proven.get(m, 1 << 30) <= d:
+            return True
+        if len(memo) > budget.max_nodes or meter.spent() is not None:
+            raise _Stop
+        cap = 1 << (d - 1)
+        for h in get(m, meter):
+            if h.left.bit_count() <= cap and h.right.bit_count() <= cap and \
+                    fits(h.left, d - 1) and fits(h.right, d - 1):
+                proven[m] = d
+                choice[m] = h
+                return True
+        refuted[m] = max(d, refuted.get(m, -1))
+        return False
+
+    d = lower
+    try:
+        while d < upper:
+            if fits(root, d):
+                upper = d
+                best_choice = _tree_choice(root, choice)
+                break
+            d += 1
+    except _Stop:
+        return DepthResult(None, False, lower if cut() else d, upper, best_choice, len(memo))
+    # Refutations over cut partitioning lists prove nothing: then only ceil(log2 n) bounds
+    # the optimum from below (and proves it when the tree found reaches it).
+    exact = not cut() or upper == lower
+    return DepthResult(upper if exact else None, exact, upper if exact else lower, upper,
+                       best_choice, len(memo))
+
+
+def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
+    """The hyperarcs of the tree rooted at ``root`` in ``choice``."""
+    out: dict[int, Hyperarc] = {}
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        h = choice[m]
+        out[m] = h
+        stack.extend((h.left, h.right))
+    return out
+
+
+
+def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
+               base: int | None = None, linear: bool = False) -> tuple[int, int] | None:
+    """A candidate partitioning of ``mask`` as ``(moved, region)``, or ``None`` if none exists
+    in ``regions`` (default: all).
+
+    Every nonempty free set contains a sink component of the condensation, so a proper free set
+    avoiding the base exists iff some sink component avoids it; with ``linear`` one side must
+    be a single part: a singleton sink component (moved), or a part with no incoming arc whose
+    complement moves (only if that part is the base or the base is absent).
+    """
+    if mask.bit_count() < 2:
+        return None
+    base_bit = 0 if base is None else (1 << base) & mask
+    order = range(len(ndbg.regions)) if regions is None else regions
+    seen: set[tuple[int, ...]] = set()
+    for r in order:
+        g = ndbg.regions[r].dbg
+        key = tuple(g.succ[i] & mask for i in bits(mask))
+        if key in seen:
+            continue
+        seen.add(key)
+        comps, comp_succ = condense(g.succ, mask)
+        if len(comps) < 2:
+            continue
+        for c, s in zip(comps, comp_succ):
+            if s == 0 and not c & base_bit and (not linear or c.bit_count() == 1):
+                return c, r
+        if linear:
+            incoming = 0
+            for i in bits(mask):
+                incoming |= g.succ[i] & mask & ~(1 << i)
+            for p in bits(mask & ~incoming):
+                if not base_bit or base_bit == 1 << p:
+                    return mask & ~(1 << p), r
+    return None
+
+
+def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] | None = None,
+                   *, base: int | None = None, linear: bool = False
+                   ) -> tuple[dict[int, tuple[int, int]], int | None]:
+    """Decompose ``mask`` by :func:`sink_split` at every node: ``(choice, stuck)`` with
+    ``choice[m] = (moved, region)``. By heredity this is exact: ``stuck`` (a subassembly with no
+    partitioning, hence a proof of failure) is ``None`` iff a candidate tree (a linear one with
+    ``linear``) exists using only ``regions``. Polynomial: ``O(n * regions * (n + arcs))``."""
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    choice: dict[int, tuple[int, int]] = {}
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        got = sink_split(ndbg, m, regions, base=base, linear=linear)
+        if got is None:
+            return choice, m
+        choice[m] = got
+        stack.extend((m & ~got[0], got[0]))
+    return choice, None
+
+
+
+def set_string(ndbg: NDBG, mask: int) -> str:
+    """``{a, b, c}``: the part ids of ``mask``."""
+    return "{" + ", ".join(ndbg.names(mask)) + "}"
+
+
+def tree_string(ndbg: NDBG, choice: dict[int, tuple[int, int]], mask: int) -> str:
+    """Compact nested rendering ``(moved | rest)`` of a decomposition ``choice[m] = (moved,
+    region)``."""
+    if mask.bit_count() < 2:
+        return ndbg.names(mask)[0]
+    moved, _ = choice[mask]
+    return f"({tree_string(ndbg, choice, moved)} | {tree_string(ndbg, choice, mask & ~moved)})"
+
+
+def regions_named(ndbg: NDBG, regions) -> list[dict]:
+    """``{"region", "direction", "motion"}`` per region index (direction and motion when the
+    region has them), for the report."""
+    out = []
+    for r in regions:
+        reg = ndbg.regions[r]
+        d: dict = {"region": r}
+        if reg.direction is not None:
+            d["direction"] = [float(x) for x in reg.direction]
+        if reg.motion is not None:
+            d["motion"] = reg.motion
+        out.append(d)
+    return out
+
+
+def dominant_regions(ndbg: NDBG, mask: int) -> list[int]:
+    """One region per distinct DBG induced on ``mask``, dropping any whose arc set contains
+    another's (its free sets are a subset of the other's, so it is never needed)."""
+    reps: dict[tuple[int, ...], int] = {}
+    for k, r in enumerate(ndbg.regions):
+        key = tuple(r.dbg.succ[i] & mask for i in bits(mask))
+        if key not in reps:
+            reps[key] = k
+    keys = list(reps)
+    keep = []
+    for a in keys:
+        dominated = any(b != a and all(x & y == y for x, y in zip(a, b)) for b in keys)
+        if not dominated:
+            keep.append(reps[a])
+    return sorted(keep)
+
+
+def min_directions(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
+                   mask: int | None = None) -> dict:
+    """Minimum number of distinct regions (translation directions, or suggested motions) a
+    candidate algorithm needs, where each instruction may use any region in which its moved
+    side is free (moving ``S`` along ``d`` and the rest along ``-d`` count as different
+    directions).
+
+    Exact by search: subsets of the non-dominated distinct DBGs are tried by increasing size,
+    each tested in polynomial time by :func:`sink_decompose` (heredity), until
+    ``budget.max_nodes`` tests or its work budget; beyond that the answer is an upper
+    bound from a greedy cover (``exact`` False, ``lower_bound`` the largest size fully refuted).
+    """
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    if root.bit_count() < 2:
+        return {"value": 0, "exact": True, "lower_bound": 0, "regions": [],
+                "why": "a single part needs no instruction"}
+    choice, stuck = sink_decompose(ndbg, root, base=base)
+    if stuck is not None:
+        return {"value": None, "exact": True, "lower_bound": None, "regions": None,
+                "stuck": stuck, "why": f"no candidate algorithm: {set_string(ndbg, stuck)} cannot "
+                "be partitioned in any region"}
+    cands = dominant_regions(ndbg, root)
+    meter = budget.meter()
+    tests = 0
+    refuted = 0
+    for k in range(1, len(cands) + 1):
+        for combo in itertools.combinations(cands, k):
+            tests += 1
+            if tests > budget.max_nodes or meter.spent() is not None:
+                return _greedy_directions(ndbg, root, base, cands, refuted, choice)
+            # a test decomposes at most n - 1 subassemblies, each over the k DBGs
+            meter.charge(k * root.bit_count())
+            ch, st = sink_decompose(ndbg, root, list(combo), base=base)
+            if st is None:
+                used = sorted({r for _, r in ch.values()})
+                return {"value": len(used), "exact": True, "lower_bound": len(used),
+                        "regions": used, "directions": regions_named(ndbg, used),
+                        "why": ("exact: one region suffices" if k == 1 else
+                                f"exact: no set of {k - 1} region(s) suffices") +
+                        f"; regions {used} give the tree {tree_string(ndbg, ch, root)}"}
+        refuted = k
+    raise AssertionError("the full region set decomposes, so some subset must")
+
+
+def _greedy_directions(ndbg: NDBG, root: int, base: int | None, cands: list[int],
+                       refuted: int, choice: dict[int, tuple[int, int]]) -> dict:
+    """Upper bound: grow a region set greedily, adding the region that lets the decomposition
+    go furthest (fewest parts left in stuck subassemblies), until nothing is stuck."""
+    chosen: list[int] = []
+    while True:
+        best = None
+        for r in cands:
+            if r in chosen:
+                continue
+            ch, st = sink_decompose(ndbg, root, chosen + [r], base=base)
+            score = 0 if st is None else _stuck_weight(ndbg, root, chosen + [r], base)
+            if best is None or (score, r) < best[:2]:
+                best = (score, r, ch, st)
+        assert best is not None
+        chosen.append(best[1])
+        if best[3] is None:
+            used = sorted({r for _, r in best[2].values()})
+            exact = len(used) == refuted + 1  # the bounds meet: proven all the same
+            what = "exact: the bounds meet" if exact else "upper bound"
+            return {"value": len(used), "exact": exact, "lower_bound": refuted + 1,
+                    "regions": used, "directions": regions_named(ndbg, used),
+                    "why": f"{what} (search budget exhausted after all sets of "
+                    f"{refuted} region(s) failed): regions {used} give the tree "
+                    f"{tree_string(ndbg, best[2], root)}"}
+
+
+def _stuck_weight(ndbg: NDBG, root: int, regions: list[int], base: int | None) -> int:
+    """Parts inside stuck subassemblies when decomposing with ``regions`` as far as possible."""
+    total = 0
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        got = sink_split(ndbg, m, regions, base=base)
+        if got is None:
+            total += m.bit_count()
+            continue
+        stack.extend((got[0], m & ~got[0]))
+    return total

@@ -1,0 +1,308 @@
+"""Prismatic form-closure grasp of order 1 (paper section 7.2).
+
+A finger is a point-plane contact on a face of some part, fixed in space: it blocks that part
+translating along ``d`` iff ``d . n > 0`` (``n`` the face's outward unit normal). The grasp must
+make, for every direction ``d`` of every region of the NDBG, each sink strong component of the
+region's DBG (a set of parts that could translate along ``d`` on its own, the whole product
+included when it is one component) contain a part held by a finger blocking ``d``; then no
+subassembly can translate relative to the others and the fingers (order 1: one internal
+motion at a time).
+
+Face data is not in the NDBG, so the caller passes the candidate faces as
+``(part index, outward normal, point or None)`` (exterior faces of the parts).
+
+Regions are sets of directions
+------------------------------
+A region is an open 2D cell of S^2, an open arc or a point (on S^1 for 2D assemblies: an
+open arc or a point), and a finger blocks only on its open half-space ``d . n > 0``: covering
+a region's representative direction is not enough, the finger's great circle ``d . n = 0``
+may cross the region. So each requirement, a pair (region, sink component), is held over the
+region's whole extent. The region is cut into convex *pieces*, each a relatively open convex
+cone given by unit generators (the extreme rays of its closure, in cyclic order): one (a
+point), two (the open arc between them, shorter than ``pi``) or three and more (an open convex
+spherical polygon inside an open hemisphere). An open piece is the set of strictly positive
+combinations of its generators, so a finger blocks all of it iff every generator has
+``g . n >= 0`` and one has ``g . n > 0`` (on a region whose closure touches the finger's circle
+but lies on its positive side, every direction of the open region is still blocked). A finger
+whose circle crosses a piece splits it (the paper's refinement of the arrangement by the
+finger's plane): the part on its positive side is covered, and the part on its negative side
+and the chord on the circle itself (``d . n = 0`` does not block) are pieces still to cover.
+A requirement is met when none of its pieces is left: the open half-spaces of its
+component's fingers contain the whole region. The pieces, and where each family's region
+extents come from, are in :mod:`ndbg_cli.planning.pieces`.
+
+Tolerance
+---------
+``tol`` (a cosine; about radians) is the NDBG's own angular tolerance: the infinitesimal
+family's ``angle_tolerance`` (the contact analysis', 1 degree by default in 3D; 1e-6 rad in
+2D), the infinite family's :data:`ndbg_cli.ndbg.infinite.build.OPEN_TOL` (1e-6 rad). A generator with
+``|g . n| <= tol`` is on the finger's circle, as the NDBG reads a direction within ``tol`` of
+a contact's circle as sliding along it: a piece is covered when all its generators have
+``g . n >= -tol`` and one has ``g . n > tol`` (a point: ``d . n > tol``), and cut when some
+have ``g . n > tol`` and others ``g . n < -tol``. The directions of a covered piece that the
+finger does not block lie within ``tol / cos(rho)`` of its circle (``rho``: the angular
+radius of a cap holding the piece); everything else is exact for polyhedral parts.
+
+Placement is the paper's scan made greedy: each step places the finger that covers the most
+of what is left wholly, then the most in part (each requirement weighs :data:`WEIGHT`,
+shared by its region's pieces; ties: lowest part, then face order). The count is not
+guaranteed minimal (neither is the paper's).
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..ndbg.dbg import bit_rows, bits, condensation
+from ..ndbg.model import NDBG
+from .pieces import region_pieces, split_piece, unit
+
+Face = tuple[int, Sequence[float], Sequence[float] | None]
+
+
+
+def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
+    """``(region, sink component)`` pairs to cover, in region order."""
+    m = (1 << ndbg.n) - 1 if mask is None else mask
+    out = []
+    sinks: dict[tuple[int, ...], list[int]] = {}  # per distinct DBG (the engine: 348 of 8,110)
+    for k, r in enumerate(ndbg.regions):
+        if r.direction is None:
+            continue
+        got = sinks.get(r.dbg.succ)
+        if got is None:
+            comps, comp_succ = condensation(r.dbg, m)
+            got = sinks[r.dbg.succ] = [c for c, s in zip(comps, comp_succ) if s == 0]
+        out.extend((k, c) for c in got)
+    return out
+
+
+# ----------------------------------------------------------------------------- the pieces
+class _Pieces:
+    """Pieces to cover: each a ``(g, dim)`` array of generators and its requirement; the
+    flat array of all generators grows as fingers split pieces."""
+
+    def __init__(self, dim: int):
+        self.chunks: list[np.ndarray] = []
+        self.start: list[int] = []
+        self.req: list[int] = []
+        self.weight: list[int] = []
+        self._flat = np.zeros((0, dim))
+        self._nflat = 0
+
+    def add(self, gens: np.ndarray, req: int, weight: int) -> int:
+        self.start.append(self.start[-1] + len(self.chunks[-1]) if self.chunks else 0)
+        self.chunks.append(gens)
+        self.req.append(req)
+        self.weight.append(weight)
+        return len(self.req) - 1
+
+    def gather(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The generators of the pieces ``q``, one piece after the other, and where each
+        piece's start."""
+        if self._nflat < len(self.chunks):
+            self._flat = np.concatenate([self._flat] + self.chunks[self._nflat:])
+            self._nflat = len(self.chunks)
+        size = np.array([len(self.chunks[i]) for i in q.tolist()], dtype=np.int64)
+        seg = (np.cumsum(size) - size).astype(np.int64)
+        idx = np.repeat(np.asarray(self.start)[q] - seg, size) + np.arange(size.sum())
+        return self._flat[idx], seg
+
+
+def _tests(gens: np.ndarray, seg: np.ndarray, normals: np.ndarray, tol: float
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """``(covered, cut)`` ``(pieces, F)``: whether each finger (``normals`` ``(F, dim)``)
+    blocks all of each piece (generators ``gens`` from :meth:`_Pieces.gather`), and whether
+    its circle crosses it (module docstring)."""
+    if len(seg) == 0:
+        return np.zeros((0, len(normals)), bool), np.zeros((0, len(normals)), bool)
+    v = gens @ normals.T
+    blocks = np.maximum.reduceat(v, seg, axis=0) > tol
+    low = np.minimum.reduceat(v, seg, axis=0) < -tol
+    return blocks & ~low, blocks & low
+
+
+# ------------------------------------------------------------------------------ the grasp
+#: Largest number of (generator, candidate face) tests :func:`grasp` makes: one per generator
+#: of a piece and face of a part in the piece's sink component. When the first gains alone
+#: would take more, the grasp is not computed (``"skipped"``); when the greedy placement
+#: reaches it, it stops there (incomplete, and the report says so). A count, so the answer
+#: does not depend on the machine. About 30 million tests a second: the bell takes 66,000,
+#: AS1 470,000, the beam 1.5 million; the 115-part engine (8,110 regions, 66,865 candidate
+#: faces) would take 1.8 billion (a minute).
+GRASP_BUDGET = 100_000_000
+
+#: A requirement's weight in the gains, shared by its region's pieces (so that a region cut
+#: into many pieces counts as one; pieces split by a finger keep their weight).
+WEIGHT = 1 << 20
+
+#: Tests per numpy block when computing gains (bounds memory to ~100 MB).
+_BLOCK = 4_000_000
+
+
+def tolerance(ndbg: NDBG) -> float:
+    """The angular tolerance of ``ndbg``'s sign tests (see the module docstring)."""
+    from ..geometry.sphere import DEFAULT_ANGLE_TOL
+    from ..ndbg.infinite.blocked_sets import OPEN_TOL
+    from ..ndbg.infinite.build import FAMILY as INFINITE
+
+    if ndbg.family == INFINITE:
+        return OPEN_TOL
+    return float(ndbg.stats.get("angle_tolerance", DEFAULT_ANGLE_TOL))
+
+
+def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
+          tol: float | None = None, budget: int = GRASP_BUDGET) -> dict:
+    """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts),
+    each requirement held over its region's whole extent (module docstring; ``tol``: the
+    angular tolerance, default :func:`tolerance`).
+
+    Returns ``{"value": number of fingers, "fingers": [{"part", "normal", "point", "covers",
+    "covers_part"}...], "uncovered": [{"region", "parts", "direction"}...], "complete": bool,
+    "coverage": "regions" | "representatives", "why", "parts"}``: ``covers`` counts the
+    requirements a finger blocks wholly on its own, ``covers_part`` those it blocks in part;
+    ``direction`` is one direction of the region that no finger on those parts blocks. When
+    the first gains would take more than ``budget`` tests, ``{"value": None, "skipped":
+    True, "why"}`` instead; when the placement's tests pass ``budget``, it stops there
+    (``complete`` False, the ``why`` says so).
+
+    The greedy choice is made lazily: a heap of upper bounds of the gains (a piece a finger
+    splits may become wholly coverable by another, so the bounds of the fingers on its parts
+    are raised by what they get from the new pieces), each re-counted when it comes to the
+    top, which picks the fingers of the plain greedy scan without its pieces x faces matrix.
+    """
+    m = (1 << ndbg.n) - 1 if mask is None else mask
+    tol = tolerance(ndbg) if tol is None else float(tol)
+    reqs = requirements(ndbg, m)
+    extents = region_pieces(ndbg) if reqs else None
+    coverage = "representatives" if extents is None else "regions"
+    pieces = _Pieces(ndbg.space_dimension)
+    for q, (k, _) in enumerate(reqs):
+        ext = (extents[k] if extents is not None
+               else [np.asarray(ndbg.regions[k].direction, float)[None]])
+        for g in ext:
+            pieces.add(np.asarray(g, float), q, WEIGHT // len(ext))
+    n0 = len(pieces.req)
+    part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
+    normals = (np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]) if faces
+               else np.zeros((0, ndbg.space_dimension)))
+    inside = bit_rows([c for _, c in reqs], ndbg.n) if reqs else np.zeros((0, ndbg.n), bool)
+    piece_req = np.asarray(pieces.req, dtype=np.intp)
+    # per part: the pieces whose requirement's sink component holds it, and its faces
+    holds = {p: np.flatnonzero(inside[piece_req, p]) for p in np.unique(part_of).tolist()}
+    by_part = {p: np.flatnonzero(part_of == p) for p in holds}
+    size = np.array([len(c) for c in pieces.chunks], dtype=np.int64)
+    work = sum(int(size[holds[p]].sum()) * len(by_part[p]) for p in holds)
+    if work > budget:
+        return {"value": None, "skipped": True, "fingers": [], "uncovered": [],
+                "complete": False, "parts": [ndbg.ids[i] for i in bits(m)],
+                "why": (f"skipped: {len(reqs)} (region, sink component) requirements in "
+                        f"{n0} pieces x candidate faces need {work} tests, over the budget "
+                        f"of {budget}")}
+    alive = np.ones(n0, dtype=bool)
+    bound = np.zeros((len(faces), 2), dtype=np.int64)  # gains (covered, cut), or more
+    taken = np.zeros(len(faces), dtype=bool)
+    # most pieces covered wholly first, then cut; ties: lowest part, then first face
+    rank = np.empty(len(faces), dtype=np.int64)
+    rank[np.lexsort((np.arange(len(faces)), part_of))] = np.arange(len(faces))
+    heap: list[tuple[int, int, int, int]] = []
+    exact: dict[int, bool] = {}
+
+    def recount(p: int) -> None:
+        """Exact gains of all of part ``p``'s faces (in blocks); queued again where they
+        rose (a queued key bounds its face's gain from above)."""
+        q = holds[p] = holds[p][alive[holds[p]]]
+        fs = by_part[p][~taken[by_part[p]]]
+        got = np.zeros((len(fs), 2), dtype=np.int64)
+        if len(q) and len(fs):
+            gens, seg = pieces.gather(q)
+            wq = np.asarray(pieces.weight, dtype=np.int64)[q]
+            step = max(1, _BLOCK // len(gens))
+            spent[0] += len(gens) * len(fs)
+            for s in range(0, len(fs), step):
+                cov, cut = _tests(gens, seg, normals[fs[s:s + step]], tol)
+                got[s:s + step] = np.column_stack([wq @ cov, wq @ cut])
+        old = bound[fs]
+        up = (got[:, 0] > old[:, 0]) | ((got[:, 0] == old[:, 0]) & (got[:, 1] > old[:, 1]))
+        bound[fs] = got
+        for f, w, c in zip(fs[up].tolist(), got[up, 0].tolist(), got[up, 1].tolist()):
+            heapq.heappush(heap, (-w, -c, int(rank[f]), f))
+        exact[p] = True
+
+    spent = [0]  # tests made (the first gains are the work counted above)
+    for p in holds:
+        recount(p)
+    chosen: list[int] = []
+    stopped = False
+    while heap and alive.any():
+        if spent[0] > budget:
+            stopped = True
+            break
+        neg_w, neg_c, r, f = heapq.heappop(heap)
+        if taken[f]:
+            continue
+        p = int(part_of[f])
+        if not exact[p]:
+            recount(p)
+        w, c = int(bound[f, 0]), int(bound[f, 1])
+        if (w, c) != (-neg_w, -neg_c):  # a stale key: queue the face's current gain
+            if w or c:
+                heapq.heappush(heap, (-w, -c, r, f))
+            continue
+        # an exact gain on top: no other face gains more (every key bounds its face's gain)
+        chosen.append(f)
+        taken[f] = True
+        q = holds[p]
+        cov, cut = (x[:, 0] for x in _tests(*pieces.gather(q), normals[f][None], tol))
+        alive[q[cov | cut]] = False
+        for pp in np.flatnonzero(inside[piece_req[q[cov | cut]]].any(axis=0)).tolist():
+            exact[pp] = False
+        new: list[int] = []
+        for i in q[cut].tolist():
+            g = pieces.chunks[i]
+            new += [pieces.add(h, pieces.req[i], pieces.weight[i])
+                    for h in split_piece(g, g @ normals[f], tol)]
+        if new:  # new pieces may raise other faces' gains: re-count their parts now
+            alive = np.r_[alive, np.ones(len(new), dtype=bool)]
+            piece_req = np.asarray(pieces.req, dtype=np.intp)
+            new_a = np.array(new)
+            for pp in holds:
+                mine = new_a[inside[piece_req[new_a], pp]]
+                if len(mine):
+                    holds[pp] = np.r_[holds[pp], mine]
+                    recount(pp)
+    fingers = []
+    for f in chosen:
+        part, normal, point = faces[f]
+        q = np.flatnonzero(inside[piece_req[:n0], part])
+        cov, cut = (x[:, 0] for x in _tests(*pieces.gather(q), normals[f][None], tol))
+        per = np.bincount(piece_req[q], minlength=len(reqs))
+        whole = np.bincount(piece_req[q], weights=cov, minlength=len(reqs))
+        some = np.bincount(piece_req[q], weights=cov | cut, minlength=len(reqs))
+        n_whole = int(((per > 0) & (whole == per)).sum())
+        fingers.append({"part": ndbg.ids[part], "normal": [float(x) for x in normal],
+                        "point": None if point is None else [float(x) for x in point],
+                        "covers": n_whole, "covers_part": int((some > 0).sum()) - n_whole})
+    left: dict[int, int] = {}
+    for i in np.flatnonzero(alive).tolist():
+        left.setdefault(pieces.req[i], i)
+    uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1]),
+                  "direction": [float(x) for x in unit(pieces.chunks[i].sum(axis=0))]}
+                 for q, i in sorted(left.items())]
+    where = ("over each region's whole extent" if coverage == "regions" else
+             "at each region's representative direction only (no region geometry)")
+    why = (f"{len(fingers)} finger(s) hold every sink component of all "
+           f"{len({k for k, _ in reqs})} directional DBGs ({len(reqs)} requirements) {where}")
+    if stopped:
+        why = (f"incomplete: the budget of {budget:,} face tests ran out after "
+               f"{len(fingers)} finger(s), {len(uncovered)} (region, sink component) pair(s) "
+               f"not yet held ({where})")
+    elif uncovered:
+        why = (f"incomplete: {len(uncovered)} (region, sink component) pair(s) have directions "
+               f"no candidate face blocks ({where}); {len(fingers)} finger(s) placed")
+    return {"value": len(fingers), "fingers": fingers, "uncovered": uncovered,
+            "complete": not uncovered, "coverage": coverage, "why": why,
+            "parts": [ndbg.ids[i] for i in bits(m)]}

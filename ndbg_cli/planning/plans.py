@@ -1,0 +1,561 @@
+"""Assembly trees and sequences from an NDBG (paper Fig. 1 and section 4.4).
+
+An assembly tree recursively partitions the product into two subassemblies; every internal
+node is an instruction: its ``moved`` side travels along a region's motion away from the
+``rest`` (disassembly), i.e. it is inserted along the opposite direction when assembling.
+Directions in the output: ``removal_direction`` is the region's direction ``d`` (the moved side
+is free along ``d``), ``direction`` is the assembly (insertion) direction ``-d``; generalized
+regions give their ``motion`` dict (the removal motion) instead. A verified plan
+(:func:`verify`) states a coordinate axis instead of a region's representative direction
+where the direct sweep test frees every step of that region along it (:func:`axis_directions`;
+the step then says ``"axis": true``: its ``region`` is the one it was planned in, and the
+axis may lie on that region's boundary, e.g. sliding along a contact face, or beyond it).
+
+Strategies (all deterministic):
+
+* ``shortest``: minimum tree height, exact from the AND/OR graph (ties: fewer nonlinear steps,
+  balance); when the budget truncates the graph, by iterative deepening
+  (:func:`classes.min_depth_search`), exact if its budget suffices, else its best tree;
+* ``linear``: fewest nonlinear instructions (one part at a time when possible), exact from
+  the AND/OR graph, else greedy (a linear split whenever one exists: exact for linearizable
+  products by heredity);
+* ``fewest-directions``: only the regions of a minimum direction set (:func:`classes.
+  min_directions`, which ignores ``connected``), most balanced split first;
+* ``balanced``: greedy, the most balanced split at every node.
+
+With ``base`` (a part index) the base is never moved: it always stays on the ``rest`` side.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..ndbg.model import NDBG, ConnectivityTest
+from .andor import (
+    AndOrGraph,
+    Budget,
+    Hyperarc,
+    Meter,
+    greedy_tree,
+    lower_bound_depth,
+    node_splits,
+    prefer_balanced,
+    prefer_linear,
+)
+from .decompose import min_depth_search, min_directions, sink_decompose
+
+STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One instruction: ``mask`` splits into ``moved`` (free along ``region``) and ``rest``."""
+
+    mask: int
+    moved: int
+    rest: int
+    region: int
+    #: a coordinate axis (removal direction) stated instead of the region's representative:
+    #: the direct sweep test frees the step along it (see :func:`axis_directions`)
+    axis: tuple[float, ...] | None = None
+
+    def removal(self, ndbg: NDBG) -> tuple[float, ...] | None:
+        """The removal direction stated for this step: its axis, else its region's."""
+        return self.axis if self.axis is not None else ndbg.regions[self.region].direction
+
+
+@dataclass
+class Plan:
+    """A candidate assembly tree: ``steps[m]`` is the instruction splitting subassembly ``m``.
+
+    ``exact`` says whether the strategy's objective is proven optimal (``False`` when a budget
+    forced a greedy answer); ``found`` is False when no candidate algorithm exists, ``stuck``
+    then holds a subassembly without any candidate partitioning. ``depth_lower`` is the best
+    proven lower bound on the height of any tree under the same filter (the minimum depth
+    from a complete AND/OR graph, the deepening's bound), ``None`` when only
+    ``ceil(log2 n)`` is known. ``connected``: only splits whose two sides are connected in
+    the contact graph were searched (the depth and its bounds are for such trees)."""
+
+    ndbg: NDBG
+    root: int
+    strategy: str
+    steps: dict[int, Step] = field(default_factory=dict)
+    exact: bool = True
+    found: bool = True
+    stuck: int | None = None
+    notes: list[str] = field(default_factory=list)
+    depth_lower: int | None = None
+    connected: bool = False
+
+    def depth(self, mask: int | None = None) -> int:
+        """Tree height (a single part has depth 0)."""
+        m = self.root if mask is None else mask
+        if m.bit_count() < 2:
+            return 0
+        s = self.steps[m]
+        return 1 + max(self.depth(s.moved), self.depth(s.rest))
+
+    def nonlinear(self) -> int:
+        """Number of instructions whose sides both have two or more parts."""
+        return sum(1 for s in self.steps.values()
+                   if s.moved.bit_count() > 1 and s.rest.bit_count() > 1)
+
+    def directions(self) -> int:
+        """The number of distinct translation directions of the tree's instructions."""
+        return len({s.removal(self.ndbg) for s in self.steps.values()})
+
+    def regions_used(self) -> list[int]:
+        return sorted({s.region for s in self.steps.values()})
+
+    def sequence(self) -> list[Step]:
+        """Assembly order (the reverse of a disassembly): children before parents; for each
+        instruction the ``rest`` side is built first, then the ``moved`` side."""
+        out: list[Step] = []
+
+        def visit(m: int) -> None:
+            if m.bit_count() < 2:
+                return
+            s = self.steps[m]
+            visit(s.rest)
+            visit(s.moved)
+            out.append(s)
+
+        if self.found:
+            visit(self.root)
+        return out
+
+
+def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
+    """The region reported for an instruction free in several: an open one (full dimension:
+    the most robust, unless :attr:`~ndbg_cli.ndbg.model.Region.thin`) first; then the
+    lower-dimensional or thin region sliding along the most contacts exactly
+    (:attr:`Region.sliding`), then the highest dimension, then the lowest index.
+
+    A thin free band round a bore's axis holds many lower-dimensional cells a few ``eps / L``
+    wide (the eroded contacts, :mod:`ndbg_cli.ndbg.infinite.build`); only the axis itself, on every
+    contact circle of the bore, is free for the direct sweep test (``ndbg query``) and for a
+    designer. In 2D such bands are 1-dimensional arcs of S^1 (wider than ``eta``), marked
+    thin (:mod:`ndbg_cli.ndbg.infinite.equator`): beside a sliding direction the direct test blocks their
+    middles. Families without contact counts rank by dimension and index alone."""
+    return min(regions, key=lambda r: _rank(ndbg, r))
+
+
+#: Regions tried per step by :func:`verify` (the step's own first, then the other regions
+#: where its split is a candidate, in :func:`pick_region`'s order).
+VERIFY_REGIONS = 4
+
+
+def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool],
+           tries: int = VERIFY_REGIONS) -> dict:
+    """Check a translation plan's steps with an independent test: ``frees(moved, rest, d)``
+    says whether ``moved`` comes out of ``rest`` by one translation to infinity along ``d``
+    (:meth:`ndbg_cli.ndbg.infinite.sweep.SweepChecker.frees`). A step whose direction fails is moved to
+    another region where its split is a candidate, if one passes (at most ``tries`` regions
+    tried, the step's own first). Every step passing makes the candidate tree a real
+    1-handed monotone 1-prismatic assembly algorithm (paper 7.1), whatever its family.
+
+    Returns ``{"value", "steps", "why"}`` (``value``: all steps free; the first failing step
+    named in ``why``) and updates ``p``'s steps in place."""
+    nd = p.ndbg
+    seq = p.sequence()
+    for k, s in enumerate(seq, start=1):
+        regs = [r for r, reg in enumerate(nd.regions)
+                if reg.direction is not None and reg.dbg.is_free(s.moved, s.mask)]
+        order = [s.region] + sorted((r for r in regs if r != s.region),
+                                    key=lambda r: _rank(nd, r))
+        good = None
+        for r in order[:tries]:
+            d = nd.regions[r].direction
+            if d is not None and frees(s.moved, s.rest, np.asarray(d, dtype=float)):
+                good = r
+                break
+        if good is None:
+            return {"value": False, "steps": len(seq),
+                    "why": f"step {k} ({', '.join(nd.names(s.moved))}) is blocked further "
+                           f"away along every direction tried: a candidate only"}
+        if good != s.region:
+            p.steps[s.mask] = replace(s, region=good)
+    return {"value": True, "steps": len(seq),
+            "why": "every step comes out by one translation to infinity along its direction "
+                   "(direct sweep test): a 1-handed monotone 1-prismatic algorithm"}
+
+
+#: The least cosine between a coordinate axis and a region's direction for
+#: :func:`axis_directions` to try the axis (within about 72 degrees).
+AXIS_COS = 0.3
+
+
+def _axes(k: int) -> list[tuple[float, ...]]:
+    """The ``2k`` coordinate axes of ``R^k`` (``+e_i`` then ``-e_i``, by ``i``)."""
+    eye = [tuple(float(i == j) for j in range(k)) for i in range(k)]
+    return eye + [tuple(-x + 0.0 for x in e) for e in eye]
+
+
+def axis_directions(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> int:
+    """State a coordinate axis instead of a region's representative direction where one
+    serves: per region used by ``p``'s steps, the axes within :data:`AXIS_COS` of its
+    direction are tried nearest first, and the first along which the direct sweep test
+    (``frees``, as for :func:`verify`) frees every step of that region is kept for them
+    (a designer reads "along -z" more easily than "along (-0.089, +0.02, -0.996)", and a
+    region's representative is only some point inside it). Steps of one region keep one
+    direction, so the tree's direction count does not grow. Returns the steps changed;
+    updates ``p`` in place. Only for a verified plan: the axis is then as proven as the
+    representative was."""
+    nd = p.ndbg
+    by_region: dict[int, list[Step]] = {}
+    for s in p.steps.values():
+        by_region.setdefault(s.region, []).append(s)
+    changed = 0
+    for r, steps in sorted(by_region.items()):
+        a = _axis_for(nd, r, steps, frees)
+        if a is not None:
+            for s in steps:
+                p.steps[s.mask] = replace(s, axis=a)
+            changed += len(steps)
+    return changed
+
+
+def _axis_for(nd: NDBG, r: int, steps: list[Step],
+              frees: Callable[[int, int, np.ndarray], bool]) -> tuple[float, ...] | None:
+    """The nearest coordinate axis to region ``r``'s direction (within :data:`AXIS_COS`,
+    nearest first) along which ``frees`` frees every step of ``steps``; ``None`` when none
+    does or the direction is an axis already."""
+    d = nd.regions[r].direction
+    if d is None:
+        return None
+    d = np.asarray(d, dtype=float)
+    near = sorted((a for a in _axes(len(d)) if float(np.dot(a, d)) > AXIS_COS),
+                  key=lambda a: -float(np.dot(a, d)))
+    for a in near:
+        if np.array_equal(a, d):
+            return None  # the region's direction is that axis already (a near one is tested)
+        if all(frees(s.moved, s.rest, np.asarray(a)) for s in steps):
+            return a
+    return None
+
+
+def axis_step(nd: NDBG, s: Step, frees: Callable[[int, int, np.ndarray], bool]) -> Step:
+    """``s`` stating the axis :func:`_axis_for` finds for it alone, if any."""
+    a = _axis_for(nd, s.region, [s], frees)
+    return s if a is None else replace(s, axis=a)
+
+
+def free_region(ndbg: NDBG, subset: int, mask: int,
+                regions: Sequence[int] | None = None) -> int | None:
+    """The region (of ``regions``, default all) :func:`pick_region` prefers among those in
+    which ``subset`` is free inside ``mask``; ``None`` when there is none."""
+    regs = [r for r in (range(len(ndbg.regions)) if regions is None else regions)
+            if ndbg.regions[r].dbg.is_free(subset, mask)]
+    return pick_region(ndbg, regs) if regs else None
+
+
+def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
+    """:func:`pick_region`'s order key of region ``r``."""
+    reg = ndbg.regions[r]
+    if reg.dimension == ndbg.space_dimension - 1 and not reg.thin:
+        return (0, 0, 0, r)  # any point of an open region is as good
+    return (1, -reg.sliding, -reg.dimension, r)
+
+
+def orient(ndbg: NDBG, h: Hyperarc, allowed: set[int] | None = None) -> Step:
+    """Choose the moved side (the smaller one, then the lower mask) and the region of ``h``."""
+    opts = []
+    for moved, regions in h.moves:
+        regs = [r for r in regions if allowed is None or r in allowed]
+        if regs:
+            opts.append((moved.bit_count(), moved, pick_region(ndbg, regs)))
+    _, moved, region = min(opts)
+    return Step(mask=h.node, moved=moved, rest=h.node & ~moved, region=region)
+
+
+def _restrict(h: Hyperarc, allowed: set[int]) -> Hyperarc | None:
+    moves = tuple((m, tuple(r for r in regs if r in allowed)) for m, regs in h.moves)
+    moves = tuple((m, regs) for m, regs in moves if regs)
+    return Hyperarc(h.node, h.left, h.right, moves) if moves else None
+
+
+def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
+         connected: ConnectivityTest | None = None, budget: Budget | None = None,
+         graph: AndOrGraph | None = None, mask: int | None = None) -> Plan:
+    """Build an assembly tree of ``mask`` (default: the whole product) with ``strategy``.
+
+    ``graph`` may pass an already built AND/OR graph (same ``base``/``connected``) to reuse."""
+    if strategy not in STRATEGIES:
+        raise ValueError(f"unknown strategy {strategy!r}; expected one of {STRATEGIES}")
+    budget = budget or Budget()
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    out = Plan(ndbg=ndbg, root=root, strategy=strategy, connected=connected is not None)
+    # Whether any candidate tree exists is polynomial (heredity, classes.sink_decompose); a
+    # contact-connected tree is one of them. When none does, no search can find one (on the
+    # 115-part engine the searches used to spend their whole budget proving it).
+    sink, stuck = sink_decompose(ndbg, root, base=base)
+    if stuck is not None:
+        out.found, out.stuck = False, stuck
+        out.notes.append("no candidate algorithm: subassembly "
+                         f"{ndbg.names(stuck)} has no candidate partitioning")
+        return out
+    if strategy in ("shortest", "linear"):
+        g = graph or AndOrGraph(ndbg, root, base=base, connected=connected, budget=budget)
+        g.build()
+        if g.complete:
+            key = "depth" if strategy == "shortest" else "nonlinear"
+            if g.depths()[root] is None:
+                _fail(out, g, ndbg)
+                return out
+            out.depth_lower = g.depths()[root]
+            stack = [root]
+            while stack:
+                m = stack.pop()
+                if m.bit_count() < 2:
+                    continue
+                h = g.best_arc(m, key)
+                assert h is not None
+                s = orient(ndbg, h)
+                out.steps[m] = s
+                stack.extend((s.rest, s.moved))
+            return out
+        if strategy == "shortest":
+            r = min_depth_search(ndbg, root, base=base, connected=connected, budget=budget,
+                                 graph=g)
+            if r.upper is not None:
+                out.exact = r.exact
+                out.depth_lower = r.lower
+                out.notes.append(f"{g.cut_reason()}; depth by "
+                                 f"iterative deepening ({r.expanded} nodes): "
+                                 + ("optimal" if r.exact else
+                                    f"between {r.lower} and {r.upper}"))
+                for m, h in r.choice.items():
+                    out.steps[m] = orient(ndbg, h)
+                return out
+        out.exact = False
+        out.notes.append(f"{g.cut_reason()}; greedy tree "
+                         "(an upper bound on the optimum)")
+        chooser = prefer_balanced if strategy == "shortest" else prefer_linear
+        return _from_greedy(out, ndbg, root, base, connected, chooser, budget, None, sink)
+    if strategy == "balanced":
+        out.exact = False
+        return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None,
+                            sink)
+    # fewest-directions
+    md = min_directions(ndbg, base=base, budget=budget, mask=root)
+    if md["regions"] is None:
+        out.found = False
+        out.stuck = md.get("stuck")
+        out.notes.append(md["why"])
+        return out
+    out.exact = bool(md["exact"])
+    out.notes.append(md["why"])
+    within = sink_decompose(ndbg, root, md["regions"], base=base)[0]  # a tree: md proved it
+    got = _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget,
+                       set(md["regions"]), within)
+    if got.found or connected is None:
+        return got
+    # the direction count ignores the connectivity filter: fall back to all regions
+    why = ("no connected tree within the minimum direction set" if got.exact else
+           "no connected tree within the minimum direction set found within the budget")
+    out = Plan(ndbg=ndbg, root=root, strategy=strategy, exact=False, connected=True,
+               notes=[why + "; all regions used"])
+    return _from_greedy(out, ndbg, root, base, connected, prefer_balanced, budget, None, sink)
+
+
+def _fail(out: Plan, g: AndOrGraph, ndbg: NDBG) -> None:
+    out.found = False
+    d = g.depths()
+    stuck = [m for m, v in d.items() if v is None]
+    out.stuck = min(stuck, key=lambda m: (m.bit_count(), m)) if stuck else g.root
+    out.notes.append(_stuck_note(ndbg, out.stuck, g.connected is not None))
+
+
+def _stuck_note(ndbg: NDBG, stuck: int, connected: bool) -> str:
+    """Why no tree was found. Under the connectivity filter candidate trees exist (the plan
+    checks that first) and ``stuck`` may well have candidate partitionings: none with both
+    sides connected leads to single parts."""
+    if connected:
+        return ("no tree with connected subassemblies: subassembly "
+                f"{ndbg.names(stuck)} has no candidate partitioning into two connected "
+                "subassemblies that decompose further")
+    return ("no candidate algorithm: subassembly "
+            f"{ndbg.names(stuck)} has no candidate partitioning")
+
+
+def _from_greedy(out: Plan, ndbg: NDBG, root: int, base: int | None,
+                 connected: ConnectivityTest | None, chooser, budget: Budget,
+                 allowed: set[int] | None,
+                 sink: dict[int, tuple[int, int]] | None = None) -> Plan:
+    """The greedy tree of ``chooser`` (regions limited to ``allowed``); when the budget cuts
+    the search before it finds one, the tree of the polynomial sink decomposition ``sink``
+    (``classes.sink_decompose``'s choice, any candidate partitionings: used only without a
+    ``connected`` filter)."""
+    arcs = None
+    cut = [False]
+    if allowed is not None:
+        def arcs(m: int, meter: Meter) -> list[Hyperarc]:
+            got, trunc = node_splits(ndbg, m, base=base, connected=connected,
+                                     limit=budget.split_limit, meter=meter)
+            cut[0] |= trunc
+            return [r for r in (_restrict(h, allowed) for h in got) if r is not None]
+    res = greedy_tree(ndbg, root, base=base, connected=connected, chooser=chooser,
+                      budget=budget, arcs=arcs)
+    if not res.found and cut[0]:
+        # a list cut by split_limit may have lost every split in the allowed regions: the
+        # failure proves nothing
+        res.truncated = True
+    if not res.found and res.truncated and sink is not None and connected is None:
+        out.exact = False
+        out.notes.append("search budget exhausted before a tree was found; the sink "
+                         "decomposition's tree is given (an upper bound on the optimum)")
+        # each step in the region pick_region prefers among those freeing it (the sink
+        # decomposition takes the first in index order)
+        regs = sorted(allowed) if allowed is not None else None
+        out.steps = {}
+        for m, (moved, region) in sink.items():
+            best = free_region(ndbg, moved, m, regs)
+            out.steps[m] = Step(mask=m, moved=moved, rest=m & ~moved,
+                                region=region if best is None else best)
+        return out
+    if not res.found:
+        out.found = False
+        out.stuck = res.stuck
+        out.exact = not res.truncated
+        if res.truncated:
+            out.notes.append("search budget exhausted before a tree was found")
+        elif res.stuck is not None:
+            out.notes.append(_stuck_note(ndbg, res.stuck, connected is not None))
+        return out
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        s = orient(ndbg, res.choice[m], allowed)
+        out.steps[m] = s
+        stack.extend((s.rest, s.moved))
+    return out
+
+
+# ----------------------------------------------------------------------------- output
+def _vec(v) -> list[float] | None:
+    return None if v is None else [float(x) for x in v]
+
+
+def step_motion(ndbg: NDBG, s: Step) -> dict:
+    """Family and motion fields of an instruction (see the module docstring)."""
+    r = ndbg.regions[s.region]
+    d: dict = {"family": ndbg.family, "region": s.region}
+    if r.direction is not None:
+        d["removal_direction"] = _vec(s.removal(ndbg))
+        d["direction"] = [(-x if x != 0 else 0.0) for x in d["removal_direction"]]
+        if s.axis is not None:
+            # a coordinate axis the sweep test frees the step along, which may lie on the
+            # region's boundary (a sliding contact) or in a neighbouring region
+            d["axis"] = True
+    else:
+        d["direction"] = None
+    if r.motion is not None:
+        d["motion"] = r.motion
+    return d
+
+
+def tree_json(p: Plan, mask: int | None = None) -> dict:
+    """Nested tree: ``{"parts", "moved": subtree, "rest": subtree, ...motion}``; leaves only
+    have ``parts``."""
+    m = p.root if mask is None else mask
+    node: dict = {"parts": p.ndbg.names(m)}
+    if m.bit_count() >= 2 and m in p.steps:
+        s = p.steps[m]
+        node.update(step_motion(p.ndbg, s))
+        node["depth"] = p.depth(m)
+        node["moved"] = tree_json(p, s.moved)
+        node["rest"] = tree_json(p, s.rest)
+    return node
+
+
+def sequence_json(p: Plan) -> list[dict]:
+    """Numbered assembly steps: ``moved`` is inserted ``onto`` the rest, producing
+    ``produces``."""
+    out = []
+    for k, s in enumerate(p.sequence(), start=1):
+        d = {"step": k, "moved": p.ndbg.names(s.moved), "onto": p.ndbg.names(s.rest),
+             "produces": p.ndbg.names(s.mask)}
+        d.update(step_motion(p.ndbg, s))
+        out.append(d)
+    return out
+
+
+def plan_section(p: Plan) -> dict:
+    """The report's ``plan`` section."""
+    return {
+        "strategy": p.strategy,
+        "found": p.found,
+        "exact": p.exact,
+        "depth": p.depth() if p.found else None,
+        "depth_lower_bound": lower_bound_depth(p.root) if p.depth_lower is None
+        else p.depth_lower,
+        "connected": p.connected,
+        "nonlinear_steps": p.nonlinear() if p.found else None,
+        "regions_used": p.regions_used(),
+        "stuck": None if p.stuck is None else p.ndbg.names(p.stuck),
+        "notes": list(p.notes),
+        "tree": tree_json(p) if p.found else None,
+        "sequence": sequence_json(p),
+    }
+
+
+def _fmt_dir(d: dict) -> str:
+    if d.get("direction") is not None:
+        return "along (" + ", ".join(f"{x:+.3g}" for x in d["direction"]) + ")"
+    if d.get("motion") is not None:
+        mo = d["motion"]
+        return f"by {mo.get('type', 'motion')} (reverse of removal motion {mo})"
+    return f"via region {d['region']}"
+
+
+def depth_note(exact: bool, connected: bool, strategy: str) -> str:
+    """What the tree's depth line adds: unproven, or proven among connected trees."""
+    if not exact:
+        return " (not proven optimal)"
+    if connected and strategy == "shortest":
+        return " (minimum for contact-connected subassemblies)"
+    return ""
+
+
+def plan_proves(p: dict) -> dict | None:
+    """What a plan section (:func:`plan_section`, with its ``verified`` and ``proofs``)
+    proves when the direct sweep test verified it (a real 1-handed monotone 1-prismatic
+    algorithm, :func:`verify`): the classes it shows, and upper bounds on the minimum depth,
+    nonlinear steps and directions from it and the verified ``proofs`` trees; ``None``
+    without a verified plan. The rules (``ndbg check``) and the text report read it."""
+    v = p.get("verified") or {}
+    if not p.get("found") or v.get("value") is not True:
+        return None
+    dirs = {tuple(s["removal_direction"]) for s in p.get("sequence") or []
+            if s.get("removal_direction") is not None}
+    trees = [{"depth": p.get("depth"), "nonlinear_steps": p.get("nonlinear_steps"),
+              "directions": len(dirs)}] + list(p.get("proofs") or [])
+
+    def best(key: str) -> int | None:
+        got = [t[key] for t in trees if t.get(key) is not None]
+        return min(got) if got else None
+
+    return {"one_handed_monotone": True, "prismatic": True,
+            "linearizable": True if best("nonlinear_steps") == 0 else None,
+            "min_depth": best("depth"), "min_nonlinear": best("nonlinear_steps"),
+            "min_directions": best("directions"),
+            "why": f"{p.get('family')} plan, {v.get('why')}"
+                   + (f" (also {', '.join(t['strategy'] for t in trees[1:])} trees)"
+                      if len(trees) > 1 else "")}
+
+
+def plan_text(p: Plan) -> list[str]:
+    """Designer-readable assembly sequence as numbered steps."""
+    if not p.found:
+        return [f"No candidate assembly sequence ({p.ndbg.family}): " + "; ".join(p.notes)]
+    lines = [f"Assembly sequence ({p.strategy}, {p.ndbg.family}): {len(p.steps)} steps, "
+             f"tree depth {p.depth()}{depth_note(p.exact, p.connected, p.strategy)}"]
+    for d in sequence_json(p):
+        lines.append(f"  {d['step']}. insert {{{', '.join(d['moved'])}}} onto "
+                     f"{{{', '.join(d['onto'])}}} {_fmt_dir(d)}")
+    return lines
