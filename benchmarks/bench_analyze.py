@@ -41,7 +41,7 @@ def _import_s() -> float:
 
 def run() -> list[tuple[str, float, str]]:
     import ndbg_cli
-    from ndbg_cli.pipeline.analysis import Options
+    from ndbg_cli.core.options import Options
     from ndbg_cli.pipeline.stages import run_stages
 
     rows: list[tuple[str, float, str]] = [("import_s", _import_s(), "s")]

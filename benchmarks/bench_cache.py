@@ -17,7 +17,7 @@ import ndbg_cli
 from ndbg_cli.contacts.contacts3d import analyze_contacts
 from ndbg_cli.contacts.facets import clear_caches
 from ndbg_cli.core.cache import PairCache
-from ndbg_cli.ndbg.infinite.build import blocked_sets
+from ndbg_cli.ndbg.infinite.blocked_sets import blocked_sets
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data"

@@ -56,7 +56,7 @@ def _translational(asm, result):
 def _pipeline(asm, motion: str) -> dict[str, float]:
     """Seconds per stage after the contacts (best of 5 each), the infinite family's left out,
     and their sum under ``"total"``."""
-    from ndbg_cli.pipeline.analysis import Options
+    from ndbg_cli.core.options import Options
     from ndbg_cli.pipeline.stages import run_stages
 
     best: dict[str, float] = {}

@@ -5,24 +5,45 @@ Library API (the CLI is a thin layer over it)::
     import ndbg_cli
     asm = ndbg_cli.load("assemblies/bell.yaml")     # -> Assembly
     report = ndbg_cli.analyze(asm)                   # -> dict (the JSON report)
+
+The names are imported on first use (PEP 562), so that ``import ndbg_cli`` and the CLI's
+``--help`` do not pay for numpy, trimesh and the compiled kernels.
 """
 
-import os as _os
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 
-# Every matrix ndbg hands to BLAS/LAPACK is tiny (6 x 6 systems, m x 6 SVDs): threads buy
-# nothing there, and on a busy machine (a CI runner, ``--jobs N`` workers) their spinning
-# made single SVDs 30x slower (AS1's infinitesimal NDBG: 19 ms alone, 690 ms next to two
-# busy processes). One thread each, unless the caller chose (only effective when numpy is
-# not imported yet: the CLI and its worker processes).
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    _os.environ.setdefault(_var, "1")
+#: Public name -> the module that defines it.
+_API = {
+    "Assembly": "core.assembly", "Part": "core.assembly", "Joint": "core.assembly",
+    "Diagnostic": "core.assembly", "InputError": "core.errors", "NdbgError": "core.errors",
+    "Options": "core.options", "load": "io.loaders", "discover": "io.loaders",
+    "analyze": "pipeline.analysis", "analyze_path": "pipeline.analysis",
+}
 
-from .core.assembly import Assembly, Diagnostic, Joint, Part  # noqa: E402
-from .core.errors import InputError, NdbgError  # noqa: E402
-from .io.loaders import discover, load  # noqa: E402
-from .pipeline.analysis import Options, analyze, analyze_path  # noqa: E402
+__all__ = ["__version__", *_API]
 
-__all__ = ["__version__", "Assembly", "Part", "Joint", "Diagnostic", "InputError", "NdbgError",
-           "load", "discover", "analyze", "analyze_path", "Options"]
+
+def __getattr__(name: str) -> Any:
+    module = _API.get(name)
+    if module is None:
+        raise AttributeError(f"module 'ndbg_cli' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+if TYPE_CHECKING:
+    from .core.assembly import Assembly, Diagnostic, Joint, Part
+    from .core.errors import InputError, NdbgError
+    from .core.options import Options
+    from .io.loaders import discover, load
+    from .pipeline.analysis import analyze, analyze_path

@@ -19,17 +19,12 @@ from scipy.spatial.transform import Rotation
 
 import ndbg_cli
 import ndbg_cli.contacts.contacts3d as contacts_module
-from ndbg_cli.contacts.contacts3d import (
-    DEFAULT_ANGLE_TOLERANCE,
-    _tree_rank,
-    analyze_contacts,
-    check_interference_policy,
-    contacts_section,
-    contacts_text,
-    fcl_model,
-)
+from ndbg_cli.contacts.contacts3d import DEFAULT_ANGLE_TOLERANCE, _tree_rank, analyze_contacts, contacts_section, contacts_text
+from ndbg_cli.contacts.interference import check_interference_policy
+from ndbg_cli.contacts.facets import fcl_model
 from ndbg_cli.contacts.facets import box_pairs, fcl_object, part_geometry, sat_gap
-from ndbg_cli.contacts.features import _distinct_points, _unique_rows, classify_pairs
+from ndbg_cli.contacts.features import _distinct_points, classify_pairs
+from ndbg_cli.geometry.normals import _unique_rows
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.core.errors import InterferenceError
 from ndbg_cli.geometry.normals import _one_cluster, cluster_normals

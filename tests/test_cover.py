@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from ndbg_cli.ndbg.infinite.cover import Cover
-from ndbg_cli.ndbg.infinite.cubemap import FACES, clip_halfplanes, compact, cone_normals
+from ndbg_cli.ndbg.infinite._kernels import FACES
+from ndbg_cli.ndbg.infinite.cubemap import clip_halfplanes, compact, cone_normals
 from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
 

@@ -12,7 +12,7 @@ import pytest
 
 distributed = pytest.importorskip("distributed")
 
-from ndbg_cli.pipeline.analysis import Options  # noqa: E402
+from ndbg_cli.core.options import Options  # noqa: E402
 from ndbg_cli.pipeline import batch  # noqa: E402
 
 from helpers import run_cli  # noqa: E402

@@ -339,7 +339,8 @@ def test_plan_steps_pass_the_direct_sweep_test(name):
     direct sweep test (``ndbg query``, no erosion) finds it free: among the thin regions of a
     bore's or a slot's free band the one on its contacts' circles is chosen, and its
     direction is where those circles meet (the axis), not a cell's centroid mrad off it."""
-    from ndbg_cli.pipeline.analysis import Options, analyze
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.pipeline.analysis import analyze
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     rep = analyze(asm, Options(motion="all"))
@@ -441,7 +442,8 @@ def test_reversed_pair_is_the_antipodal_image(name):
     random directions."""
     import shapely
 
-    from ndbg_cli.ndbg.infinite.blocked_sets import blocked_sets, reverse_entries
+    from ndbg_cli.ndbg.infinite.blocked_sets import blocked_sets
+    from ndbg_cli.ndbg.infinite.chart_union import reverse_entries
     from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
@@ -596,7 +598,8 @@ def test_an_arrangement_too_large_to_hold_is_skipped_with_its_size(monkeypatch):
     # a 1000-box grid's 789,702 regions x 1000 parts would need 92 GiB of DBGs (a
     # MemoryError); the limit is lowered here to meet it on hover (3 parts)
     import ndbg_cli.ndbg.infinite.build as inf
-    from ndbg_cli.pipeline.analysis import Options, analyze
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.pipeline.analysis import analyze
 
     monkeypatch.setattr(inf, "MAX_DBG_BYTES", 10)
     asm = ndbg_cli.load("assemblies/hover.yaml")

@@ -16,15 +16,8 @@ from ndbg_cli.contacts.contacts3d import analyze_contacts
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.io.validate import make_part
 from ndbg_cli.ndbg.infinite.cover import RASTER
-from ndbg_cli.ndbg.infinite.cubemap import (
-    BOX_EDGE_PAIRS,
-    DIFFERENCE_PAIRS,
-    FACES,
-    compact,
-    cone_normals,
-    face_of,
-    random_directions,
-)
+from ndbg_cli.ndbg.infinite.cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, compact, cone_normals, face_of, random_directions
+from ndbg_cli.ndbg.infinite._kernels import FACES
 from ndbg_cli.ndbg.infinite.domain import free_domain
 from ndbg_cli.ndbg.infinite.sweep import SweepChecker
 from ndbg_cli.ndbg.infinitesimal.build import contact_pairs

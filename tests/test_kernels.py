@@ -11,15 +11,8 @@ import pytest
 from ndbg_cli.ndbg.infinite.arrangement import circle_crossings
 from ndbg_cli.ndbg.infinite.blocking_cones import unique_circles
 from ndbg_cli.ndbg.infinite.cover import Cover, run_offsets
-from ndbg_cli.ndbg.infinite.cubemap import (
-    BOX_EDGE_PAIRS,
-    DIFFERENCE_PAIRS,
-    FACES,
-    SQUARE_MARGIN,
-    clip_halfplanes,
-    compact,
-    cone_normals,
-)
+from ndbg_cli.ndbg.infinite.cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, SQUARE_MARGIN, clip_halfplanes, compact, cone_normals
+from ndbg_cli.ndbg.infinite._kernels import FACES
 from ndbg_cli.ndbg.infinite import _cover_kernels as cover_kernels
 
 

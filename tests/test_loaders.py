@@ -295,7 +295,7 @@ def test_scientific_notation_is_a_number(tmp_path):
     """YAML 1.2 floats (``1e-3``, ``1.0e1``: no dot or no exponent sign) in manifests and
     config files; PyYAML's YAML 1.1 rules read them as strings. Other scalars are as before."""
     from ndbg_cli.io.manifest import read_manifest
-    from ndbg_cli.pipeline.analysis import read_config
+    from ndbg_cli.io.config import read_config
 
     path = write_two_boxes(tmp_path).parent / "sci.yaml"
     path.write_text(write_two_boxes(tmp_path).read_text()
@@ -327,7 +327,7 @@ def test_scientific_notation_is_a_number(tmp_path):
 ])
 def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem):
     from ndbg_cli.core.errors import InputError
-    from ndbg_cli.pipeline.analysis import read_config
+    from ndbg_cli.io.config import read_config
 
     cfg = tmp_path / "c.yaml"
     cfg.write_text(text + "\n")
@@ -342,7 +342,7 @@ def test_config_values_have_the_options_types_and_ranges(tmp_path, text, problem
 
 
 def test_config_nulls_and_bad_values_on_the_command_line(tmp_path):
-    from ndbg_cli.pipeline.analysis import read_config
+    from ndbg_cli.io.config import read_config
 
     cfg = tmp_path / "c.yaml"
     cfg.write_text("# every setting left at its default\n")  # an empty config sets nothing
@@ -411,8 +411,8 @@ def test_cli_options_share_the_config_ranges_and_defaults():
 
     import click
 
-    from ndbg_cli.cli.main import cli
-    from ndbg_cli.pipeline.analysis import SETTINGS, Options
+    from ndbg_cli.cli._app import cli
+    from ndbg_cli.core.options import SETTINGS, Options
 
     params = {p.name: p for p in cli.commands["analyze"].params}
     defaults = {f.name: f.default for f in dataclasses.fields(Options)}

@@ -16,7 +16,7 @@ import trimesh
 
 from ndbg_cli.core.errors import InputError
 from ndbg_cli.ndbg.infinite import pair_workers as pw
-from ndbg_cli.pipeline.analysis import read_config
+from ndbg_cli.io.config import read_config
 
 from helpers import ROOT
 

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from ndbg_cli.pipeline.analysis import Options, analyze_path
+from ndbg_cli.core.options import Options
+from ndbg_cli.pipeline.analysis import analyze_path
 from ndbg_cli.report.document import clean, dumps, validate_report
 
 from conftest import shared
@@ -303,19 +304,25 @@ def test_text_shows_what_the_verified_plan_proves():
     assert "proven by the verified plan" not in render(dict(rep, plan=failed))
 
 
-def test_one_blas_thread_unless_the_caller_chose():
-    # ndbg's matrices are tiny: BLAS threads only spin on a busy machine (ndbg_cli/__init__)
+def test_one_blas_thread_in_the_cli_unless_the_caller_chose():
+    # ndbg's matrices are tiny: BLAS threads only spin on a busy machine. The CLI, which owns
+    # its process, sets one thread (cli.main._one_blas_thread); a library import leaves the
+    # caller's environment alone.
     import os
     import subprocess
     import sys
 
-    code = "import ndbg_cli, os; print(os.environ['OPENBLAS_NUM_THREADS'])"
+    code = ("import atexit, os, sys, ndbg_cli\n"
+            "print(os.environ.get('OPENBLAS_NUM_THREADS'))\n"
+            "atexit.register(lambda: print(os.environ.get('OPENBLAS_NUM_THREADS')))\n"
+            "from ndbg_cli.cli.main import main\n"
+            "main(['--version'])\n")
     env = {k: v for k, v in os.environ.items()
            if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, check=True).stdout.strip()
-    assert out == "1"
+                         text=True, check=True).stdout.split()
+    assert out[0] == "None" and out[-1] == "1"
     env["OPENBLAS_NUM_THREADS"] = "3"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, check=True).stdout.strip()
-    assert out == "3"
+                         text=True, check=True).stdout.split()
+    assert out[0] == "3" and out[-1] == "3"

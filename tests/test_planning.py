@@ -15,15 +15,8 @@ import pytest
 from ndbg_cli.ndbg.dbg import DBG, bits, mask_of
 from ndbg_cli.ndbg.model import NDBG, ConnectivityTest, Region
 from ndbg_cli.planning.andor import AndOrGraph, Budget, node_splits
-from ndbg_cli.planning.classes import (
-    andor_section,
-    classes_section,
-    classes_text,
-    classify,
-    min_depth_search,
-    min_directions,
-    sink_decompose,
-)
+from ndbg_cli.planning.classes import andor_section, classes_section, classes_text, classify
+from ndbg_cli.planning.decompose import min_depth_search, min_directions, sink_decompose
 from ndbg_cli.planning.grasp import grasp
 from ndbg_cli.planning.interlock import interlock
 from ndbg_cli.planning.plans import STRATEGIES, plan, plan_section, plan_text
@@ -874,7 +867,7 @@ def test_hybrid_min_depth_follows_from_a_contained_family_at_the_lower_bound():
     # An 8-part stack: up, part i is blocked by every part above it (down, by every part
     # below). Halving it gives depth 3 = ceil(log2 8), the lower bound for any tree, so the
     # hybrid (the same regions plus a rotation freeing part 0) has depth 3 too.
-    from ndbg_cli.planning.classes import min_depth_search
+    from ndbg_cli.planning.decompose import min_depth_search
 
     n = 8
     trans = mk([f"P{i}" for i in range(n)],
@@ -951,7 +944,8 @@ def test_grasp_fingers_only_touch_exposed_faces():
     import trimesh
 
     import ndbg_cli
-    from ndbg_cli.pipeline.analysis import Options, analyze
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.pipeline.analysis import analyze
 
     asm = ndbg_cli.load("assemblies/fig3-2d.yaml")
     outside = shapely.union_all([p.polygon for p in asm.parts]).boundary

@@ -87,7 +87,7 @@ def test_no_warning_summary_when_quiet_or_in_the_text_on_stdout(overlapping, tmp
 
 
 def test_warning_summary_is_capped_per_assembly():
-    from ndbg_cli.cli.main import MAX_WARNING_LINES, _warning_lines
+    from ndbg_cli.cli.analyze import MAX_WARNING_LINES, _warning_lines
 
     report = {"assembly": {"name": "x", "source": "x.yaml"},
               "warnings": [{"message": f"w{k}", "part": None} for k in range(25)]}

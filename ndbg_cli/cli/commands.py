@@ -13,16 +13,15 @@ import click
 
 from .._version import __version__
 from ..core.errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION
-from ..report.document import CONTACTS_SCHEMA, QUERY_SCHEMA, REMOVE_SCHEMA, dumps, report_schema
-from .main import (
+from ._app import (
     CONTEXT,
     STATE,
-    _cannot_write,
-    _check_writable,
-    _common_load_options,
-    _global_options,
+    cannot_write,
+    check_writable,
     cli,
+    common_load_options,
     fail,
+    global_options,
 )
 
 
@@ -30,7 +29,7 @@ from .main import (
 @click.argument("model", type=click.Path())
 @click.option("--out", required=True, type=click.Path(), help="Folder to write into.")
 @click.option("--force", is_flag=True, help="Overwrite an existing manifest.")
-@_common_load_options
+@common_load_options
 def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
     """Write a model's parts as meshes plus a manifest (an editable project).
 
@@ -43,12 +42,12 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
 
     # as analyze --out: a folder that cannot be written is an input error (exit 2) naming
     # it, found before the model is read (a STEP file can take minutes)
-    _check_writable(out, Path(out))
+    check_writable(out, Path(out))
     asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths)
     try:
         manifest = convert_assembly(asm, Path(out), force=force)
     except OSError as exc:  # e.g. out/meshes is a file, or the disk is full
-        raise _cannot_write(out, exc) from None
+        raise cannot_write(out, exc) from None
     if not STATE.quiet:
         click.echo(f"wrote {manifest} ({len(asm)} parts, units {asm.units})", err=True)
     click.echo(str(manifest))
@@ -60,7 +59,7 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
               show_default=True)
 @click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
               show_default=True, help="What interpenetrating parts are.")
-@_common_load_options
+@common_load_options
 def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths) -> None:
     """Print the contact table: touching pairs, kind, area, normals, and interferences.
 
@@ -73,6 +72,7 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
     from ..contacts.contacts3d import analyze_contacts, contacts_section, contacts_text
     from ..contacts.interference import check_interference_policy
     from ..io.loaders import load
+    from ..report.document import CONTACTS_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths)
@@ -102,7 +102,7 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
               show_default=True)
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True)
-@_common_load_options
+@common_load_options
 def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_paths) -> None:
     """Print the DBG for one translation direction, computed directly from the geometry.
 
@@ -116,6 +116,7 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
     import numpy as np
 
     from ..io.loaders import load
+    from ..report.document import QUERY_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths)
@@ -130,7 +131,8 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
     doc: dict = {"schema": QUERY_SCHEMA, "assembly": asm.name, "direction": d.tolist(),
                  "dbgs": {}}
     if motion in ("all", "translation"):
-        from ..ndbg.infinitesimal.build import DEFAULT_ANGLE_TOL, contact_pairs, dbg_at
+        from ..geometry.sphere import DEFAULT_ANGLE_TOL
+        from ..ndbg.infinitesimal.build import contact_pairs, dbg_at
 
         if asm.dimension == 3:
             from ..contacts.contacts3d import analyze_contacts
@@ -179,7 +181,7 @@ def _dbg_record(asm, g) -> dict:
               help="Exact search budget (remaining assemblies explored).")
 @click.option("--infinite-budget", type=click.IntRange(0), default=1_000_000,
               show_default=True)
-@_common_load_options
+@common_load_options
 def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tolerance,
            allow_outside_paths) -> None:
     """Which parts must be withdrawn, and in what order, before PARTS can be removed.
@@ -192,11 +194,13 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
       ndbg remove assemblies/bell.yaml gong_post
     """
     from ..io.loaders import load
-    from ..ndbg.infinite.build import build_infinite, triangle_pairs
+    from ..ndbg.infinite.blocked_sets import triangle_pairs
+    from ..ndbg.infinite.build import build_infinite
     from ..ndbg.infinite.sweep import SweepChecker
     from ..ndbg.infinitesimal.build import infinitesimal_ndbg
     from ..planning.andor import Budget
     from ..planning.removal import remove as remove_parts
+    from ..report.document import REMOVE_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths)
@@ -248,7 +252,7 @@ def _removal_text(sec: dict) -> str:
               "or never.")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True)
-@_global_options
+@global_options
 def diff_cmd(old, new, fail_on, fmt) -> None:
     """What changed between two analyses that a designer cares about.
 
@@ -261,6 +265,7 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
       ndbg diff main/bell.json branch/bell.json --fail-on worse
     """
     from ..report.diff import diff_sets, fails, read_reports
+    from ..report.document import dumps
 
     changes = diff_sets(read_reports(old), read_reports(new))
     if fmt == "json":
@@ -277,7 +282,7 @@ def diff_cmd(old, new, fail_on, fmt) -> None:
 
 @cli.command(context_settings=CONTEXT)
 @click.argument("which", type=click.Choice(["report", "manifest"]), default="report")
-@_global_options
+@global_options
 def schema(which) -> None:
     """Print the JSON Schema of the report (default) or of the manifest.
 
@@ -286,6 +291,7 @@ def schema(which) -> None:
       ndbg schema report > report.schema.json
     """
     from ..io.manifest import manifest_schema
+    from ..report.document import report_schema
 
     doc = report_schema() if which == "report" else manifest_schema()
     click.echo(json.dumps(doc, indent=2, sort_keys=True))
@@ -317,7 +323,7 @@ def _cache_dir_option(f):
 
 @cache.command("info", context_settings=CONTEXT)
 @_cache_dir_option
-@_global_options
+@global_options
 def cache_info(directory) -> None:
     """Print the cache's directory, entries and size per stage (JSON)."""
     from ..core.cache import max_bytes, usage
@@ -332,7 +338,7 @@ def cache_info(directory) -> None:
 
 @cache.command("clear", context_settings=CONTEXT)
 @_cache_dir_option
-@_global_options
+@global_options
 def cache_clear(directory) -> None:
     """Remove every entry of the cache."""
     from ..core.cache import clear

@@ -32,7 +32,8 @@ from pathlib import Path
 
 from ..core.errors import InputError, NdbgError
 from ..core.pools import end_pool
-from .analysis import Options, analyze_path, error_record
+from ..core.options import Options
+from .analysis import analyze_path, error_record
 
 
 class Interrupted(Exception):

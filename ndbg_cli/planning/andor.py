@@ -54,17 +54,6 @@ from ..ndbg.model import NDBG, ConnectivityTest
 CONNECTED_SEARCH = 20_000
 
 
-#: Work units a search may spend by default (:attr:`Budget.max_work`). A unit is one DBG
-#: induced on a subassembly being expanded, one region listed for one of its candidate
-#: partitionings, or one node of its contact-connected set search (:func:`node_splits`): a
-#: count that does not depend on the machine, unlike the clock. Calibrated on the 115-part
-#: engine, whose 8,110 distinct DBGs make one subassembly cost up to ~10^6 units: its AND/OR
-#: build spends about 0.35 s per million units (one core of the reference machine), so a
-#: search stops within about 2 s there, as the former 2 s default time limit did; the bell's
-#: and AS1's builds spend 5,000 and 29,000 units.
-WORK_LIMIT = 5_000_000
-
-
 @dataclass(frozen=True)
 class Budget:
     """Limits of a search: nodes (for :meth:`AndOrGraph.build`, subassemblies seen; for the

@@ -147,7 +147,7 @@ def tolerance(ndbg: NDBG) -> float:
     """The angular tolerance of ``ndbg``'s sign tests (see the module docstring)."""
     from ..geometry.sphere import DEFAULT_ANGLE_TOL
     from ..ndbg.infinite.blocked_sets import OPEN_TOL
-    from ..ndbg.infinite.build import FAMILY as INFINITE
+    from ..core.constants import INFINITE
 
     if ndbg.family == INFINITE:
         return OPEN_TOL

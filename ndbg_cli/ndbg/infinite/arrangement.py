@@ -18,7 +18,8 @@ import numpy as np
 import shapely
 
 from .chart_union import GRID, antipodal
-from .cubemap import FACES, SQUARE_MARGIN, direction_of
+from ._kernels import FACES
+from .cubemap import SQUARE_MARGIN, direction_of
 
 if TYPE_CHECKING:
     from .blocked_sets import BlockedSets

@@ -28,7 +28,7 @@ from ..dbg import DBG, strong_components
 from ..infinitesimal.build import blocking_sides
 from .chart_union import antipodal
 from .cover import RASTER, cells_window
-from .cubemap import FACES
+from ._kernels import FACES
 
 #: Extra angular margin (radians) around each cell, for the contact normals' own noise.
 MARGIN = 1e-3

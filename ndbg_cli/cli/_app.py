@@ -1,0 +1,130 @@
+"""The ``ndbg`` command group and what its commands share: the global options, the
+output-path checks and the one-line failure. Imports no stage, so that ``ndbg --help``,
+``--version`` and ``schema`` start fast."""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+import click
+
+from .._version import __version__
+from ..core.errors import InputError
+from ..core.options import SETTINGS, Options
+
+CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
+
+
+class _State:
+    debug = False
+    quiet = False
+
+
+STATE = _State()
+
+
+def fail(message: str, code: int) -> None:
+    click.echo(f"ndbg: error: {message}", err=True)
+    sys.exit(code)
+
+
+#: The options' defaults are the library's (:class:`Options`).
+DEFAULTS = Options()
+
+
+def range_type(name: str) -> click.ParamType:
+    """The click type of a numeric setting, from its range in :data:`analysis.SETTINGS`
+    (the one a config file is checked against)."""
+    kind, low, excluded = (SETTINGS[name] + (None, False))[:3]
+    if kind is int:
+        return click.IntRange(low)
+    return click.FloatRange(low, min_open=excluded)
+
+
+@click.group(context_settings=CONTEXT)
+@click.version_option(__version__, "-V", "--version", prog_name="ndbg")
+@click.option("--debug", is_flag=True, help="Show tracebacks of internal errors.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress bar or notes on stderr.")
+def cli(debug: bool, quiet: bool) -> None:
+    """Assembly sequencing and complexity analysis with non-directional blocking graphs.
+
+    \b
+    Example:
+      ndbg analyze assemblies/bell.yaml
+      ndbg analyze assemblies/ --format json > reports.json
+    """
+    STATE.debug = debug
+    STATE.quiet = quiet
+
+
+def _set_debug(ctx, param, value):
+    if value:
+        STATE.debug = True
+
+
+def _set_quiet(ctx, param, value):
+    if value:
+        STATE.quiet = True
+
+
+def global_options(f):
+    """``--debug`` and ``--quiet`` are accepted after the subcommand too."""
+    f = click.option("--debug", is_flag=True, expose_value=False, callback=_set_debug,
+                     is_eager=True, help="Show tracebacks of internal errors.")(f)
+    f = click.option("-q", "--quiet", is_flag=True, expose_value=False, callback=_set_quiet,
+                     is_eager=True, help="No progress bar or notes on stderr.")(f)
+    return f
+
+
+def cache_options(f):
+    """``--cache DIR`` / ``--no-cache``: the per-part-pair result cache (kept in ``ctx.meta``,
+    read by :func:`_options`)."""
+    def remember(ctx, param, value):
+        # --no-cache ("") wins over --cache DIR whatever their order on the command line
+        if value is not None and ctx.meta.get("ndbg_cache") != "":
+            ctx.meta["ndbg_cache"] = value
+        return value
+
+    f = click.option("--no-cache", "no_cache", is_flag=True, default=None, expose_value=False,
+                     callback=lambda ctx, p, v: remember(ctx, p, "" if v else None),
+                     help="Do not read or write the per-part-pair result cache.")(f)
+    f = click.option("--cache", "cache_dir", type=click.Path(file_okay=False),
+                     expose_value=False, callback=remember,
+                     help="Per-part-pair result cache directory (default: $NDBG_CACHE_DIR, "
+                     "else ~/.cache/ndbg): unchanged part pairs are not recomputed.")(f)
+    return f
+
+
+def common_load_options(f):
+    f = global_options(f)
+    f = click.option("--units", help="Unit of the input (mm, cm, m, in): converts files that "
+                     "record theirs (manifest, STEP), declares it for those that don't.")(f)
+    f = click.option("--tolerance", type=float,
+                     help="Length tolerance in the assembly unit (default: 1e-4 x diagonal).")(f)
+    f = click.option("--allow-outside-paths", is_flag=True,
+                     help="Let manifests name mesh files outside their folder.")(f)
+    return f
+
+
+def cannot_write(where: str, exc: OSError) -> InputError:
+    """The one-line input error for an output path ``where`` (as the user gave it)."""
+    if isinstance(exc, FileExistsError):  # mkdir over a file
+        reason = f"{exc.filename} is not a directory"
+    else:
+        reason = exc.strerror or str(exc)
+    return InputError(f"cannot write {where}: {reason}")
+
+
+def check_writable(where: str, folder: Path) -> None:
+    """``folder`` made if missing, and a file created and removed in it; else the
+    :func:`cannot_write` error naming ``where``."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".ndbg-probe-", suffix=".tmp"):
+            pass
+    except OSError as exc:
+        raise cannot_write(where, exc) from None
+
+

@@ -1,0 +1,81 @@
+"""What to compute and how: the :class:`Options` of every stage, with the CLI's defaults, and
+the type and range of each setting (checked alike for a config file and the command line)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from .constants import WORK_LIMIT
+
+MOTIONS = ("all", "translation", "infinite", "generalized")
+STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
+INTERFERENCE = ("error", "warn", "ignore")
+
+
+@dataclass(frozen=True)
+class Options:
+    """What to compute and how; every field has the CLI's default."""
+
+    motion: str = "all"
+    units: str | None = None
+    tolerance: float | None = None
+    allow_outside_paths: bool = False
+    interference: str = "warn"  # error | warn | ignore
+    timings: bool = False
+    strategy: str = "shortest"  # shortest | linear | fewest-directions | balanced
+    threads_as_cylinders: bool = False
+    connected: bool = False  # partitionings: both sides connected in the contact graph
+    max_partitions: int = 1000  # partitionings listed per family (the report says truncated)
+    region_limit: int | None = 2000  # regions listed per family (counts stay complete)
+    max_nodes: int = 2_000  # AND/OR graph budget: subassemblies per search
+    max_work: int = WORK_LIMIT  # AND/OR graph budget: work units per search
+    time_limit: float | None = None  # AND/OR graph budget: seconds per search (None: none)
+    infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
+    cache: str | None = None  # per-part-pair result cache directory (None: no cache)
+    workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
+    progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
+
+
+#: What each setting of a config file must be, with the types and ranges of the CLI's options:
+#: ``(kind, low, low_excluded)``, kind ``bool``, ``int``, ``float`` (finite), ``str`` or a
+#: tuple of choices, ``low`` the smallest value allowed. A field typed ``... | None`` may also
+#: be ``null``.
+SETTINGS: dict[str, tuple] = {
+    "motion": (MOTIONS,), "interference": (INTERFERENCE,), "strategy": (STRATEGIES,),
+    "units": (str,), "cache": (str,), "tolerance": (float, 0, True),
+    "time_limit": (float, 0, True), "max_partitions": (int, 1), "region_limit": (int, 1),
+    "max_nodes": (int, 1), "max_work": (int, 1), "infinite_budget": (int, 0),
+    "allow_outside_paths": (bool,),
+    "timings": (bool,), "threads_as_cylinders": (bool,), "connected": (bool,),
+}
+
+
+def setting_problem(name: str, value: object, *, null: bool = True) -> str | None:
+    """Why ``value`` cannot be the setting ``name`` (``expected ..., got ...``), or ``None``
+    if it can. YAML types are taken as they are: ``'5'`` is not an integer, ``maybe`` is not
+    a boolean, ``.nan`` is not a number. ``null``: whether ``None`` may be offered (a config
+    file's ``null``; a command-line flag has no such spelling)."""
+    kind, low, excluded = (SETTINGS[name] + (None, False))[:3]
+    nullable = null and "None" in str({f.name: f.type for f in dataclasses.fields(Options)}[name])
+    if value is None and nullable:
+        return None
+    if isinstance(kind, tuple):
+        ok, what = value in kind, "one of " + ", ".join(kind)
+    elif kind is bool:
+        ok, what = isinstance(value, bool), "true or false"
+    elif kind is str:
+        ok, what = isinstance(value, str) and value != "", "a non-empty string"
+    else:
+        number = (int,) if kind is int else (int, float)
+        what = "an integer" if kind is int else "a finite number"
+        ok = isinstance(value, number) and not isinstance(value, bool) and math.isfinite(value)
+        if low is not None:
+            what += f" {'>' if excluded else '>='} {low}"
+            ok = ok and (value > low if excluded else value >= low)
+    if nullable:
+        what += " or null"
+    return None if ok else f"expected {what}, got {value!r}"
+
+
