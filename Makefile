@@ -18,10 +18,11 @@ demo: setup
 	$(BIN)/ndbg analyze assemblies/bell.yaml
 
 test: setup
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 lint: setup
 	$(BIN)/ruff check ndbg_cli tests benchmarks assemblies
+	$(BIN)/lint-imports --no-cache
 
 bench: setup
 	$(BIN)/python benchmarks/run.py

@@ -36,7 +36,7 @@ def cluster_normals(normals: np.ndarray, angle_tol: float,
     w = np.ones(len(n)) if weights is None else np.asarray(weights, dtype=float)
     # identical normals (the triangles of one flat face) are merged first, weights summed
     r = np.round(n, 9)
-    first, inv = _unique_rows(r)
+    first, inv = unique_rows(r)
     out = _merge_clusters(r[first], np.bincount(inv, weights=w, minlength=len(first)),
                           np.cos(angle_tol))
     if out is None:
@@ -73,14 +73,14 @@ def _merge_clusters(n: np.ndarray, w: np.ndarray, cos: float,
     return out[np.lexsort(np.round(out, 9).T[::-1])]
 
 
-def _one_cluster(normals: np.ndarray, angle_tol: float) -> bool:
+def one_cluster(normals: np.ndarray, angle_tol: float) -> bool:
     """Whether :func:`cluster_normals` gives ``normals`` ``(n, 3)`` a single cluster: all the
     distinct normals lie within ``angle_tol`` (radians) of the lexicographically first, its
     own first test (when that test fails, the greedy pass opens at least two clusters)."""
     r = np.round(np.asarray(normals, dtype=float).reshape(-1, 3), 9)
     if len(r) == 0:
         return False
-    n = r[_unique_rows(r)[0]]  # the distinct rows in np.unique's order
+    n = r[unique_rows(r)[0]]  # the distinct rows in np.unique's order
     return len(n) == 1 or bool((n @ n[0]).min() >= np.cos(angle_tol))
 
 
@@ -135,7 +135,7 @@ def _greedy_clusters(n: np.ndarray, cos: float) -> tuple[np.ndarray, np.ndarray]
     return np.flatnonzero(is_seed), (np.cumsum(is_seed) - 1)[seed_of]
 
 
-def _unique_rows(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def unique_rows(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(first, inverse)`` of the distinct rows of ``x`` ``(n, k)`` (finite), exactly as
     ``np.unique(x, axis=0, return_index=True, return_inverse=True)`` gives them: rows in
     lexicographic order, equal meaning equal values (-0.0 == 0.0), ``first`` the lowest index

@@ -8,7 +8,6 @@ into an error record, which is what a batch needs.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from .._version import __version__
@@ -17,6 +16,7 @@ from ..core.errors import NdbgError
 from ..core.options import Options
 from ..io.loaders import load
 from ..report.document import REPORT_SCHEMA
+
 
 def assembly_section(asm: Assembly) -> dict:
     """The report's ``assembly`` section: name, source, units, tolerance, parts."""

@@ -31,8 +31,8 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from ..core.errors import InputError, NdbgError
-from ..core.pools import end_pool
 from ..core.options import Options
+from ..core.pools import end_pool
 from .analysis import analyze_path, error_record
 
 

@@ -21,17 +21,15 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import shapely
 
 from ..core.assembly import Assembly, Diagnostic
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+from ..core.options import Options
 from ..ndbg.model import NDBG, ConnectivityTest
-
-INFINITESIMAL = "infinitesimal_translation"
-INFINITE = "infinite_translation"
-GENERALIZED = "generalized"
 
 FAMILIES_OF = {
     "all": (INFINITESIMAL, INFINITE, GENERALIZED),
@@ -43,9 +41,11 @@ FAMILIES_OF = {
 PLAN_ORDER = (INFINITE, INFINITESIMAL, GENERALIZED)
 
 
-class _Clock:
-    def __init__(self, timings: dict[str, float]) -> None:
-        self.timings = timings
+class Clock:
+    """Adds each stage's wall-clock seconds to ``timings`` under its name."""
+
+    def __init__(self, timings: dict[str, float] | None = None) -> None:
+        self.timings = {} if timings is None else timings
 
     def __call__(self, name: str, fn: Callable[[], Any]) -> Any:
         t0 = time.perf_counter()
@@ -54,20 +54,59 @@ class _Clock:
         return out
 
 
-def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[dict, list]:
-    """All analysis sections of the report for ``asm`` and the extra warnings
-    (:class:`Diagnostic`). ``options`` is an :class:`ndbg_cli.pipeline.analysis.Options`; ``timings``
-    receives seconds per stage. Raises :class:`~ndbg_cli.core.errors.InputError` (e.g. an
-    interference under ``--interference error``)."""
-    from ..core.cache import open_cache
+@dataclass
+class Contacts:
+    """What :func:`find_contacts` found: the contact analysis, the contact graph and the
+    report's sections (``contacts``, ``interferences``, ``contact_stats``)."""
 
-    clock = _Clock(timings)
-    families = FAMILIES_OF[options.motion]
-    cache = open_cache(getattr(options, "cache", None))
+    analysis: Any  #: contacts.contacts3d.ContactAnalysis (3D) or contacts2d's contacts (2D)
+    touching: list[tuple[int, int]]  #: pairs of parts in contact
+    neighbours: list[int]  #: the contact graph, one bitmask of neighbours per part
+    sections: dict
+    warnings: list[Diagnostic] = field(default_factory=list)
+
+
+@dataclass
+class Family:
+    """One motion family's NDBG (:func:`build_ndbg`) with its report section and
+    partitionings. ``ndbg`` is None when the family was skipped, and ``usable`` False when it
+    was restricted to part of the sphere (right for the whole assembly's partitionings, not
+    for plans or classes)."""
+
+    name: str
+    ndbg: NDBG | None
+    section: dict
+    partitionings: list[dict] = field(default_factory=list)
+    warnings: list[Diagnostic] = field(default_factory=list)
+    usable: bool = True
+
+
+@dataclass
+class Measures:
+    """The classes and measures of paper section 7 (:func:`measure`) and the AND/OR graphs
+    the classes built (reused by the planner)."""
+
+    classes: dict
+    andor: dict
+    graphs: dict
+
+
+def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = None,
+                  timings: dict[str, float] | None = None) -> Contacts:
+    """The contacts of ``asm`` (paper section 4.3), the contact graph and their report
+    sections; the ``--interference`` policy applied (its warnings, or an
+    :class:`~ndbg_cli.core.errors.InputError` under ``error``).
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> from ndbg_cli.pipeline.stages import find_contacts
+    >>> found = find_contacts(ndbg_cli.load("assemblies/hover.yaml"))
+    >>> sorted(found.sections["contact_stats"]["touching_pairs"])  # both rest on the base
+    [['base', 'bridge'], ['base', 'puck']]
+    """
+    clock = Clock(timings)
     warnings: list[Diagnostic] = []
-    out: dict = {}
-
-    # -- contacts ----------------------------------------------------------------------
     if asm.dimension == 3:
         from ..contacts.contacts3d import analyze_contacts, contacts_section
         from ..contacts.interference import check_interference_policy
@@ -78,120 +117,164 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         sec = contacts_section(asm, ca)
         # wall-clock phases go to the report's timings (kept out unless asked for)
         for k, v in sec["contact_stats"].pop("timings_s", {}).items():
-            timings[f"contacts_{k}"] = v
-        out.update(contacts=sec["contacts"], interferences=sec["interferences"],
-                   contact_stats=sec["contact_stats"])
+            clock.timings[f"contacts_{k}"] = v
+        sections = dict(contacts=sec["contacts"], interferences=sec["interferences"],
+                        contact_stats=sec["contact_stats"])
         touching = ca.pairs()
     else:
         from ..contacts.contacts2d import find_contacts_2d
 
         ca = clock("contacts_s", lambda: find_contacts_2d(asm, options.tolerance))
-        out.update(contacts=contacts_2d_section(asm, ca), interferences=[],
-                   contact_stats={"units": asm.units, "tolerance": asm.length_tolerance,
-                                  "touching_pairs": [[asm.ids[c.a], asm.ids[c.b]]
-                                                     for c in ca.contacts],
-                                  "contacts": len(ca.contacts)})
+        sections = dict(contacts=contacts_2d_section(asm, ca), interferences=[],
+                        contact_stats={"units": asm.units, "tolerance": asm.length_tolerance,
+                                       "touching_pairs": [[asm.ids[c.a], asm.ids[c.b]]
+                                                          for c in ca.contacts],
+                                       "contacts": len(ca.contacts)})
         touching = [(c.a, c.b) for c in ca.contacts]
     neighbours = [0] * len(asm)
     for a, b in touching:
         neighbours[a] |= 1 << b
         neighbours[b] |= 1 << a
-    connected = ConnectivityTest(neighbours) if options.connected else None
+    return Contacts(ca, touching, neighbours, sections, warnings)
 
-    # -- blocking graphs ---------------------------------------------------------------
+
+def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options = Options(),
+               *, cache: Any = None, infinitesimal: NDBG | None = None,
+               timings: dict[str, float] | None = None) -> Family:
+    """The NDBG of one motion family (:data:`~ndbg_cli.core.constants.FAMILIES`) with its
+    report section and partitionings. ``infinitesimal``: that family's NDBG when already
+    built (the generalized family extends it; built here when not given).
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> from ndbg_cli.core.constants import INFINITESIMAL
+    >>> from ndbg_cli.pipeline.stages import build_ndbg, find_contacts
+    >>> asm = ndbg_cli.load("assemblies/hover.yaml")
+    >>> fam = build_ndbg(asm, INFINITESIMAL, find_contacts(asm))
+    >>> len(fam.partitionings)  # puck and bridge touch only the base: every split is free
+    6
+    """
     from ..ndbg.generalized.build import block_threads, threaded_pairs
 
+    clock = Clock(timings)
     threaded = threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
-    ndbgs: dict[str, NDBG] = {}
-    sections: dict[str, dict] = {}
-    partitionings: list[dict] = []
-    inf = None
-    if INFINITESIMAL in families or GENERALIZED in families:
+    if family in (INFINITESIMAL, GENERALIZED) and infinitesimal is None:
         from ..ndbg.infinitesimal.build import infinitesimal_ndbg
 
-        inf = clock("infinitesimal_s", lambda: infinitesimal_ndbg(asm, ca))
-        inf = block_threads(inf, threaded)
-    if INFINITESIMAL in families:
-        from ..ndbg.infinitesimal.build import candidate_partitionings, infinitesimal_section
+        infinitesimal = clock("infinitesimal_s",
+                              lambda: infinitesimal_ndbg(asm, contacts.analysis))
+        infinitesimal = block_threads(infinitesimal, threaded)
+    if family == INFINITESIMAL:
+        return _infinitesimal_family(asm, infinitesimal, contacts, options, clock)
+    if family == INFINITE:
+        return _infinite_family(asm, contacts, options, threaded, cache, clock)
+    if family == GENERALIZED and asm.dimension == 3:
+        gen, sec, parts = clock("generalized_s", lambda: _generalized(
+            asm, contacts.analysis, infinitesimal, options))
+        return Family(GENERALIZED, gen, sec, parts)
+    if family == GENERALIZED:
+        return Family(GENERALIZED, None, {"family": GENERALIZED, "skipped": True,
+                                          "why": "generalized motions are analysed for 3D "
+                                                 "assemblies"}, usable=False)
+    raise ValueError(f"unknown motion family {family!r}")
 
-        ndbgs[INFINITESIMAL] = inf
-        parts, trunc = clock("partitionings_s", lambda: candidate_partitionings(
-            inf, max_partitions=options.max_partitions, connected=options.connected,
-            contacts=touching))
-        sec = infinitesimal_section(asm, inf, parts, trunc, region_limit=options.region_limit)
-        partitionings += sec.pop("partitionings")
-        sec.pop("assembly", None)
-        sections[INFINITESIMAL] = sec
-    if INFINITE in families:
-        from ..ndbg.infinite.build import TooLarge
 
-        try:
-            got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected,
-                                                        cache, ca))
-            too_large = None
-        except TooLarge as exc:
-            got, too_large = None, str(exc)
-        if got is None:
-            sections[INFINITE] = {"family": INFINITE, "skipped": True,
-                                  "why": too_large or _infinite_skip_reason(asm, options)}
-            warnings.append(Diagnostic("warning", "infinite-skipped",
-                                       "infinite-translation NDBG skipped: "
-                                       + sections[INFINITE]["why"], file=asm.source or None))
-        else:
-            nd, sec, parts = got
-            if nd.stats.get("restricted"):
-                # right for the whole assembly's partitionings only: no plans or classes
-                warnings.append(Diagnostic(
-                    "warning", "infinite-restricted",
-                    "infinite-translation NDBG restricted to the directions where the "
-                    "infinitesimal NDBG frees a subassembly: " + sec["domain"]["why"],
-                    file=asm.source or None))
-            else:
-                ndbgs[INFINITE] = nd
-            sections[INFINITE] = sec
-            partitionings += parts
-    if GENERALIZED in families and asm.dimension == 3:
-        gen, sec, parts = clock("generalized_s", lambda: _generalized(asm, ca, inf, options))
-        ndbgs[GENERALIZED] = gen
-        sections[GENERALIZED] = sec
-        partitionings += parts
-    elif GENERALIZED in families:
-        sections[GENERALIZED] = {"family": GENERALIZED, "skipped": True,
-                                 "why": "generalized motions are analysed for 3D assemblies"}
-    out["ndbg"] = sections
-    if cache is not None:
-        # hit counts go with the timings (they differ between a cold and a warm run)
-        for stage, st in cache.stats().items():
-            timings[f"cache_{stage}_hits"] = st["hits"]
-            timings[f"cache_{stage}_misses"] = st["misses"]
-    out["partitionings"] = partitionings
+def _infinitesimal_family(asm: Assembly, inf: NDBG, contacts: Contacts, options: Options,
+                          clock: Clock) -> Family:
+    from ..ndbg.infinitesimal.build import candidate_partitionings, infinitesimal_section
 
-    # -- planning and measures ---------------------------------------------------------
-    from ..planning.andor import Budget
+    parts, trunc = clock("partitionings_s", lambda: candidate_partitionings(
+        inf, max_partitions=options.max_partitions, connected=options.connected,
+        contacts=contacts.touching))
+    sec = infinitesimal_section(asm, inf, parts, trunc, region_limit=options.region_limit)
+    listed = sec.pop("partitionings")
+    sec.pop("assembly", None)
+    return Family(INFINITESIMAL, inf, sec, listed)
+
+
+def _infinite_family(asm: Assembly, contacts: Contacts, options: Options, threaded: set,
+                     cache: Any, clock: Clock) -> Family:
+    from ..ndbg.infinite.build import TooLarge
+
+    connected = ConnectivityTest(contacts.neighbours) if options.connected else None
+    try:
+        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected,
+                                                    cache, contacts.analysis))
+        too_large = None
+    except TooLarge as exc:
+        got, too_large = None, str(exc)
+    if got is None:
+        sec = {"family": INFINITE, "skipped": True,
+               "why": too_large or _infinite_skip_reason(asm, options)}
+        warn = Diagnostic("warning", "infinite-skipped",
+                          "infinite-translation NDBG skipped: " + sec["why"],
+                          file=asm.source or None)
+        return Family(INFINITE, None, sec, [], [warn], usable=False)
+    nd, sec, parts = got
+    if not nd.stats.get("restricted"):
+        return Family(INFINITE, nd, sec, parts)
+    # right for the whole assembly's partitionings only: no plans or classes
+    warn = Diagnostic("warning", "infinite-restricted",
+                      "infinite-translation NDBG restricted to the directions where the "
+                      "infinitesimal NDBG frees a subassembly: " + sec["domain"]["why"],
+                      file=asm.source or None)
+    return Family(INFINITE, nd, sec, parts, [warn], usable=False)
+
+
+def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
+            options: Options = Options(), *, timings: dict[str, float] | None = None
+            ) -> Measures:
+    """The classes and measures of paper section 7 on the usable NDBGs ``ndbgs`` (family ->
+    NDBG): interlocking, grasps, monotonicity, linearity, depth, and the AND/OR graphs."""
     from ..planning.classes import andor_section, classes_section
-    from ..planning.plans import plan, plan_section
 
-    budget = Budget(max_nodes=options.max_nodes, max_work=options.max_work,
-                    time_limit=options.time_limit)
+    clock = Clock(timings)
+    budget = _budget(options)
     base = asm.index(asm.base) if asm.base is not None else None
-    extra = clock("interlock_s", lambda: _interlock_and_grasp(asm, ca, ndbgs))
+    lock, grasps = clock("interlock_s", lambda: _interlock_and_grasp(
+        asm, contacts.analysis, ndbgs))
     graphs: dict = {}
-    out["classes"] = clock("classes_s", lambda: classes_section(
-        ndbgs, base=base, budget=budget, interlock=extra[0], grasps=extra[1], graphs=graphs))
+    classes = clock("classes_s", lambda: classes_section(
+        ndbgs, base=base, budget=budget, interlock=lock, grasps=grasps, graphs=graphs))
     # the AND/OR graphs the classes built: size, and the exact counts when complete
-    out["andor"] = {fam: andor_section(g, (out["classes"].get(fam) or {}).get("min_depth"))
-                    for fam, g in sorted(graphs.items())}
+    andor = {fam: andor_section(g, (classes.get(fam) or {}).get("min_depth"))
+             for fam, g in sorted(graphs.items())}
+    from ..ndbg.generalized.build import threaded_pairs
+
+    threaded = threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
     if threaded and not options.threads_as_cylinders:
         for fam in (INFINITESIMAL, INFINITE):
-            if fam in out["classes"]:
-                out["classes"][fam]["threads"] = {
+            if fam in classes:
+                classes[fam]["threads"] = {
                     "value": sorted([list(p) for p in threaded]),
                     "why": "declared screw joints are threads: these pairs cannot translate "
                            "apart; --threads-as-cylinders treats them as plain cylinders"}
+    return Measures(classes, andor, graphs)
+
+
+def _budget(options: Options) -> Any:
+    from ..planning.andor import Budget
+
+    return Budget(max_nodes=options.max_nodes, max_work=options.max_work,
+                  time_limit=options.time_limit)
+
+
+def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
+                  measures: Measures, options: Options = Options(), *,
+                  timings: dict[str, float] | None = None) -> dict:
+    """The report's ``plan`` section: the plan of the first family of :data:`PLAN_ORDER`
+    that admits an assembly tree, with its translation steps checked by the direct sweep
+    test (paper Fig. 1, sections 4.4 and 5.3)."""
+    from ..planning.plans import plan, plan_section
+
+    clock = Clock(timings)
+    budget = _budget(options)
+    base = asm.index(asm.base) if asm.base is not None else None
     # The reported plan keeps both sides of every step connected in the contact graph (a
     # designer's subassemblies hold together); when no such tree exists (floating parts), it
     # falls back to any candidate split, reusing the classes' AND/OR graph.
-    plan_conn = ConnectivityTest(neighbours)
+    plan_conn = ConnectivityTest(contacts.neighbours)
     chosen = None
     for fam in PLAN_ORDER:
         if fam not in ndbgs:
@@ -199,7 +282,7 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
         p = clock("plan_s", lambda nd=ndbgs[fam]: plan(
             nd, options.strategy, base=base, connected=plan_conn, budget=budget))
         if not p.found:
-            graph = graphs.get(fam)
+            graph = measures.graphs.get(fam)
             q = clock("plan_s", lambda nd=ndbgs[fam], g=graph: plan(
                 nd, options.strategy, base=base, connected=None, budget=budget, graph=g))
             if q.found:
@@ -211,35 +294,75 @@ def run_stages(asm: Assembly, options: Any, timings: dict[str, float]) -> tuple[
             chosen = p
         if p.found:
             break
-    verified = None
-    proofs: list[dict] = []
-    if chosen is not None and chosen.found and chosen.ndbg.family in (INFINITESIMAL, INFINITE):
-        # the chosen translation plan checked step by step with the direct sweep test
-        # (planning.verify): a candidate tree that passes is a real algorithm, which the
-        # rules count as proof
-        from ..ndbg.infinite.sweep import SweepChecker
-        from ..planning.plans import axis_directions, verify
+    if chosen is None:
+        return {"family": None, "strategy": options.strategy, "found": False,
+                "exact": True, "depth": None, "tree": None, "sequence": [],
+                "notes": ["no motion family computed"]}
+    checked = None
+    if chosen.found and chosen.ndbg.family in (INFINITESIMAL, INFINITE):
+        # before the section: a verified step takes a coordinate axis where one frees it
+        checked = _verify(asm, chosen, measures, options, base, budget, clock)
+    out = {"family": chosen.ndbg.family, **plan_section(chosen)}
+    if checked is not None:
+        out["verified"], out["proofs"] = checked
+    return out
 
-        sweep = SweepChecker(asm)
-        verified = clock("verify_s", lambda: verify(chosen, sweep.frees))
-        if verified["value"]:
-            # a coordinate axis where the sweep test frees a region's steps along it
-            clock("verify_s", lambda: axis_directions(chosen, sweep.frees))
-        if chosen.ndbg.family == INFINITESIMAL:
-            # the candidate trees behind the classes' best measures, checked the same way:
-            # each that passes proves its depth, directions and nonlinear steps
-            proofs = clock("verify_s", lambda: _proof_trees(
-                sweep, chosen, out["classes"].get(INFINITESIMAL) or {}, options.strategy,
-                base, budget, graphs.get(INFINITESIMAL)))
-    if chosen is not None:
-        out["plan"] = {"family": chosen.ndbg.family, **plan_section(chosen)}
-        if verified is not None:
-            out["plan"]["verified"] = verified
-            out["plan"]["proofs"] = proofs
-    else:
-        out["plan"] = {"family": None, "strategy": options.strategy, "found": False,
-                       "exact": True, "depth": None, "tree": None, "sequence": [],
-                       "notes": ["no motion family computed"]}
+
+def _verify(asm: Assembly, chosen: Any, measures: Measures, options: Options,
+            base: int | None, budget: Any, clock: Clock) -> tuple[dict, list[dict]]:
+    """The chosen translation plan checked step by step with the direct sweep test: a
+    candidate tree that passes is a real algorithm, which the rules count as proof."""
+    from ..ndbg.infinite.sweep import SweepChecker
+    from ..planning.plans import axis_directions, verify
+
+    sweep = SweepChecker(asm)
+    verified = clock("verify_s", lambda: verify(chosen, sweep.frees))
+    if verified["value"]:
+        # a coordinate axis where the sweep test frees a region's steps along it
+        clock("verify_s", lambda: axis_directions(chosen, sweep.frees))
+    proofs: list[dict] = []
+    if chosen.ndbg.family == INFINITESIMAL:
+        # the candidate trees behind the classes' best measures, checked the same way:
+        # each that passes proves its depth, directions and nonlinear steps
+        proofs = clock("verify_s", lambda: _proof_trees(
+            sweep, chosen, measures.classes.get(INFINITESIMAL) or {}, options.strategy,
+            base, budget, measures.graphs.get(INFINITESIMAL)))
+    return verified, proofs
+
+
+def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
+               ) -> tuple[dict, list[Diagnostic]]:
+    """All analysis sections of the report for ``asm`` and the extra warnings: the stages
+    :func:`find_contacts` -> :func:`build_ndbg` per family -> :func:`measure` ->
+    :func:`plan_assembly`. ``timings`` receives seconds per stage. Raises
+    :class:`~ndbg_cli.core.errors.InputError` (e.g. an interference under
+    ``--interference error``)."""
+    from ..core.cache import open_cache
+
+    cache = open_cache(options.cache)
+    contacts = find_contacts(asm, options, cache=cache, timings=timings)
+    out: dict = dict(contacts.sections)
+    warnings = list(contacts.warnings)
+    families: dict[str, Family] = {}
+    inf = None
+    for name in FAMILIES_OF[options.motion]:
+        fam = build_ndbg(asm, name, contacts, options, cache=cache, infinitesimal=inf,
+                         timings=timings)
+        if name == INFINITESIMAL:
+            inf = fam.ndbg
+        families[name] = fam
+        warnings += fam.warnings
+    out["ndbg"] = {name: fam.section for name, fam in families.items()}
+    if cache is not None:
+        # hit counts go with the timings (they differ between a cold and a warm run)
+        for stage, st in cache.stats().items():
+            timings[f"cache_{stage}_hits"] = st["hits"]
+            timings[f"cache_{stage}_misses"] = st["misses"]
+    out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
+    ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
+    measures = measure(asm, contacts, ndbgs, options, timings=timings)
+    out["classes"], out["andor"] = measures.classes, measures.andor
+    out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings)
     return out, warnings
 
 
@@ -306,11 +429,11 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     only where the infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`), which
     gives the same partitionings of the whole assembly and nothing else (``None`` again when
     that is every direction)."""
-    from ..ndbg.generalized.build import block_threads
-    from ..ndbg.infinite.build import build_infinite
-    from ..ndbg.infinite.blocked_sets import triangle_pairs
-    from ..ndbg.infinite.domain import free_domain
     from ..geometry.sphere import DEFAULT_ANGLE_TOL
+    from ..ndbg.generalized.build import block_threads
+    from ..ndbg.infinite.blocked_sets import triangle_pairs
+    from ..ndbg.infinite.build import build_infinite
+    from ..ndbg.infinite.domain import free_domain
     from ..ndbg.infinitesimal.build import contact_pairs
     from ..ndbg.model import partitionings
     from ..report.infinite import infinite_section
@@ -395,104 +518,10 @@ def _interlock_and_grasp(asm: Assembly, ca, ndbgs: dict[str, NDBG]) -> tuple[dic
             lock["why"] += (f" ({edge_point} edge/point contacts read as every normal of their "
                             "cone: conservative, may call a product interlocked that is not)")
     grasps = {}
+    from ..planning.fingers import exterior_faces
+
     faces = exterior_faces(asm)
     for fam in (INFINITESIMAL, INFINITE):
         if fam in ndbgs:
             grasps[fam] = grasp(ndbgs[fam], faces)
     return lock, grasps
-
-
-def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
-    """Candidate finger placements for the form-closure grasp: for every part, each distinct
-    outward face normal (3D: triangle normals rounded to ``digits``; 2D: edge normals) with a
-    point on a face of that orientation that no other part covers: the centroid of the
-    largest such triangle (2D: the midpoint of the longest such edge) whose point just
-    outside, ``2 eps`` along the normal, is not next to another part (:func:`_covered`; at
-    most :data:`FINGER_TRIES` faces tried per orientation, and none kept if all are covered:
-    a finger cannot touch a face another part lies on; a part that interpenetrates the face
-    deeply is not seen, interferences are reported apart)."""
-    gap = 2.0 * asm.length_tolerance
-    # (part, normal key, point, outward unit normal), each orientation's faces largest first
-    groups: list[list[tuple[int, list[float], list[float], np.ndarray]]] = []
-    for k, part in enumerate(asm.parts):
-        if asm.dimension == 2:
-            poly = part.polygon
-            xy = np.asarray(poly.exterior.coords)[:-1]
-            ccw = poly.exterior.is_ccw
-            edges: dict[tuple[float, ...], list[tuple[float, list[float]]]] = {}
-            for a, b in zip(xy, np.roll(xy, -1, axis=0)):
-                e = b - a
-                nrm = np.array([e[1], -e[0]]) if ccw else np.array([-e[1], e[0]])
-                length = np.linalg.norm(nrm)
-                if length > 0:
-                    key = tuple(np.round(nrm / length, digits).tolist())
-                    edges.setdefault(key, []).append((float(length), ((a + b) / 2).tolist()))
-            for key, cands in edges.items():
-                groups.append([(k, list(key), mid, np.asarray(key)) for _, mid in
-                               sorted(cands, key=lambda c: -c[0])[:FINGER_TRIES]])
-            continue
-        mesh = part.mesh
-        unit = np.asarray(mesh.face_normals)
-        areas = np.asarray(mesh.area_faces)
-        centers = np.asarray(mesh.triangles_center)
-        keys, inverse = np.unique(np.round(unit, digits), axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        # each orientation's faces, largest first (ties: lower index first)
-        order = np.lexsort((np.arange(len(areas)), -areas, inverse)).tolist()
-        ends = np.cumsum(np.bincount(inverse, minlength=len(keys))).tolist()
-        key_list, center_list = keys.tolist(), centers.tolist()
-        for q, (lo, hi) in enumerate(zip([0] + ends[:-1], ends)):
-            groups.append([(k, key_list[q], center_list[f], unit[f])
-                           for f in order[lo:min(hi, lo + FINGER_TRIES)]])
-    # round r tries the r-th face of every orientation still without an exposed one
-    chosen: list[tuple | None] = [None] * len(groups)
-    todo = list(range(len(groups)))
-    for r in range(FINGER_TRIES):
-        todo = [g for g in todo if chosen[g] is None and r < len(groups[g])]
-        if not todo:
-            break
-        cands = [groups[g][r] for g in todo]
-        owner = np.array([c[0] for c in cands])
-        probe = np.array([np.asarray(c[2]) + gap * c[3] for c in cands])
-        for g, c, cov in zip(todo, cands, _covered(asm, owner, probe, gap)):
-            if not cov:
-                chosen[g] = c[:3]
-    return [c for c in chosen if c is not None]
-
-
-#: Faces of one orientation tried per part by :func:`exterior_faces` (largest first).
-FINGER_TRIES = 8
-
-
-def _covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.ndarray:
-    """``(m,)`` whether each point ``q[i]`` (``gap`` outside a face of part ``owner[i]``) is
-    within ``1.5 gap`` of another part's surface: a part resting on that face has its surface
-    there (within the tolerance), so the point is inside it at about ``gap`` from it. A ball
-    of radius ``1.5 gap`` is tested against each part whose box holds the point (2D: shapely
-    distances)."""
-    out = np.zeros(len(q), dtype=bool)
-    reach = 1.5 * gap
-    if asm.dimension == 3:
-        import fcl
-
-        from ..contacts.facets import fcl_object
-
-        ball = fcl.CollisionObject(fcl.Sphere(reach), fcl.Transform())
-    for j, other in enumerate(asm.parts):
-        if asm.dimension == 2:
-            near = owner != j
-            if near.any():
-                pts = shapely.points(q[near])
-                out[near] |= shapely.distance(other.polygon, pts) <= reach
-            continue
-        lo, hi = other.mesh.bounds
-        near = np.flatnonzero((owner != j) & ~out
-                              & np.all((q >= lo - reach) & (q <= hi + reach), axis=1))
-        if len(near):
-            # a ball of radius ``reach`` against the part's cached BVH (python-fcl)
-            obj = fcl_object(other)
-            for i in near:
-                ball.setTranslation(q[i])
-                if fcl.collide(ball, obj, fcl.CollisionRequest(), fcl.CollisionResult()):
-                    out[i] = True
-    return out

@@ -40,6 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..core.constants import WORK_LIMIT
 from ..core.gc_pause import gc_paused
 from ..ndbg.candidates import connected_free_sets
 from ..ndbg.components import condense, free_sets, strongly_connected

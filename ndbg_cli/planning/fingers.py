@@ -1,0 +1,105 @@
+"""Finger placements for the prismatic form-closure grasp (paper section 7.2): for every part,
+the outward face orientations a fixed point finger can touch, on a face no other part covers."""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+from ..core.assembly import Assembly
+
+
+def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
+    """Candidate finger placements for the form-closure grasp: for every part, each distinct
+    outward face normal (3D: triangle normals rounded to ``digits``; 2D: edge normals) with a
+    point on a face of that orientation that no other part covers: the centroid of the
+    largest such triangle (2D: the midpoint of the longest such edge) whose point just
+    outside, ``2 eps`` along the normal, is not next to another part (:func:`covered`; at
+    most :data:`FINGER_TRIES` faces tried per orientation, and none kept if all are covered:
+    a finger cannot touch a face another part lies on; a part that interpenetrates the face
+    deeply is not seen, interferences are reported apart)."""
+    gap = 2.0 * asm.length_tolerance
+    # (part, normal key, point, outward unit normal), each orientation's faces largest first
+    groups: list[list[tuple[int, list[float], list[float], np.ndarray]]] = []
+    for k, part in enumerate(asm.parts):
+        if asm.dimension == 2:
+            poly = part.polygon
+            xy = np.asarray(poly.exterior.coords)[:-1]
+            ccw = poly.exterior.is_ccw
+            edges: dict[tuple[float, ...], list[tuple[float, list[float]]]] = {}
+            for a, b in zip(xy, np.roll(xy, -1, axis=0)):
+                e = b - a
+                nrm = np.array([e[1], -e[0]]) if ccw else np.array([-e[1], e[0]])
+                length = np.linalg.norm(nrm)
+                if length > 0:
+                    key = tuple(np.round(nrm / length, digits).tolist())
+                    edges.setdefault(key, []).append((float(length), ((a + b) / 2).tolist()))
+            for key, cands in edges.items():
+                groups.append([(k, list(key), mid, np.asarray(key)) for _, mid in
+                               sorted(cands, key=lambda c: -c[0])[:FINGER_TRIES]])
+            continue
+        mesh = part.mesh
+        unit = np.asarray(mesh.face_normals)
+        areas = np.asarray(mesh.area_faces)
+        centers = np.asarray(mesh.triangles_center)
+        keys, inverse = np.unique(np.round(unit, digits), axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        # each orientation's faces, largest first (ties: lower index first)
+        order = np.lexsort((np.arange(len(areas)), -areas, inverse)).tolist()
+        ends = np.cumsum(np.bincount(inverse, minlength=len(keys))).tolist()
+        key_list, center_list = keys.tolist(), centers.tolist()
+        for q, (lo, hi) in enumerate(zip([0] + ends[:-1], ends)):
+            groups.append([(k, key_list[q], center_list[f], unit[f])
+                           for f in order[lo:min(hi, lo + FINGER_TRIES)]])
+    # round r tries the r-th face of every orientation still without an exposed one
+    chosen: list[tuple | None] = [None] * len(groups)
+    todo = list(range(len(groups)))
+    for r in range(FINGER_TRIES):
+        todo = [g for g in todo if chosen[g] is None and r < len(groups[g])]
+        if not todo:
+            break
+        cands = [groups[g][r] for g in todo]
+        owner = np.array([c[0] for c in cands])
+        probe = np.array([np.asarray(c[2]) + gap * c[3] for c in cands])
+        for g, c, cov in zip(todo, cands, covered(asm, owner, probe, gap)):
+            if not cov:
+                chosen[g] = c[:3]
+    return [c for c in chosen if c is not None]
+
+
+#: Faces of one orientation tried per part by :func:`exterior_faces` (largest first).
+FINGER_TRIES = 8
+
+
+def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.ndarray:
+    """``(m,)`` whether each point ``q[i]`` (``gap`` outside a face of part ``owner[i]``) is
+    within ``1.5 gap`` of another part's surface: a part resting on that face has its surface
+    there (within the tolerance), so the point is inside it at about ``gap`` from it. A ball
+    of radius ``1.5 gap`` is tested against each part whose box holds the point (2D: shapely
+    distances)."""
+    out = np.zeros(len(q), dtype=bool)
+    reach = 1.5 * gap
+    if asm.dimension == 3:
+        import fcl
+
+        from ..contacts.facets import fcl_object
+
+        ball = fcl.CollisionObject(fcl.Sphere(reach), fcl.Transform())
+    for j, other in enumerate(asm.parts):
+        if asm.dimension == 2:
+            near = owner != j
+            if near.any():
+                pts = shapely.points(q[near])
+                out[near] |= shapely.distance(other.polygon, pts) <= reach
+            continue
+        lo, hi = other.mesh.bounds
+        near = np.flatnonzero((owner != j) & ~out
+                              & np.all((q >= lo - reach) & (q <= hi + reach), axis=1))
+        if len(near):
+            # a ball of radius ``reach`` against the part's cached BVH (python-fcl)
+            obj = fcl_object(other)
+            for i in near:
+                ball.setTranslation(q[i])
+                if fcl.collide(ball, obj, fcl.CollisionRequest(), fcl.CollisionResult()):
+                    out[i] = True
+    return out
