@@ -29,16 +29,17 @@ class Region:
     """A regular region: its dimension (2, 1 or 0 on S^2; 1 or 0 on S^1; for suggested
     generalized motions ``-1``), a representative motion and the DBG over it.
 
-    ``direction`` is a unit vector (length 2 or 3) for translations, ``None`` otherwise;
-    ``motion`` describes a generalized motion (``{"type": "rotation"|"screw", "axis": ...,
-    "point": ..., "pitch": ...}``) and is ``None`` for translations. ``sliding``: the number
-    of distinct contact normals perpendicular to ``direction`` (infinite translations: the
-    contacts it slides along exactly; not reported), which ranks the lower-dimensional regions
-    of a move (:func:`ndbg_cli.planning.plans.pick_region`). ``thin``: a full-dimensional region
-    too narrow for its direction to be trusted as open, ranked with the lower-dimensional
-    ones by ``pick_region`` (infinite translations in 2D: an arc of S^1 at most
+    ``direction`` is a unit vector (length 2 or 3) for translations, ``None`` otherwise; ``motion``
+    describes a generalized motion (``{"type": "rotation"|"screw", "axis": ..., "point": ...,
+    "pitch": ...}``) and is ``None`` for translations. ``sliding``: the number of distinct contact
+    normals perpendicular to ``direction`` (infinite translations: the contacts it slides along
+    exactly; not reported), which ranks the lower-dimensional regions of a move
+    (:func:`ndbg_cli.planning.plans.pick_region`). ``thin``: a full-dimensional region too narrow
+    for its direction to be trusted as open, ranked with the lower-dimensional ones by
+    ``pick_region`` (infinite translations in 2D: an arc of S^1 at most
     :data:`ndbg_cli.ndbg.infinite.equator.BAND_ETA` ``eta`` wide, which may be one of the erosion's
-    tolerance bands beside a sliding direction, see :mod:`ndbg_cli.ndbg.infinite.equator`; not reported).
+    tolerance bands beside a sliding direction, see :mod:`ndbg_cli.ndbg.infinite.equator`; not
+    reported).
     """
 
     dimension: int
