@@ -242,7 +242,7 @@ def sat_gap(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
     axes = axes / np.where(ok, norm, 1.0)[..., None]
     pa = np.einsum("pkd,pvd->pkv", axes, ta)
     pb = np.einsum("pkd,pvd->pkv", axes, tb)
-    # element-wise min/max of 3: same numbers as .min(axis=2), a third faster
+    # element-wise min/max of 3: same numbers as .min(axis=2), faster
     gap = np.maximum(min3(pb) - max3(pa), min3(pa) - max3(pb))
     return np.where(ok, gap, -np.inf).max(axis=1)
 
