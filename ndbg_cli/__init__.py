@@ -13,9 +13,8 @@ from ._version import __version__
 
 # Every matrix ndbg hands to BLAS/LAPACK is tiny (6 x 6 systems, m x 6 SVDs): threads buy
 # nothing there, and on a busy machine (a CI runner, ``--jobs N`` workers) their spinning
-# made single SVDs 30x slower (AS1's infinitesimal NDBG: 19 ms alone, 690 ms next to two
-# busy processes). One thread each, unless the caller chose (only effective when numpy is
-# not imported yet: the CLI and its worker processes).
+# made single SVDs many times slower (benchmarks/NOTES.md). One thread each, unless the caller
+# chose (only effective when numpy is not imported yet: the CLI and its worker processes).
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
