@@ -1,17 +1,12 @@
 """The non-directional blocking graph (NDBG): regular regions of motion directions, each with
 its DBG, and the candidate partitionings they yield (paper sections 4.2 and 4.4).
 
-Every motion family produces an :class:`NDBG`:
-
-* ``infinitesimal_translation``: regions of the arrangement on S^2 (S^1 in 2D) induced by the
-  contact cones; necessary conditions (candidates);
-* ``infinite_translation``: regions of the arrangement of the blocked-direction sets B_ij;
-  sufficient conditions (a free set really comes out by one translation);
-* ``generalized``: suggested rotations and screws (one "region" per suggested motion).
-
-A region's DBG has an arc ``i -> j`` when part ``j`` blocks part ``i`` moving along the region's
-motion while ``j`` stays. Subassemblies are bitmasks over ``NDBG.ids``; nothing here touches
-geometry again.
+Every motion family produces an :class:`NDBG`: ``infinitesimal_translation`` (regions of the
+arrangement induced by the contact cones; necessary conditions), ``infinite_translation``
+(regions of the arrangement of the blocked sets B_ij; sufficient conditions) and
+``generalized`` (one "region" per suggested rotation or screw). A region's DBG has an arc
+``i -> j`` when ``j`` blocks ``i`` moving along the region's motion while ``j`` stays.
+Subassemblies are bitmasks over ``NDBG.ids``; nothing here touches geometry again.
 """
 
 from __future__ import annotations

@@ -29,7 +29,7 @@ def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
     """``(region, sink component)`` pairs to cover, in region order."""
     m = (1 << ndbg.n) - 1 if mask is None else mask
     out = []
-    sinks: dict[tuple[int, ...], list[int]] = {}  # per distinct DBG (the engine: 348 of 8,110)
+    sinks: dict[tuple[int, ...], list[int]] = {}  # per distinct DBG (far fewer than regions)
     for k, r in enumerate(ndbg.regions):
         if r.direction is None:
             continue

@@ -288,8 +288,8 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
     root = (1 << ndbg.n) - 1 if mask is None else mask
     out = Plan(ndbg=ndbg, root=root, strategy=strategy, connected=connected is not None)
     # Whether any candidate tree exists is polynomial (heredity, classes.sink_decompose); a
-    # contact-connected tree is one of them. When none does, no search can find one (on the
-    # 115-part engine the searches used to spend their whole budget proving it).
+    # contact-connected tree is one of them. When none does, no search can find one, and a
+    # search would spend its whole budget proving it.
     sink, stuck = sink_decompose(ndbg, root, base=base)
     if stuck is not None:
         out.found, out.stuck = False, stuck
