@@ -90,7 +90,7 @@ def _tests(gens: np.ndarray, seg: np.ndarray, normals: np.ndarray, tol: float
            ) -> tuple[np.ndarray, np.ndarray]:
     """``(covered, cut)`` ``(pieces, F)``: whether each finger (``normals`` ``(F, dim)``)
     blocks all of each piece (generators ``gens`` from :meth:`_Pieces.gather`), and whether
-    its circle crosses it (module docstring)."""
+    its circle crosses it (:class:`_Pieces`, :func:`tolerance`)."""
     if len(seg) == 0:
         return np.zeros((0, len(normals)), bool), np.zeros((0, len(normals)), bool)
     v = gens @ normals.T

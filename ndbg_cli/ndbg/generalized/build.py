@@ -267,8 +267,9 @@ def _pushes(P: np.ndarray, S: np.ndarray, X: np.ndarray, length_tol: float,
 def generalized_ndbg(asm: Assembly, contacts: Sequence[Any] | None = None, *,
                      threads_as_cylinders: bool = False, rows: ContactRows | None = None
                      ) -> NDBG:
-    """``NDBG(family="generalized")`` with one region per suggested motion and sense (see the
-    module docstring). ``stats``: ``suggested`` (lines), ``regions``, ``contact_points``."""
+    """``NDBG(family="generalized")`` with one region per suggested motion and sense
+    (:func:`suggested_motions`). ``stats``: ``suggested`` (lines), ``regions``,
+    ``contact_points``."""
     contacts = list(contacts or [])
     rows = rows if rows is not None else contact_rows(asm, contacts)
     thr = threads(asm, threads_as_cylinders)

@@ -264,8 +264,8 @@ def _basis_bounds(P: np.ndarray, eps: float) -> np.ndarray | None:
     generation) gives ``u >= 0`` with ``P.T u = -M.T 1``, so ``y = 1_R + u`` is a
     non-negative combination of the rows summing to (nearly) zero with weight at least 1 on
     every basis row. Adding ``t y`` (``t`` the largest negative weight) makes each target's
-    weights non-negative: ``z = +-w + t y >= 0``, ``P.T z = q + t P.T y``; the bound of the
-    module docstring then holds with this ``z`` and its residual, recomputed. Looser than
+    weights non-negative: ``z = +-w + t y >= 0``, ``P.T z = q + t P.T y``; the bound of
+    :func:`_locked` then holds with this ``z`` and its residual, recomputed. Looser than
     the per-target NNLS (larger ``sum(z)``), but one solve instead of ``2 d``."""
     m, d = P.shape
     if m < d or d == 0:

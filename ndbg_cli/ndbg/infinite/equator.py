@@ -105,7 +105,7 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
 
     ``arcs``: each ordered pair's open arcs (:func:`cone_arcs`); ``eta``: the angular
     tolerance (radians; shorter regions are 0-dimensional); ``sliding``: angles of the
-    contacts' sliding directions (a thin region's direction, see the module docstring)."""
+    contacts' sliding directions (a thin region's direction, see :func:`_representative`)."""
     return [r[:3] for r in equator_extents(arcs, n, eta, sliding)]
 
 
