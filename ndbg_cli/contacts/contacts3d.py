@@ -334,7 +334,7 @@ def _tree_rank(g: PartGeometry) -> np.ndarray:
 
     The R-tree (libspatialindex) walks its nodes depth first in a fixed order and skips the
     subtrees a query box misses, so any query lists its hits in the order a query covering
-    everything lists all triangles. Computed once per part geometry (about 0.3 us a triangle);
+    everything lists all triangles. Computed once per part geometry (cheap: benchmarks/NOTES.md);
     ``tests/test_contacts.py`` checks it against the R-tree's own answers."""
     rank = _TREE_RANK.get(g)
     if rank is None:

@@ -35,8 +35,8 @@ CONNECTED_SEARCH = 20_000
 #: induced on a subassembly being expanded, one region listed for one of its candidate
 #: partitionings, or one node of its contact-connected set search (:func:`node_splits`): a
 #: count that does not depend on the machine, unlike the clock. Calibrated on the 115-part
-#: engine so that a search stops about where the former 2 s default time limit did
-#: (calibration figures in benchmarks/NOTES.md).
+#: engine, so that a search there stops within a couple of seconds (calibration figures in
+#: benchmarks/NOTES.md).
 WORK_LIMIT = 5_000_000
 
 
