@@ -25,7 +25,8 @@ _API = {
     "analyze": "pipeline.analysis", "analyze_path": "pipeline.analysis",
 }
 
-__all__ = ["__version__", *_API]
+__all__ = ["__version__", "Assembly", "Part", "Joint", "Diagnostic", "InputError", "NdbgError",
+           "Options", "load", "discover", "analyze", "analyze_path"]
 
 
 def __getattr__(name: str) -> Any:

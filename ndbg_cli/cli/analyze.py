@@ -67,8 +67,8 @@ from ._app import (
 @click.option("--connected", is_flag=True, help="Only partitionings whose two sides are each "
               "connected in the contact graph in the lists (the plan always prefers them; "
               "classes keep the paper's definitions).")
-@click.option("--max-partitions", type=range_type("max_partitions"), default=DEFAULTS.max_partitions,
-              show_default=True,
+@click.option("--max-partitions", type=range_type("max_partitions"),
+              default=DEFAULTS.max_partitions, show_default=True,
               help="Partitionings listed per motion family (the report says when it cut).")
 @click.option("--max-nodes", type=range_type("max_nodes"), default=DEFAULTS.max_nodes,
               show_default=True,

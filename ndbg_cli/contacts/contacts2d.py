@@ -2,22 +2,9 @@
 
 Every polygon ring is oriented with the material on its left (exterior counter-clockwise,
 holes clockwise), so the outward normal of an edge ``p -> q`` is ``(q - p)`` turned clockwise.
-Two parts ``a`` and ``b`` are in contact where their boundaries touch within the assembly's
-length tolerance ``tol``:
-
-* **edge-edge**: an edge of ``a`` and an edge of ``b`` on one line (both ends of each within
-  ``tol`` of the other's line), with opposite outward normals, overlapping over more than
-  ``tol``; the contact normal is ``a``'s outward normal;
-* **vertex-edge**: a vertex of ``a`` within ``tol`` of an edge of ``b`` (or the reverse).
-  If the vertex sits in the interior of the edge, or at an end of it that is a reflex
-  (concave) vertex of ``b`` (a corner in a notch, paper assumption 2), the contact normal out
-  of ``a`` into ``b`` is minus ``b``'s outward edge normal (``a``'s normal when ``b``'s vertex
-  lies on ``a``'s edge). A vertex touching a *convex* vertex of the other part is a point
-  contact whose blocked set is not a half plane; it is left out (the paper excludes it too)
-  and listed in ``Contacts2D.skipped`` unless an edge-edge contact covers the point.
-
-The normals of one pair are returned unmerged; the NDBG stage merges them within its angular
-tolerance.
+Two parts touch where their boundaries meet within the length tolerance ``tol``: edge-edge
+(:func:`_edge_edge`) and vertex-edge (:func:`_vertex_edge`) contacts. The normals of one pair
+are returned unmerged; the NDBG stage merges them within its angular tolerance.
 """
 
 from __future__ import annotations
@@ -101,7 +88,9 @@ def unit2(v: np.ndarray) -> np.ndarray:
 def _edge_edge(ea: _Edges, eb: _Edges, tol: float) -> tuple[np.ndarray, np.ndarray,
                                                              np.ndarray, float]:
     """Collinear overlapping edge pairs with opposite normals: (normals out of a, overlap
-    midpoints, overlap segments (m, 2, 2), total length)."""
+    midpoints, overlap segments (m, 2, 2), total length). Edges on one line (both ends of
+    each within ``tol`` of the other's line), overlapping over more than ``tol``; the contact
+    normal is ``a``'s outward normal."""
     anti = (ea.normal @ eb.normal.T) < -(1.0 - PARALLEL_SINE)
     ia, ib = np.nonzero(anti)
     if len(ia) == 0:
@@ -126,7 +115,14 @@ def _edge_edge(ea: _Edges, eb: _Edges, tol: float) -> tuple[np.ndarray, np.ndarr
 def _vertex_edge(ea: _Edges, eb: _Edges, tol: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Vertices of ``a`` on edges of ``b``: (normals out of a into b, points, point-contact
-    mask for the skipped convex-on-convex cases, point-contact points)."""
+    mask for the skipped convex-on-convex cases, point-contact points).
+
+    A vertex within ``tol`` of the interior of an edge, or of an end of it that is a reflex
+    (concave) vertex of ``b`` (a corner in a notch, paper assumption 2), gives the normal minus
+    ``b``'s outward edge normal (``a``'s normal when ``b``'s vertex lies on ``a``'s edge). A
+    vertex touching a *convex* vertex of the other part is a point contact whose blocked set is
+    not a half plane: it is left out (the paper excludes it too) and listed in
+    ``Contacts2D.skipped`` unless an edge-edge contact covers the point."""
     v, conv_v = ea.p, ea.convex_p
     d = eb.q - eb.p
     length = np.linalg.norm(d, axis=1)

@@ -1,40 +1,11 @@
-"""Contact analysis: which parts touch, where, and with which normals (issue 3).
+"""Contact analysis: which parts touch, where, and with which normals (paper section 5.1).
 
 :func:`analyze_contacts` finds every pair of touching parts of a 3D assembly and describes each
 contact by the unit normals that block part A's translations (``d . n > 0`` penetrates B) and by
-contact points for generalized (6D) motion constraints ``n . (v + w x p) >= 0``.
-
-Tolerance model (all lengths in the assembly unit):
-
-* ``tol``: the length tolerance, ``asm.length_tolerance`` unless given: the manifest's or the
-  command line's ``tolerance``, else 1e-4 times the assembly's bounding-box diagonal. It scales
-  with the model, so a change of unit changes no answer. Planes closer than ``tol`` coincide,
-  gaps up to ``tol`` count as touching, contact polygons thinner than ``tol`` are edges.
-* chord sag: a tessellated cylinder, cone or sphere departs from the true surface by the sag
-  ``r (1 - cos(pi / N))`` of its ``N``-segment tessellation (estimated per triangle from the
-  dihedral angles, see :class:`ndbg_cli.contacts.facets.PartGeometry`). Two tessellations of one
-  nominal surface (a 24-facet shaft in a 64-facet hole) leave gaps up to the coarser side's sag
-  and cross each other by up to the finer side's sag. Hence triangles ``i``, ``j`` touch when
-  their separation is at most ``tol + sag_i + sag_j``, and an overlap counts as an
-  interference only when its mean thickness exceeds ``tol + min(sag_A, sag_B)``
-  (:mod:`ndbg_cli.contacts.interference`).
-* ``angle_tolerance`` (radians, default :data:`DEFAULT_ANGLE_TOLERANCE` = 1 degree): normals
-  closer than this are one normal; faces whose normals are opposite within it can be coplanar.
-  Curved contacts keep the facet normals themselves (clustered within this angle): for a
-  facetted shaft in a hole they are the blocking cone.
-
-Phases (timed in ``stats``, seconds): ``bvh_s`` (python-fcl BVH, R-tree and triangle data
-per part, cached by part hash: :func:`ndbg_cli.contacts.facets.fcl_model`,
-:func:`ndbg_cli.contacts.facets.part_geometry`), ``broad_s`` (bounding-box pruning, then
-``fcl.collide`` and, unless the triangle boxes already prove the parts apart, ``fcl.distance``
-per candidate pair), ``narrow_s`` (triangle pairs whose boxes meet, listed in the parts'
-R-tree order; plane and separating-axis tests; features: :mod:`ndbg_cli.contacts.features`),
-``interference_s`` (manifold3d overlap volumes, or the open-mesh fallback). The numpy
-shortcuts taken for speed (dense box tests, batched distance calls, vectorised clustering)
-reproduce the straightforward computation exactly, numbers and order included.
-
-Pairs that interfere get no contacts. Parts wholly inside another (surfaces apart, boxes
-nested) are found by overlap volume when both are closed.
+contact points for generalized (6D) motion constraints ``n . (v + w x p) >= 0``. Pairs that
+interfere get no contacts; parts wholly inside another are found by overlap volume when both
+are closed. The numpy shortcuts taken for speed (dense box tests, batched distance calls,
+vectorised clustering) reproduce the straightforward computation exactly, order included.
 """
 
 from __future__ import annotations
@@ -78,8 +49,8 @@ _CHUNK = 200_000
 _SAT_CHUNK = 16_384
 
 #: Candidate search (:func:`_triangle_candidates`): largest number of query x target triangle
-#: box tests done densely with numpy (about 6 ns each; an R-tree query costs about 0.5 us a
-#: hit); bigger pairs of parts query the R-tree.
+#: box tests done densely with numpy (a dense test is far cheaper than an R-tree hit; costs in
+#: benchmarks/NOTES.md); bigger pairs of parts query the R-tree.
 _DENSE_PAIRS = 16_000_000
 
 #: Per part geometry: the R-tree traversal rank of each triangle (:func:`_tree_rank`) and the
@@ -150,10 +121,33 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     """Find the contacts and interferences between the parts of a 3D assembly.
 
     ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
-    radians. See the module documentation for the tolerance model. With ``cache``, each
+    radians. With ``cache``, each
     candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
     tolerances (:mod:`ndbg_cli.core.cache`). Raises :class:`InputError` for a 2D assembly or a
     non-positive tolerance.
+
+    Tolerance model (lengths in the assembly unit):
+
+    * ``tol``: ``asm.length_tolerance`` unless given (the manifest's or command line's, else
+      1e-4 times the bounding-box diagonal, so a change of unit changes no answer). Planes
+      closer than ``tol`` coincide, gaps up to ``tol`` touch, contact polygons thinner than
+      ``tol`` are edges.
+    * chord sag: a tessellated curved surface departs from the true one by the sag
+      ``r (1 - cos(pi / N))`` (per triangle, :class:`ndbg_cli.contacts.facets.PartGeometry`).
+      Two tessellations of one nominal surface (a 24-facet shaft in a 64-facet hole) leave
+      gaps up to the coarser side's sag and cross by up to the finer side's. So triangles
+      ``i``, ``j`` touch when at most ``tol + sag_i + sag_j`` apart, and an overlap is an
+      interference only when thicker than ``tol + min(sag_A, sag_B)``
+      (:mod:`ndbg_cli.contacts.interference`).
+    * ``angle_tolerance``: normals closer than this are one; faces whose normals are opposite
+      within it can be coplanar. Curved contacts keep the facet normals themselves (clustered
+      within it): for a facetted shaft in a hole they are the blocking cone.
+
+    ``stats`` times the phases (seconds): ``bvh_s`` (python-fcl BVH, R-tree and triangle data
+    per part, cached by part hash), ``broad_s`` (box pruning, ``fcl.collide`` and, unless the
+    triangle boxes prove the parts apart, ``fcl.distance``), ``narrow_s`` (triangle pairs whose
+    boxes meet, in R-tree order; plane and separating-axis tests; :mod:`ndbg_cli.contacts.features`)
+    and ``interference_s`` (manifold3d overlap volumes, or the open-mesh fallback).
     """
     if asm.dimension != 3:
         raise InputError("contact analysis needs a 3D assembly", file=asm.source or None)
@@ -289,7 +283,7 @@ def _apart(ga: PartGeometry, gb: PartGeometry, box_b: tuple[np.ndarray, np.ndarr
     the box of B's triangles). Two triangles within ``gap`` have boxes within ``gap`` on every
     axis, so a close pair needs a triangle of A near B's box and then a triangle of B near the
     box of those; when either set is empty the distance exceeds ``gap``. Costs two numpy box
-    tests, against about 0.5 ms for ``fcl.distance``."""
+    tests, far cheaper than ``fcl.distance``."""
     sa = _near_box(ga, box_b[0] - gap, box_b[1] + gap)
     if len(sa) == 0:
         return True
@@ -340,7 +334,7 @@ def _tree_rank(g: PartGeometry) -> np.ndarray:
 
     The R-tree (libspatialindex) walks its nodes depth first in a fixed order and skips the
     subtrees a query box misses, so any query lists its hits in the order a query covering
-    everything lists all triangles. Computed once per part geometry (about 0.3 us a triangle);
+    everything lists all triangles. Computed once per part geometry (cheap: benchmarks/NOTES.md);
     ``tests/test_contacts.py`` checks it against the R-tree's own answers."""
     rank = _TREE_RANK.get(g)
     if rank is None:

@@ -1,16 +1,10 @@
-"""Per-part geometric data for contact analysis, built once per part and cached.
-
-Everything here is keyed by :attr:`ndbg_cli.core.assembly.Part.hash` (plus the tolerances where the
-result depends on them), so a subassembly reuses the work done on the whole assembly.
-
-* :func:`fcl_model` / :func:`fcl_object`: the python-fcl BVH (OBB-RSS) of a part's mesh;
-* :func:`manifold_model`: the manifold3d solid of a closed part (``None`` if not a manifold);
-* :func:`part_geometry`: triangles, normals, planar facets and the *tessellation sag* of each
-  triangle (see :class:`PartGeometry`);
-* vectorised triangle predicates used by the narrow phase (:func:`sat_gap`,
-  :func:`point_triangle_distance`, :func:`segment_distance`).
-
-All lengths are in the assembly unit, angles in radians.
+"""Per-part geometric data for contact analysis, built once per part and cached by
+:attr:`ndbg_cli.core.assembly.Part.hash` (plus the tolerances where the result depends on
+them), so a subassembly reuses the work done on the whole assembly: the python-fcl BVH
+(:func:`fcl_model`), the manifold3d solid (:func:`manifold_model`), triangle data with the
+tessellation sag (:func:`part_geometry`, :class:`PartGeometry`), and the vectorised triangle
+predicates of the narrow phase (:func:`sat_gap`, :func:`point_triangle_distance`,
+:func:`segment_distance`). Lengths are in the assembly unit, angles in radians.
 """
 
 from __future__ import annotations
@@ -242,7 +236,7 @@ def sat_gap(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
     axes = axes / np.where(ok, norm, 1.0)[..., None]
     pa = np.einsum("pkd,pvd->pkv", axes, ta)
     pb = np.einsum("pkd,pvd->pkv", axes, tb)
-    # element-wise min/max of 3: same numbers as .min(axis=2), a third faster
+    # element-wise min/max of 3: same numbers as .min(axis=2), faster
     gap = np.maximum(min3(pb) - max3(pa), min3(pa) - max3(pb))
     return np.where(ok, gap, -np.inf).max(axis=1)
 

@@ -1,45 +1,11 @@
 """Narrow phase: turning the touching triangles of two parts into contact features.
 
 Input: the candidate triangle pairs ``(i, j)`` (``i`` in part A, ``j`` in part B) whose boxes
-come within the pair's gap allowance ``g_ij = tol + sag_i + sag_j`` (the length tolerance plus
-the chord sags of the two triangles: two tessellations of one smooth surface are that far
-apart at most) and that no face plane separates by more than ``g_ij``. Each pair is
-classified, all at once with numpy:
-
-* **planar**: normals opposite within the angular tolerance and each triangle's vertices within
-  ``tol`` of the other's plane (and not both triangles part of tessellated curved surfaces).
-  Pairs are grouped by plane; per plane the A triangles and the B triangles are merged into
-  polygons in the common plane (shapely) and intersected. The contact is kept when the
-  intersection is thicker than ``tol`` (mean width ``2 area / perimeter > tol``); thinner
-  overlaps are edge contacts.
-* **curved**: opposite-facing but not coplanar triangles where at least one side is a
-  tessellated curved surface, normals opposite within ``angle_tol + (theta_i + theta_j) / 2``
-  (``theta``: the facet angle ``2 pi / N`` of each tessellation), whose projections along
-  their mean normal overlap by more than ``tol`` (:func:`facing_overlap`; a facet merely
-  resting on the rim of the other surface is not a facing pair). Pairs connected through
-  shared triangles or shared mesh edges form one contact. Its axis is the direction least
-  spread among the normals (smallest eigenvector of their covariance), the centre the
-  least-squares meeting point of the normal lines, the radius the mean distance of the patch
-  vertices from the axis (:func:`fit_surface`).
-* **edge** / **point**: what remains once pairs involving a triangle of a planar or curved
-  contact are set aside (those are the rims of those contacts), and that also pass the full
-  11-axis separating test (:func:`ndbg_cli.contacts.facets.sat_gap`). Contact points are the
-  vertices within ``g_ij`` of the other triangle and the closest points of edges within
-  ``g_ij`` of each other, minus those within ``g_ij`` of a planar or curved contact found;
-  a set spanning at most ``g`` is a point contact, one within ``g`` of a line an edge
-  contact (its two extreme points), anything else an edge contact listing all its points.
-  Normals: the cone of admissible separating normals at the contact's middle,
-  ``cone(n_A) & cone(-n_B)`` over the faces of A and of B meeting there; for such convex
-  contacts A is blocked along ``d`` only when ``d . n > 0`` for *all* generators
-  (``Contact.blocking == "all"``). Where more than :data:`MAX_CONE_FACES` distinct normals
-  meet on a side (a ring round a tessellated peg), or the cones do not intersect (two
-  fillets diverging from a face contact's rim within the tolerance), the component is taken
-  pair by pair: its touching pairs give one contact with both face normals of each,
-  blocking on any (conservative); its near misses give the cones of directions that close
-  their gaps within the allowance (:mod:`ndbg_cli.contacts.gap_cones`), each a point contact
-  blocking on all its facet normals, unless the pair's face contacts block it already
-  (beyond :data:`MAX_GAP_CONES` of them: one contact blocking on any of their gap
-  directions, a superset).
+come within the pair's gap allowance ``g_ij = tol + sag_i + sag_j`` (two tessellations of one
+smooth surface are at most that far apart) and that no face plane separates by more than
+``g_ij``. They are classified at once with numpy (:func:`classify_pairs`) into **planar**
+(:func:`planar_contacts`), **curved** (:func:`curved_contacts`) and **edge** / **point**
+contacts (:func:`edge_point_contacts`, what remains besides the others' rims).
 
 Known simplification: an edge of B lying on a face of A that is already in a planar or curved
 contact with B is taken as that contact's rim and produces no contact of its own (it adds no
@@ -52,7 +18,7 @@ import numpy as np
 import shapely
 from scipy.optimize import nnls
 
-from ..geometry.normals import one_cluster, unique_rows, cluster_normals
+from ..geometry.normals import cluster_normals, one_cluster, unique_rows
 from .facets import (
     PartGeometry,
     _components,
@@ -88,9 +54,9 @@ def classify_pairs(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndar
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Boolean masks ``(planar, curved)`` over touching triangle pairs ``(i, j)``.
 
-    ``offsets`` ``((p,), (p,))``: how far (unit) B's vertices reach from A's plane and A's
-    from B's, when the caller has measured them already (``ndbg_cli.contacts.contacts3d._plane_filter``,
-    the same arithmetic); otherwise they are computed here."""
+    ``offsets`` ``((p,), (p,))``: how far (unit) B's vertices reach from A's plane and A's from B's,
+    when the caller has measured them already (``ndbg_cli.contacts.contacts3d._plane_filter``, the
+    same arithmetic); otherwise they are computed here."""
     na, nb = ga.normals[i], gb.normals[j]
     c = np.einsum("ij,ij->i", na, nb)
     if offsets is None:
@@ -146,7 +112,15 @@ def facing_overlap(ta: np.ndarray, tb: np.ndarray, m: np.ndarray) -> np.ndarray:
 def planar_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
                     tol: float, ang: float) -> tuple[list[dict], np.ndarray]:
     """Planar contacts from coplanar opposite pairs ``(i, j)``. Returns the contacts (dicts of
-    :class:`ndbg_cli.contacts.contacts3d.Contact` fields) and a mask ``(p,)`` of the pairs they used."""
+    :class:`ndbg_cli.contacts.contacts3d.Contact` fields) and a mask ``(p,)`` of the pairs they
+    used.
+
+    A pair is planar when the normals are opposite within the angular tolerance and each
+    triangle's vertices are within ``tol`` of the other's plane (and not both triangles part of
+    tessellated curved surfaces). Per plane, the A and the B triangles are merged into polygons
+    in the common plane (shapely) and intersected; the contact is kept when the intersection is
+    thicker than ``tol`` (mean width ``2 area / perimeter > tol``); thinner overlaps are edge
+    contacts."""
     used = np.zeros(len(i), dtype=bool)
     out: list[dict] = []
     if len(i) == 0:
@@ -215,7 +189,14 @@ def _union_2d(tri: np.ndarray, u: np.ndarray, v: np.ndarray):
 
 def curved_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray,
                     ang: float, tol: float) -> list[dict]:
-    """One curved contact per connected set of curved pairs ``(i, j)`` (see module doc).
+    """One curved contact per connected set of curved pairs ``(i, j)``.
+
+    Curved pairs: opposite-facing, not coplanar, at least one side a tessellated curved
+    surface, normals opposite within ``angle_tol + (theta_i + theta_j) / 2`` (``theta``: each
+    tessellation's facet angle ``2 pi / N``), projections along their mean normal overlapping
+    by more than ``tol`` (:func:`facing_overlap`: a facet merely resting on the other surface's
+    rim is not a facing pair). Pairs connected through shared triangles or mesh edges form one
+    contact; its axis, centre and radius come from :func:`fit_surface`.
 
     A set where one side is flat (its normals form one cluster within ``ang``: a cylinder
     lying on a plane, a ball on a plane) is the tessellation of a line or point contact: it is
@@ -345,10 +326,22 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
                         gap: np.ndarray, ang: float, patches: list[dict], tol: float
                         ) -> list[dict]:
     """Edge and point contacts from the touching pairs ``(i, j)`` not used by a planar or
-    curved contact, with gap allowances ``gap`` ``(p,)`` (see module doc). Touch points within
+    curved contact, with gap allowances ``gap`` ``(p,)``. Touch points within
     the allowance of one of the ``patches`` (the planar and curved contacts found: their rims)
     are dropped; pairs without any remaining point (the separating-axis test is a lower bound
-    of the distance) produce nothing."""
+    of the distance) produce nothing.
+
+    The pairs must also pass the full 11-axis separating test
+    (:func:`ndbg_cli.contacts.facets.sat_gap`). Contact points are the vertices within ``g_ij``
+    of the other triangle and the closest points of edges within ``g_ij`` of each other; a set
+    spanning at most ``g`` is a point contact, one within ``g`` of a line an edge contact (its
+    two extreme points), anything else an edge contact listing all its points. Normals: the
+    cone of admissible separating normals at the contact's middle, ``cone(n_A) & cone(-n_B)``
+    over the faces of A and of B meeting there; A is blocked along ``d`` only when
+    ``d . n > 0`` for *all* generators (``blocking == "all"``). Where more than
+    :data:`MAX_CONE_FACES` distinct normals meet on a side (a ring round a tessellated peg), or
+    the cones do not intersect (two fillets diverging from a face contact's rim), the component
+    is taken pair by pair (:func:`_pair_by_pair`)."""
     out: list[dict] = []
     if len(i) == 0:
         return out

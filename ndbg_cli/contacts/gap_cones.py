@@ -1,34 +1,13 @@
 """Blocked cones of near misses: triangle pairs the length tolerance counts as touching while
 they are apart.
 
-Two tessellated surfaces that diverge from a contact's rim (a peg's rounded tip in the
-rounded top of its hole, both fillets turning away from the tapered faces they continue)
-stay within the gap allowance ``g = tol + sag_i + sag_j`` for a while, and their face
-normals there point anywhere the surfaces curve. Taking those normals as contact normals
-blocks motions that only slide the surfaces past each other (lifting a bar off its peg).
-
-Here such a pair ``(T_a, T_b)`` at distance ``delta > 0`` blocks the translation of A along
-``d`` when moving A by at most ``g`` along ``d`` closes the gap, i.e. when the ray ``s d``,
-``0 < s <= g``, enters the Minkowski difference ``P = T_b - T_a`` (a convex polytope, the
-hull of the 9 vertex differences). The blocked set is the open cone over ``P`` cut by the
-slab ``delta <= n . x <= g`` (``n``: the unit direction from A's closest point to B's,
-:func:`ndbg_cli.contacts.facets.triangle_gap`; ``P`` lies beyond ``n . x = delta``). The slab
-contains the ball of radius ``g``, so the cone is a superset of the exact one (conservative),
-and it tends to the local blocking cone of the pair as ``delta`` goes to 0.
-
-A cone is a contact with ``blocking == "all"`` over its inward facet normals (the generators
-of its cone of separating normals): A is blocked along ``d`` iff ``d . m > 0`` for every
-facet normal ``m``. Cones inside another of the set, or inside the blocked set of the pair's
-face contacts (no direction left free by those meets the cone's interior, decided by a small
-LP), add nothing and are dropped; most near misses along a face contact's rim are.
-
-Tolerances: a pair closer than :data:`GAP_FRACTION` ``* tol`` is touching (its direction is
-not defined by the gap) and is left to the caller; containment tests allow ``1e-9`` (unit
-vectors). A cone the face contacts' open half-spaces cover is taken as their rim: the
-directions it holds within the DBGs' angular tolerance of a face's plane are the face's
-sliding band, as for the face itself. A cone kept is widened by that tolerance
-(:func:`widen`), so that the DBGs' sign test (``d . m > tol`` for every facet) blocks all of
-it and cones side by side leave no seam.
+Two tessellated surfaces diverging from a contact's rim (a peg's rounded tip in the rounded
+top of its hole) stay within the gap allowance ``g = tol + sag_i + sag_j`` for a while, with
+face normals pointing anywhere the surfaces curve: taken as contact normals they would block
+motions that only slide the surfaces past each other (lifting a bar off its peg). Here such a
+pair blocks A along ``d`` only when moving A by at most ``g`` along ``d`` closes the gap
+(:func:`sweep_cone`); each kept cone is a contact with ``blocking == "all"`` over its inward
+facet normals, widened by the DBGs' angular tolerance (:func:`widen`).
 """
 
 from __future__ import annotations
@@ -94,7 +73,14 @@ def sweep_cone(ta: np.ndarray, tb: np.ndarray, n: np.ndarray, reach: float
                ) -> tuple[np.ndarray, np.ndarray] | None:
     """``(rays, facets)`` ``(k, 3)`` of the cone over ``(T_b - T_a) & {n . x <= reach}``
     (triangles ``(3, 3)``, ``n`` the unit gap direction, ``reach`` the sweep length), or
-    ``None`` when it has no interior (nothing within reach, or a flat cone)."""
+    ``None`` when it has no interior (nothing within reach, or a flat cone).
+
+    A pair at distance ``delta > 0`` blocks A along ``d`` when the ray ``s d``, ``0 < s <= g``,
+    enters the Minkowski difference ``P = T_b - T_a`` (the hull of the 9 vertex differences).
+    The blocked set is the open cone over ``P`` cut by the slab ``delta <= n . x <= g`` (``P``
+    lies beyond ``n . x = delta``). The slab contains the ball of radius ``g``, so the cone is
+    a superset of the exact one (conservative), and it tends to the pair's local blocking cone
+    as ``delta`` goes to 0."""
     w, ok = _cut_points(ta[None], tb[None], n[None], np.array([float(reach)]))
     return _cone(w[0][ok[0]], n)
 
@@ -133,13 +119,13 @@ def touching(gaps: Gaps, tol: float) -> np.ndarray:
 
 def near_miss_cones(ta: np.ndarray, tb: np.ndarray, reach: np.ndarray, gaps: Gaps, tol: float,
                     blocked: np.ndarray | None = None) -> list[GapCone]:
-    """The blocked cones of the triangle pairs ``ta``, ``tb`` ``(p, 3, 3)`` that are near
-    misses (not :func:`touching`) within their allowances ``reach`` ``(p,)``; ``gaps``:
-    :func:`ndbg_cli.contacts.facets.triangle_gap` of the pairs. Pairs farther apart than their reach,
-    or whose cone is flat, give none; nor do those inside one closed half-space ``{d . b >=
-    0}`` of the unit normals ``blocked`` ``(q, 3)`` (the face contacts': all the cone's
-    points on its side, ``CONTAIN_SLACK``), the usual case along a face contact's rim.
-    ``tol``: the length tolerance."""
+    """The blocked cones of the triangle pairs ``ta``, ``tb`` ``(p, 3, 3)`` that are near misses
+    (not :func:`touching`) within their allowances ``reach`` ``(p,)``; ``gaps``:
+    :func:`ndbg_cli.contacts.facets.triangle_gap` of the pairs. Pairs farther apart than their
+    reach, or whose cone is flat, give none; nor do those inside one closed half-space ``{d . b >=
+    0}`` of the unit normals ``blocked`` ``(q, 3)`` (the face contacts': all the cone's points on
+    its side, ``CONTAIN_SLACK``), the usual case along a face contact's rim. ``tol``: the length
+    tolerance."""
     dist, direction, mid = gaps
     todo = np.flatnonzero(~touching(gaps, tol) & (dist <= reach))
     if len(todo) == 0:
@@ -158,6 +144,11 @@ def near_miss_cones(ta: np.ndarray, tb: np.ndarray, reach: np.ndarray, gaps: Gap
     return out
 
 
+# Cones inside another of the set, or inside the blocked set of the pair's face contacts (no
+# direction those leave free meets the cone's interior, decided by a small LP: meets_free),
+# add nothing and are dropped; most near misses along a face contact's rim are. A cone the
+# face contacts' open half-spaces cover is their rim: its directions within the DBGs' angular
+# tolerance of a face's plane are that face's sliding band.
 def maximal(cones: list[GapCone]) -> list[int]:
     """Indices of the cones not inside another of ``cones`` (of equal ones, the first)."""
     if not cones:

@@ -1,22 +1,12 @@
 """Interference (interpenetration) between two parts, and the interference policy.
 
-Touching parts are the normal case, and tessellated curved faces that nominally touch cross
-each other slightly (a 24-gon shaft's edges poke into the chords of a 64-gon hole by up to the
-hole's chord sag), so "the meshes intersect" is not an interference. A pair interferes when its
-overlap is *thicker* than an allowance:
-
-* closed parts (manifold3d solids): the overlap solid ``I = A ^ B`` is computed exactly; its
-  mean thickness ``2 V / S`` (volume over half its surface area; the depth of a thin slab) is
-  the reported ``depth``. The pair interferes when ``depth > tolerance + sag``, where ``sag``
-  is the smaller of the two parts' largest chord sags (see
-  :class:`ndbg_cli.contacts.facets.PartGeometry`): nominally touching inscribed tessellations overlap by
-  at most the finer side's sag.
-* open meshes (no manifold, e.g. display models): an approximate test. python-fcl lists the
-  intersecting triangle pairs; pairs that only touch (coplanar, or meeting along an edge) are
-  dropped, and for each properly crossing pair the depth is the smaller of the two triangles'
-  reach behind the other's plane (:func:`crossing_depth`). The pair interferes when the
-  largest depth exceeds the same allowance; its ``volume`` is reported as 0 and ``method`` as
-  ``"fcl-depth"``.
+Tessellated curved faces that nominally touch cross each other slightly (a 24-gon shaft's
+edges poke into the chords of a 64-gon hole by up to the hole's chord sag), so "the meshes
+intersect" is not an interference: a pair interferes when its overlap is *thicker* than
+``tolerance + sag`` (``sag``: the smaller of the two parts' largest chord sags). Closed parts:
+the exact overlap solid's mean thickness ``2 V / S`` (manifold3d). Open meshes: an
+approximation from fcl's crossing triangle pairs (:func:`crossing_depth`; ``volume`` 0,
+``method`` ``"fcl-depth"``).
 """
 
 from __future__ import annotations

@@ -1,18 +1,12 @@
 """The assembly model: named rigid parts placed in one frame.
 
-An :class:`Assembly` is immutable. Its parts are :class:`Part` objects, each holding its
-geometry already placed in the assembly frame and expressed in the assembly's unit:
-
-* 3D parts carry a ``trimesh.Trimesh`` (``Part.mesh``), vertices ``(v, 3)`` float64, faces
-  ``(f, 3)`` int64, outward-facing normals;
-* 2D parts (``Assembly.dimension == 2``) carry a ``shapely.Polygon`` (``Part.polygon``) with a
-  counter-clockwise exterior and clockwise holes, and no mesh.
-
-Later stages cache per part and per part pair through :attr:`Part.hash`, a content hash of the
-source geometry and the placement, so a subassembly (:meth:`Assembly.subset`) shares its parts
-and their caches with the whole.
-
-Treat the meshes as read-only: they are shared, not copied.
+An :class:`Assembly` is immutable. Each :class:`Part` holds its geometry already placed in the
+assembly frame and in the assembly's unit: 3D parts a ``trimesh.Trimesh`` (``Part.mesh``,
+float64 vertices, int64 faces, outward normals), 2D parts a ``shapely.Polygon``
+(``Part.polygon``, counter-clockwise exterior, clockwise holes). Later stages cache per part
+and part pair through :attr:`Part.hash` (a content hash of the source geometry and the
+placement), so a subassembly (:meth:`Assembly.subset`) shares its parts and their caches with
+the whole. Treat the meshes as read-only: they are shared, not copied.
 """
 
 from __future__ import annotations

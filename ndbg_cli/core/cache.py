@@ -1,28 +1,13 @@
 """Per-part-pair result cache (the paper's incremental update, section 4.3, in practical form).
 
-The expensive geometry of ndbg is computed pair by pair: the contacts of two parts, and the
-set ``B_ij`` of directions in which one blocks the other's infinite translation. Each pair's
-result depends only on the two parts' placed geometry (:attr:`Part.hash`, a content hash of
-the vertices, faces and placement), the tolerances, and the code that computed it. A
-:class:`PairCache` stores those results on disk under a key made of exactly these, so editing
-one part of a 40-part assembly recomputes only the pairs that involve it, and a second run of
-an unchanged assembly recomputes none. Results are stored exactly (pickled numpy arrays and
-shapely WKB), so a warm run's report is byte-identical to a cold one's.
-
-Layout: ``DIR/<stage>/<key[:2]>/<key>.pkl``, each file written atomically (temporary file and
-rename), so concurrent batch workers and killed runs never leave a torn entry; an unreadable
-entry is treated as a miss and rewritten. The key includes a digest of the source files of the
-modules that compute the stage, so results from another version of ndbg are never reused.
-Default directory: ``$NDBG_CACHE_DIR``, else ``$XDG_CACHE_HOME/ndbg``, else ``~/.cache/ndbg``.
-The cache is the user's own (pickle is only safe for files you wrote yourself).
-
-Size: a hit refreshes its entry's modification time, and after each ``analyze`` / ``check``
-run the CLI trims the cache to ``$NDBG_CACHE_MAX_MB`` megabytes (:data:`DEFAULT_MAX_MB`;
-0: no limit), least recently used entries first, down to :data:`TRIM_TO` of the limit
-(:func:`trim`): a CI runner's cache stays bounded however many part versions it sees.
-A trim also removes the temporary files of writes that never finished (a run killed by
-SIGKILL or a power cut between writing and renaming) once they are :data:`STALE_TEMP_S`
-seconds old. ``ndbg cache info`` / ``ndbg cache clear`` show and empty it.
+The expensive geometry (the contacts of two parts, the blocked set ``B_ij``) is computed pair
+by pair, and each result depends only on the two parts' placed geometry (:attr:`Part.hash`),
+the tolerances and the code that computed it. A :class:`PairCache` stores results on disk
+under a key made of exactly these (the code as a digest of the stage's module sources,
+:func:`code_digest`), so editing one part recomputes only the pairs that involve it, and
+results from another version of ndbg are never reused. Results are stored exactly (pickled
+numpy arrays and shapely WKB), so a warm run's report is byte-identical to a cold one's. The
+cache is the user's own: pickle is only safe for files you wrote yourself.
 """
 
 from __future__ import annotations
@@ -117,7 +102,8 @@ STALE_TEMP_S = 3600.0
 
 
 def default_dir() -> Path:
-    """The cache directory used when none is given (see the module docstring)."""
+    """The cache directory used when none is given: ``$NDBG_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/ndbg``, else ``~/.cache/ndbg``."""
     env = os.environ.get("NDBG_CACHE_DIR")
     if env:
         return Path(env)
@@ -147,7 +133,12 @@ def code_digest(stage: str) -> str:
 
 
 class PairCache:
-    """A directory of per-pair results; ``hits`` and ``misses`` count lookups per stage."""
+    """A directory of per-pair results; ``hits`` and ``misses`` count lookups per stage.
+
+    Layout: ``DIR/<stage>/<key[:2]>/<key>.pkl``, each file written atomically (temporary file
+    and rename), so concurrent batch workers and killed runs never leave a torn entry; an
+    unreadable entry is a miss and is rewritten. A hit refreshes its entry's modification
+    time (for :func:`trim`). Default directory: :func:`default_dir`."""
 
     def __init__(self, root: str | Path):
         self.root = Path(root)
@@ -278,7 +269,12 @@ def trim(root: str | Path, limit: int | None) -> tuple[int, int]:
     """Remove the stale temporary files of the cache ``root`` (:func:`_stale_temps`), then
     its least recently used entries while it holds more than ``limit`` bytes, down to
     :data:`TRIM_TO` of it (``None``: no limit). Returns ``(files removed, bytes freed)``;
-    files that cannot be removed are left (never an error)."""
+    files that cannot be removed are left (never an error).
+
+    After each ``analyze`` / ``check`` run the CLI trims the cache to ``$NDBG_CACHE_MAX_MB``
+    megabytes (:data:`DEFAULT_MAX_MB`; 0: no limit), so a CI runner's cache stays bounded
+    however many part versions it sees. Temporary files of writes that never finished (a run
+    killed between writing and renaming) go once :data:`STALE_TEMP_S` seconds old."""
     removed = freed = 0
     for size, path in _stale_temps(Path(root), time.time()):
         try:

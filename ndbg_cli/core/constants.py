@@ -15,14 +15,11 @@ GENERALIZED = "generalized"
 #: Every family, in the order the reports list them.
 FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
 
-#: Work units a search may spend by default (:attr:`ndbg_cli.planning.andor.Budget.max_work`). A unit is one DBG
-#: induced on a subassembly being expanded, one region listed for one of its candidate
-#: partitionings, or one node of its contact-connected set search (``andor.node_splits``): a
-#: count that does not depend on the machine, unlike the clock. Calibrated on the 115-part
-#: engine, whose 8,110 distinct DBGs make one subassembly cost up to ~10^6 units: its AND/OR
-#: build spends about 0.35 s per million units (one core of the reference machine), so a
-#: search stops within about 2 s there, as the former 2 s default time limit did; the bell's
-#: and AS1's builds spend 5,000 and 29,000 units.
+#: Work units an AND/OR search may spend by default (``planning.andor.Budget.max_work``;
+#: paper section 7.2). A unit is one DBG induced on a subassembly being expanded, one region
+#: listed for one of its candidate partitionings, or one node of its contact-connected set
+#: search: a count that does not depend on the machine, unlike the clock. Calibrated on the
+#: 115-part engine so that a search there stops within a couple of seconds (benchmarks/NOTES.md).
 WORK_LIMIT = 5_000_000
 
 __all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES", "WORK_LIMIT"]

@@ -1,25 +1,19 @@
 """Errors and exit codes.
 
 Every error a user can cause is an :class:`InputError` whose message is one line naming the
-file, the part and the problem. The CLI maps exceptions to the documented exit codes:
-
-=====  =================================================================
-code   meaning
-=====  =================================================================
-0      success
-1      the analysis ran and found a violation a CI gate asked about
-       (``--fail-on``, or an interference with ``--interference error``
-       is an input error instead, see below)
-2      usage or input error: bad command line, unreadable or invalid input
-3      internal error (a bug in ndbg: please report it with ``--debug``)
-=====  =================================================================
+file, the part and the problem. The CLI maps exceptions to the exit codes below.
 """
 
 from __future__ import annotations
 
+#: Success.
 EXIT_OK = 0
+#: The analysis ran and found a violation a CI gate asked about (``--fail-on``); an
+#: interference with ``--interference error`` is an input error instead.
 EXIT_VIOLATION = 1
+#: Usage or input error: bad command line, unreadable or invalid input.
 EXIT_INPUT = 2
+#: Internal error (a bug in ndbg: please report it with ``--debug``).
 EXIT_INTERNAL = 3
 
 

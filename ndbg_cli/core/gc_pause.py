@@ -12,9 +12,8 @@ def gc_paused() -> Iterator[None]:
     """Cyclic garbage collection off for the block (also as a decorator); the previous state
     is restored on exit. For builds that make many short-lived objects and no reference
     cycles worth collecting, where each full collection walks every live object: an AND/OR
-    search's sets, lists and tuples of ints (the scans of the growing graph took about a
-    quarter of AS1's build), the infinite NDBG's arrays and geometries (AS1's arrangement
-    and DBGs 0.98 s with it, 0.81 s without)."""
+    search's sets, lists and tuples of ints, the infinite NDBG's arrays and geometries (what
+    the collections cost: benchmarks/NOTES.md)."""
     was = gc.isenabled()
     gc.disable()
     try:

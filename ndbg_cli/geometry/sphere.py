@@ -1,39 +1,12 @@
-"""Arrangements of great circles on S^2 and of points on S^1, exactly (no direction sampling).
+"""Arrangements of great circles on S^2 and of points on S^1, exactly (no direction sampling):
+:func:`arrangement_s2`, and for 2D :func:`cluster_angles` and :func:`free_cone_2d`.
 
-Angular tolerance
------------------
 Every comparison of directions uses one explicit angular tolerance ``tol`` in radians
-(:data:`DEFAULT_ANGLE_TOL` = 1e-6 rad, about 0.2 arc-seconds): CAD contacts share normals that
-differ only by rounding, so
-
-* two normals at an angle <= ``tol`` (or <= ``tol`` from antipodal, for great circles, since
-  ``n`` and ``-n`` give the same circle) are merged into one, single-linkage (a chain of
-  normals each within ``tol`` of the next is one cluster); the merged direction is the
-  normalised mean of the cluster;
-* two arrangement vertices at an angle <= ``tol`` are one vertex (so three circles through
-  nearly one point make one vertex, not a sliver triangle);
-* a direction ``d`` is on the circle of the unit normal ``m`` when ``|d . m| <= tol`` (the sign
-  tests of :func:`signs`).
-
-The arrangement on S^2
-----------------------
-:func:`arrangement_s2` builds the full arrangement of ``k`` distinct great circles
-``{d : m_c . d = 0}``: vertices (dimension 0; intersections of two or more circles), edges
-(dimension 1; open arcs between consecutive vertices on a circle, or a whole circle without
-vertices, which happens only when ``k == 1``) and faces (dimension 2; the connected components
-of the complement, found by walking a doubly connected edge list, never by sampling). Each
-region gets a representative direction strictly inside it: the vertex itself, the midpoint of
-the arc, and for a face the normalised sum of the midpoints of its boundary edges (a strictly
-positive combination of points of the convex spherical polygon, not all on one great circle,
-hence interior; for a lune its bisector). A region is also determined by its *sign vector*
-``(sign(m_c . d))_c``, which :meth:`Arrangement.locate` uses.
-
-S^1 and free cones
-------------------
-:func:`cluster_angles` and :func:`free_cone_2d` serve the 2D arrangement of diameters;
-:func:`snap_normals` (tessellation noise within ``tol`` removed from one contact's normals)
-and :func:`cone_boundary_circles` (the circles that bound one pair's free cone: the paper's
-refinement) serve the 3D one.
+(:data:`DEFAULT_ANGLE_TOL` = 1e-6 rad, about 0.2 arc-seconds), since CAD contacts share normals
+that differ only by rounding: normals within ``tol`` (or of antipodal, for great circles) are
+merged, single-linkage, into their normalised mean (:func:`merge_directions`); arrangement
+vertices within ``tol`` are one vertex (no sliver triangles); ``d`` is on the circle of ``m``
+when ``|d . m| <= tol`` (:func:`signs`).
 """
 
 from __future__ import annotations
@@ -220,7 +193,16 @@ def _vertices(circles: np.ndarray, tol: float) -> tuple[np.ndarray, list[tuple[i
 
 def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arrangement:
     """The arrangement of the great circles with unit normals ``circles`` (rows, assumed
-    already merged: pairwise more than ``tol`` apart, also from antipodal)."""
+    already merged: pairwise more than ``tol`` apart, also from antipodal).
+
+    Vertices (dimension 0: where two or more circles meet), edges (1: open arcs between
+    consecutive vertices on a circle, or a whole circle, only when there is one) and faces (2:
+    the components of the complement, found by walking a doubly connected edge list, never by
+    sampling). Each region's representative direction is strictly inside it: the vertex, the
+    arc's midpoint, or for a face the normalised sum of its boundary edges' midpoints (a
+    strictly positive combination of points of the convex spherical polygon, not all on one
+    great circle; for a lune its bisector). A region is also determined by its *sign vector*
+    ``(sign(m_c . d))_c``, which :meth:`Arrangement.locate` uses."""
     circles = unit(np.asarray(circles, dtype=float).reshape(-1, 3))
     k = len(circles)
     empty_i = np.zeros(0, dtype=np.int64)
@@ -399,14 +381,15 @@ def snap_normals(normals: np.ndarray, tol: float) -> np.ndarray:
 
 
 def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -> set[int]:
-    """The great circles needed to bound the free cone ``F = {d : N d <= 0}`` of one pair of
-    parts whose distinct merged unit normals are the rows of ``normals`` (``circle[k]``: the
-    global circle index of normal ``k``; returns a set of those indices). The cases and why
-    they suffice are in :mod:`ndbg_cli.ndbg.infinitesimal.build`: normals on a line: their circle; in a
-    plane: the circles bounding the 2D cone, or two circles through the plane's normal;
-    a pointed cone: its extreme rays; else, after one LP for the implicit equalities ``E``:
-    none (``F = {0}``), two circles of ``E`` (``F`` a ray or line), or the circle of ``E`` and
-    the circles through the two ends of the planar sector ``F``."""
+    """The great circles needed to bound the free cone ``F = {d : N d <= 0}`` of one pair of parts
+    whose distinct merged unit normals are the rows of ``normals`` (``circle[k]``: the global circle
+    index of normal ``k``; returns a set of those indices). Why they suffice:
+    :func:`ndbg_cli.ndbg.infinitesimal.build.build_ndbg_3d`. Normals on a line: their circle; in a
+    plane (orthogonal to ``m``): the circles bounding the 2D cone, or for a ray or the zero cone two
+    circles through ``+-m`` so that ``+-m`` are vertices; a pointed cone: its extreme rays (2D hull
+    in a central projection); else, after one LP for the implicit equalities ``E``: none (``F =
+    {0}``), two circles of ``E`` (``F`` a ray or line), or the circle of ``E`` and the circles
+    through the two ends of the planar sector ``F``."""
     k = len(normals)
     everything = {int(c) for c in circle}
     if len(everything) <= 2:

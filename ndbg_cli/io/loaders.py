@@ -1,15 +1,6 @@
-"""Loading assemblies from every input format ndbg accepts.
-
-* a YAML manifest (``.yaml``/``.yml``): parts are mesh files or 2D polygons (see
-  :mod:`ndbg_cli.io.manifest`);
-* one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
-  ``cascadio``), GLB/GLTF, 3DXML, 3MF, OBJ with objects or groups, or a single mesh file (STL,
-  PLY, OFF). Every scene-graph instance becomes one part, placed by its world transform; ids
-  come from node names (unique within a scene graph), parts ordered by name;
-* a directory holding only mesh files: one part per file, already in the assembly frame,
-  id = file stem, files in name order.
-
-A directory holding manifests is a *batch* (one assembly per manifest); see :func:`discover`.
+"""Loading assemblies from every input format ndbg accepts (:func:`load`): YAML manifests,
+multi-body model files (STEP, IGES, GLB, ...) and directories of mesh files. A directory
+holding manifests is a *batch* (one assembly per manifest); see :func:`discover`.
 """
 
 from __future__ import annotations
@@ -47,6 +38,14 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     recorded, e.g. STL); ``tolerance`` overrides the length tolerance (in the assembly unit).
     ``allow_outside_paths`` lets a manifest name mesh files outside its own folder.
     Raises :class:`InputError` with a one-line message for any bad input.
+
+    * a YAML manifest (``.yaml``/``.yml``): parts are mesh files or 2D polygons;
+    * one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
+      ``cascadio``), GLB/GLTF, 3DXML, 3MF, OBJ with objects or groups, or a single mesh file
+      (STL, PLY, OFF). Every scene-graph instance becomes one part, placed by its world
+      transform; ids come from node names (unique within a scene graph), parts ordered by name;
+    * a directory holding only mesh files: one part per file, already in the assembly frame,
+      id = file stem, files in name order.
     """
     p = Path(path)
     if not p.exists():

@@ -1,26 +1,8 @@
-"""YAML manifests: reading, schema validation with line numbers, placements, parts.
+"""YAML manifests: reading (:func:`read_manifest`), schema validation with line numbers,
+placements (:func:`placement`), parts.
 
-A manifest describes one assembly (see ``README.md`` and ``schemas/manifest.schema.json``)::
-
-    name: bell
-    units: mm                 # mm, cm, m, in (default mm)
-    parts:
-      - id: base
-        mesh: meshes/base.stl # relative to this file
-        fixed: true
-      - id: screw
-        mesh: meshes/screw.stl
-        units: in             # per-part unit, scaled into the assembly unit
-        translation: [10, 0, 5]
-        rotation: {euler: [0, 90, 0], order: xyz}   # degrees; or {quaternion: [w,x,y,z]},
-                                                    # or {axis: [x,y,z], angle: deg}
-    joints:
-      - {type: screw, parts: [screw, base], axis: [0, 0, 1], point: [10, 0, 0], pitch: 1.25}
-
-A placement maps the part's file coordinates (after unit scaling) into the assembly frame:
-``x' = R x + t``. ``matrix`` (4x4; 3x3 in 2D) is an alternative to ``translation`` and
-``rotation``. YAML is read with the safe loader (plus YAML 1.2's ``1e-3`` floats, see
-:class:`YamlLoader`); duplicate keys are errors.
+YAML is read with the safe loader (plus YAML 1.2's ``1e-3`` floats, see :class:`YamlLoader`);
+duplicate keys are errors.
 """
 
 from __future__ import annotations
@@ -240,7 +222,26 @@ def read_located(path: str | Path, what: str, shape: str, empty_ok: bool = False
 
 
 def read_manifest(path: Path) -> _Located:
-    """Read and schema-validate a manifest; ``InputError`` with a line number on failure."""
+    """Read and schema-validate a manifest; ``InputError`` with a line number on failure.
+
+    A manifest describes one assembly (``README.md``, ``schemas/manifest.schema.json``)::
+
+        name: bell
+        units: mm                 # mm, cm, m, in (default mm)
+        parts:
+          - id: base
+            mesh: meshes/base.stl # relative to this file
+            fixed: true
+          - id: screw
+            mesh: meshes/screw.stl
+            units: in             # per-part unit, scaled into the assembly unit
+            translation: [10, 0, 5]
+            rotation: {euler: [0, 90, 0], order: xyz}   # degrees; or {quaternion: [w,x,y,z]},
+                                                        # or {axis: [x,y,z], angle: deg}
+        joints:
+          - {type: screw, parts: [screw, base], axis: [0, 0, 1], point: [10, 0, 0],
+             pitch: 1.25}
+    """
     located = read_located(path, "manifest",
                            "a manifest must be a YAML mapping with a 'parts' list")
     _check_finite(located)
@@ -337,7 +338,9 @@ def placement(entry: dict, *, dimension: int, doc: _Located, path: tuple,
     """Homogeneous placement ``(dim+1, dim+1)`` of a part entry; translation in assembly unit.
 
     ``scale`` converts the part's unit to the assembly unit: a per-part ``units`` applies to
-    the part's geometry and to its translation.
+    the part's geometry and to its translation. The placement maps the part's file
+    coordinates (after unit scaling) into the assembly frame, ``x' = R x + t``; ``matrix``
+    (4x4; 3x3 in 2D) is an alternative to ``translation`` and ``rotation``.
     """
     d = dimension
     T = np.eye(d + 1)

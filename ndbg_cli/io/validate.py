@@ -1,16 +1,5 @@
-"""Turning raw geometry into validated parts.
-
-:func:`make_part` takes a mesh in its source frame, scales and places it, repairs what can be
-repaired without changing the shape, and checks it:
-
-* vertices are merged ignoring normals and texture coordinates (STEP tessellations split
-  vertices along sharp edges, which would make every solid look open);
-* duplicate and zero-area faces are dropped (zero area: below ``(tol_rel * size)^2``);
-* a closed mesh with inward-facing normals (negative volume) is inverted, with a warning;
-* NaN or infinite coordinates, an empty mesh, or a mesh whose faces all vanish are errors;
-* an open (non-watertight) or inconsistently wound mesh is a warning: the analysis still runs
-  where it can, but volumes and interference checks need closed solids.
-
+"""Turning raw geometry into validated parts: :func:`make_part` scales and places a mesh,
+repairs what can be repaired without changing the shape, and checks it;
 :func:`make_polygon_part` does the same for 2D polygon parts.
 """
 
@@ -37,6 +26,14 @@ def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
     ``vertices`` ``(v, 3)`` are in the source unit and frame; they are multiplied by ``scale``
     (source unit to assembly unit) and then mapped by ``transform`` (4x4, translation in the
     assembly unit). Raises :class:`InputError` for geometry that cannot be analysed.
+
+    * vertices are merged ignoring normals and texture coordinates (STEP tessellations split
+      vertices along sharp edges, which would make every solid look open);
+    * duplicate and zero-area faces are dropped (zero area: below ``(tol_rel * size)^2``);
+    * a closed mesh with inward-facing normals (negative volume) is inverted, with a warning;
+    * NaN or infinite coordinates, an empty mesh, or a mesh whose faces all vanish are errors;
+    * an open (non-watertight) or inconsistently wound mesh is a warning: the analysis still
+      runs where it can, but volumes and interference checks need closed solids.
     """
     where = {"file": source or None, "part": part_id}
     v = np.asarray(vertices, dtype=np.float64)

@@ -1,17 +1,12 @@
 """The non-directional blocking graph (NDBG): regular regions of motion directions, each with
 its DBG, and the candidate partitionings they yield (paper sections 4.2 and 4.4).
 
-Every motion family produces an :class:`NDBG`:
-
-* ``infinitesimal_translation``: regions of the arrangement on S^2 (S^1 in 2D) induced by the
-  contact cones; necessary conditions (candidates);
-* ``infinite_translation``: regions of the arrangement of the blocked-direction sets B_ij;
-  sufficient conditions (a free set really comes out by one translation);
-* ``generalized``: suggested rotations and screws (one "region" per suggested motion).
-
-A region's DBG has an arc ``i -> j`` when part ``j`` blocks part ``i`` moving along the region's
-motion while ``j`` stays. Subassemblies are bitmasks over ``NDBG.ids``; nothing here touches
-geometry again.
+Every motion family produces an :class:`NDBG`: ``infinitesimal_translation`` (regions of the
+arrangement induced by the contact cones; necessary conditions), ``infinite_translation``
+(regions of the arrangement of the blocked sets B_ij; sufficient conditions) and
+``generalized`` (one "region" per suggested rotation or screw). A region's DBG has an arc
+``i -> j`` when ``j`` blocks ``i`` moving along the region's motion while ``j`` stays.
+Subassemblies are bitmasks over ``NDBG.ids``; nothing here touches geometry again.
 """
 
 from __future__ import annotations
@@ -29,16 +24,17 @@ class Region:
     """A regular region: its dimension (2, 1 or 0 on S^2; 1 or 0 on S^1; for suggested
     generalized motions ``-1``), a representative motion and the DBG over it.
 
-    ``direction`` is a unit vector (length 2 or 3) for translations, ``None`` otherwise;
-    ``motion`` describes a generalized motion (``{"type": "rotation"|"screw", "axis": ...,
-    "point": ..., "pitch": ...}``) and is ``None`` for translations. ``sliding``: the number
-    of distinct contact normals perpendicular to ``direction`` (infinite translations: the
-    contacts it slides along exactly; not reported), which ranks the lower-dimensional regions
-    of a move (:func:`ndbg_cli.planning.plans.pick_region`). ``thin``: a full-dimensional region
-    too narrow for its direction to be trusted as open, ranked with the lower-dimensional
-    ones by ``pick_region`` (infinite translations in 2D: an arc of S^1 at most
+    ``direction`` is a unit vector (length 2 or 3) for translations, ``None`` otherwise; ``motion``
+    describes a generalized motion (``{"type": "rotation"|"screw", "axis": ..., "point": ...,
+    "pitch": ...}``) and is ``None`` for translations. ``sliding``: the number of distinct contact
+    normals perpendicular to ``direction`` (infinite translations: the contacts it slides along
+    exactly; not reported), which ranks the lower-dimensional regions of a move
+    (:func:`ndbg_cli.planning.plans.pick_region`). ``thin``: a full-dimensional region too narrow
+    for its direction to be trusted as open, ranked with the lower-dimensional ones by
+    ``pick_region`` (infinite translations in 2D: an arc of S^1 at most
     :data:`ndbg_cli.ndbg.infinite.equator.BAND_ETA` ``eta`` wide, which may be one of the erosion's
-    tolerance bands beside a sliding direction, see :mod:`ndbg_cli.ndbg.infinite.equator`; not reported).
+    tolerance bands beside a sliding direction, see :mod:`ndbg_cli.ndbg.infinite.equator`; not
+    reported).
     """
 
     dimension: int

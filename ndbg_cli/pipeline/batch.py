@@ -1,20 +1,13 @@
 """Batches of assemblies: worker processes, results in input order, clean interruption.
 
 :func:`run_batch` analyses every target with ``jobs`` worker processes and yields the reports
-(or error records) **in input order**, whatever order they complete in, so a JSON Lines stream
-or a folder of reports is the same for ``--jobs 1`` and ``--jobs 8``. Each assembly is
-analysed independently by the same pure function, so the reports are byte-identical too.
-
-An internal error in one assembly becomes its error record (exit code 3); the others go on.
-So does a worker process that dies under an assembly (out of memory, a segfault): the pool is
-started again for the assemblies not yet done.
-SIGTERM stops the batch: pending work is cancelled, the workers are ended, and since reports
-are written atomically (:func:`ndbg_cli.core.files.write_atomic`) only complete files remain.
-
-:func:`run_batch_dask` does the same on a dask.distributed cluster (``ndbg analyze
---scheduler``): an existing one (``tcp://HOST:PORT``) or a local one started for the run
-(``local``). It submits the same :func:`analyze_one`, so the reports are byte-identical to a
-local run. ``distributed`` is imported only there (``pip install 'ndbg-cli[dask]'``).
+(or error records) **in input order**, whatever order they complete in; each assembly is
+analysed independently by the same pure function, so a JSON Lines stream or a folder of
+reports is byte-identical for ``--jobs 1`` and ``--jobs 8``. An internal error in one
+assembly becomes its error record (exit code 3); the others go on. SIGTERM stops the batch:
+pending work is cancelled, the workers are ended, and since reports are written atomically
+(:func:`ndbg_cli.core.files.write_atomic`) only complete files remain. :func:`run_batch_dask`
+does the same on a dask.distributed cluster (``distributed`` is imported only there).
 """
 
 from __future__ import annotations
@@ -220,7 +213,9 @@ CONNECT_TIMEOUT = 10.0  # seconds to reach an existing scheduler
 
 def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: int = 1, *,
                    debug: bool = False) -> Iterator[dict]:
-    """Like :func:`run_batch`, on a dask.distributed cluster; yields in the order of ``targets``.
+    """Like :func:`run_batch`, on a dask.distributed cluster (``ndbg analyze --scheduler``);
+    yields in the order of ``targets``. It submits the same :func:`analyze_one`, so the
+    reports are byte-identical to a local run (``pip install 'ndbg-cli[dask]'``).
 
     ``address`` is ``tcp://HOST:PORT`` of a running scheduler (its workers must see the input
     files at the same paths), or ``local`` to start a :class:`distributed.LocalCluster` on

@@ -1,19 +1,12 @@
 """The analysis stages in order: contacts -> blocking graphs -> planning -> measures.
 
-:func:`run_stages` takes a loaded :class:`~ndbg_cli.core.assembly.Assembly` and the options, and
-returns the report's analysis sections as plain dicts (JSON-ready after
-:func:`ndbg_cli.report.document.clean`). Each stage consumes only the previous stages' results: the
-blocking graphs are built once from the contacts (infinitesimal, generalized) or the meshes
-(infinite), and planning, classes and measures run on the DBGs alone (induced subgraphs for
-subassemblies), never on geometry again.
-
-Families (``--motion``): ``translation`` = infinitesimal translations (paper 4-5.1),
-``infinite`` = infinite translations (5.3), ``generalized`` = the paper's hybrid of all
-translations plus suggested rotations/screws (5.2, 6), ``all`` = every one.
-
-Which plan is reported: the first family, in the order infinite translation (guaranteed
-removable by one translation), infinitesimal translation (candidate), generalized (candidate,
-LP-checked), that was computed and admits an assembly tree.
+:func:`run_stages` returns the report's analysis sections as plain dicts. Each stage consumes
+only the previous stages' results: the blocking graphs are built once from the contacts
+(infinitesimal, generalized) or the meshes (infinite), and planning, classes and measures run
+on the DBGs alone (induced subgraphs for subassemblies), never on geometry again. Families
+(``--motion``): ``translation`` = infinitesimal translations (paper 4-5.1), ``infinite`` =
+infinite translations (5.3), ``generalized`` = the paper's hybrid of all translations plus
+suggested rotations/screws (5.2, 6), ``all`` = every one.
 """
 
 from __future__ import annotations
@@ -37,7 +30,10 @@ FAMILIES_OF = {
     "infinite": (INFINITE,),
     "generalized": (GENERALIZED,),
 }
-#: Order in which families are tried for the reported plan (most guaranteed first).
+#: Order in which families are tried for the reported plan (most guaranteed first): the first
+#: one computed that admits an assembly tree is reported; infinite translation (guaranteed
+#: removable by one translation), infinitesimal translation (candidate), generalized
+#: (candidate, LP-checked).
 PLAN_ORDER = (INFINITE, INFINITESIMAL, GENERALIZED)
 
 
@@ -373,11 +369,10 @@ PROOF_STRATEGIES = ("fewest-directions", "linear")
 def _proof_trees(sweep: Any, chosen: Any, classes: dict, reported: str,
                  base: int | None, budget: Any, graph: Any) -> list[dict]:
     """Trees of the :data:`PROOF_STRATEGIES` that pass the direct sweep test (``sweep``, a
-    :class:`~ndbg_cli.ndbg.infinite.sweep.SweepChecker`) at every step (contact-connected or not, as the
-    classes count them): ``{"strategy", "depth", "nonlinear_steps", "directions"}`` each. A
-    strategy is tried only when its tree could prove more than the reported plan: fewer
-    directions, or a linear tree, than it has, when the candidates' minimum (``classes``)
-    allows it."""
+    :class:`~ndbg_cli.ndbg.infinite.sweep.SweepChecker`) at every step (contact-connected or not, as
+    the classes count them): ``{"strategy", "depth", "nonlinear_steps", "directions"}`` each. A
+    strategy is tried only when its tree could prove more than the reported plan: fewer directions,
+    or a linear tree, than it has, when the candidates' minimum (``classes``) allows it."""
     from ..planning.plans import plan, verify
 
     nd = chosen.ndbg
@@ -424,11 +419,11 @@ def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
 
 def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None, ca=None
               ) -> tuple[NDBG, dict, list[dict]] | None:
-    """The infinite-translation NDBG, its section and partitionings. Above the budget (3D)
-    it is skipped (``None``), unless ``--motion infinite`` asks for it: then it is computed
-    only where the infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`), which
-    gives the same partitionings of the whole assembly and nothing else (``None`` again when
-    that is every direction)."""
+    """The infinite-translation NDBG, its section and partitionings. Above the budget (3D) it is
+    skipped (``None``), unless ``--motion infinite`` asks for it: then it is computed only where the
+    infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`), which gives
+    the same partitionings of the whole assembly and nothing else (``None`` again when that is every
+    direction)."""
     from ..geometry.sphere import DEFAULT_ANGLE_TOL
     from ..ndbg.generalized.build import block_threads
     from ..ndbg.infinite.blocked_sets import triangle_pairs

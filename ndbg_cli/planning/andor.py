@@ -1,33 +1,11 @@
 """The AND/OR graph of all candidate assembly algorithms (paper section 7.2).
 
 Nodes are the distinct subassemblies (part bitmasks) reachable from the whole product by
-candidate partitionings; the hyperarcs of a node are its candidate partitionings
-``{S, M \\ S}``, each listed once however many regions (and whichever orientation) make it
-free. The graph is built breadth-first from the root with memoization and an explicit budget
-(``max_nodes`` subassemblies seen, ``max_work`` units of work, ``split_limit`` partitionings
-per node, and an optional ``time_limit`` in seconds; :attr:`AndOrGraph.cut_by` says which one
-stopped it, :meth:`AndOrGraph.cut_reason` in words); when the budget stops the build,
-``truncated`` is set and the exact measures below are not available (``None``): use
-:func:`greedy_tree` for an anytime upper bound, or :func:`classes.min_depth_search` for the
-exact minimum depth without the whole graph (the report section
-:func:`classes.andor_section` does both).
-
-What is counted (exact Python ints):
-
-* ``min_depth``: the minimum height of a candidate assembly tree (a single part has depth 0);
-* ``tree_count``: distinct binary decomposition trees whose every internal node is a candidate
-  partitioning, children unordered (which side moves and along which region are ignored);
-* ``linear_count``: orderings ``(p1, ..., pn)`` of the parts such that for every ``k >= 2``,
-  ``{{p_k}, {p1..p_k-1}}`` is a candidate partitioning of ``{p1..p_k}``. Both orders of the
-  first two parts are counted (for ``n >= 2`` the count of distinct linear instruction
-  sequences is half of it);
-* ``min_nonlinear``: the minimum number of nonlinear instructions (neither side a single part)
-  over all candidate trees; 0 iff the product is linearizable.
-
-Freeness in a DBG induced on a subset is *hereditary* (a set free in ``M`` stays free, restricted,
-in every ``M' < M``), so without a connectivity filter every subassembly of a decomposable
-subassembly is decomposable and greedy decomposition never dead-ends; :func:`greedy_tree` uses
-this (and backtracks, within the budget, when a ``connected`` filter breaks it).
+candidate partitionings; a node's hyperarcs are its candidate partitionings ``{S, M \\ S}``,
+each listed once however many regions make it free. :class:`AndOrGraph` builds it
+breadth-first with memoization and an explicit, machine-independent :class:`Budget`; when
+the budget stops the build the exact counts are ``None`` and :func:`greedy_tree` (or
+:func:`classes.min_depth_search`) gives anytime answers.
 """
 
 from __future__ import annotations
@@ -48,10 +26,9 @@ from ..ndbg.dbg import bits, closure_table
 from ..ndbg.model import NDBG, ConnectivityTest
 
 #: Search nodes per subassembly for its contact-connected partitionings (with a
-#: ``split_limit``; see :func:`node_splits`). The search costs a few nodes per set found
-#: (at most 37 per DBG on the bell and AS1); on sparse random DBGs over grid-like contact
-#: graphs of 60 parts, where most connected sets leave a split rest, 20,000 nodes take
-#: about 0.2 s.
+#: ``split_limit``; see :func:`node_splits`). The search costs a few nodes per set found;
+#: on sparse random DBGs over grid-like contact graphs, where most connected sets leave a
+#: split rest, it costs far more (benchmarks/NOTES.md).
 CONNECTED_SEARCH = 20_000
 
 
@@ -270,7 +247,21 @@ def _hyperarcs(mask: int, found: dict[int, list[int]]) -> list[Hyperarc]:
 
 class AndOrGraph:
     """Lazily built, memoized AND/OR graph of the candidate algorithms of ``mask`` (default: the
-    whole product). Call :meth:`build` to expand everything reachable within ``budget``."""
+    whole product). Call :meth:`build` to expand everything reachable within ``budget``
+    (``max_nodes`` subassemblies seen, ``max_work`` units, ``split_limit`` partitionings per
+    node, optional ``time_limit`` seconds; :attr:`cut_by` says which one stopped it,
+    :meth:`cut_reason` in words). When it stops the build, ``truncated`` is set.
+
+    What is counted (exact Python ints):
+
+    * ``min_depth``: the minimum height of a candidate assembly tree (a single part: 0);
+    * ``tree_count``: distinct binary decomposition trees whose every internal node is a
+      candidate partitioning, children unordered (moving side and region ignored);
+    * ``linear_count``: orderings ``(p1, ..., pn)`` such that for every ``k >= 2``
+      ``{{p_k}, {p1..p_k-1}}`` is a candidate partitioning of ``{p1..p_k}``; both orders of the
+      first two parts are counted (distinct linear sequences: half of it, for ``n >= 2``);
+    * ``min_nonlinear``: the minimum number of nonlinear instructions (neither side a single
+      part) over all candidate trees; 0 iff the product is linearizable."""
 
     def __init__(self, ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
                  connected: ConnectivityTest | None = None, budget: Budget | None = None):
@@ -534,11 +525,12 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
                 budget: Budget | None = None,
                 arcs: Callable[[int, Meter], list[Hyperarc]] | None = None) -> GreedyResult:
     """One candidate tree, choosing at each node the first hyperarc in ``chooser`` order whose
-    children decompose (depth-first, memoizing failed subassemblies). Without ``connected`` the
-    first choice always works (heredity), so this is polynomial in the number of partitionings
-    visited. ``arcs(mask, meter)`` overrides how a node's hyperarcs are obtained (e.g. an
-    AND/OR graph's), charging the work to the search's ``meter``; the caller then judges
-    whether a failure over its lists proves anything.
+    children decompose (depth-first, memoizing failed subassemblies). Freeness in an induced DBG is
+    *hereditary* (a set free in ``M`` stays free, restricted, in every ``M' < M``), so without
+    ``connected`` the first choice always works and this is polynomial in the number of
+    partitionings visited. ``arcs(mask, meter)`` overrides how a node's hyperarcs are obtained (e.g.
+    an AND/OR graph's), charging the work to the search's ``meter``; the caller then judges whether
+    a failure over its lists proves anything.
 
     With ``connected`` a subassembly whose partitioning list was cut (``split_limit``) may
     fail only for want of the splits left out, so when the search fails after such a failure

@@ -1,39 +1,11 @@
 """Complexity classes and measures of a product from its NDBGs (paper sections 7.1-7.2).
 
-Every measure is ``{"value": ..., "why": "..."}`` (plus ``exact``/bounds where relevant) and
-is computed per motion family from that family's NDBG:
-
-* ``one_handed_monotone``: a candidate algorithm exists. Exact and polynomial (heredity, see
-  :mod:`andor`): decompose by sink components; the witness is a tree, the failure proof a
-  subassembly whose every induced DBG is strongly connected. For infinitesimal translations a
-  candidate is only necessary (False is a guarantee); for infinite translations it is a real
-  1-handed monotone 1-prismatic algorithm;
-* ``prismatic``: 1-handed monotone 1-prismatic, decided by the infinite-translation NDBG (True
-  there is guaranteed); the infinitesimal NDBG can only refute it; ``None`` for generalized;
-* ``linearizable`` (exact, polynomial) and ``min_nonlinear`` (exact from the AND/OR graph, else
-  an upper bound): the minimum number of nonlinear instructions, ``p + 1`` assembly lines;
-* ``min_depth``: minimum candidate tree height (exact from the AND/OR graph; else bounds);
-* ``stack_product``: one DBG on the whole product is acyclic (then every subassembly splits
-  along that single region);
-* ``min_directions``: see :func:`min_directions`;
-* ``interlocked`` and ``grasp`` when their inputs are supplied (see :mod:`interlock` and
-  :mod:`grasp`).
-
-Every measure also says what its value is worth (:func:`label`): ``holds_for`` names the
-motions of its family (:data:`HOLDS_FOR`) and ``evidence`` is
-
-* ``"proven"``: true of the product for those motions (a yes of the infinite translations is a
-  real algorithm, so it holds without restriction; a no holds only for those motions, e.g.
-  "no 1-handed monotone algorithm with single translations" says nothing of two translations);
-* ``"candidate"``: a necessary condition only (infinitesimal families): a yes means candidate
-  algorithms exist, and a minimum over candidates is only a lower bound for real algorithms
-  with those motions;
-* ``"bound"``: ``lower_bound <= optimum <= upper_bound`` for real algorithms with those motions
-  (a search cut by its budget, a greedy grasp).
-
-Also here: :func:`andor_section` (the report's AND/OR section). The searches behind the
-measures (:func:`~ndbg_cli.planning.decompose.sink_decompose`, ``min_directions``,
-``min_depth_search``) are in :mod:`decompose`.
+Every measure is ``{"value": ..., "why": "..."}`` (plus ``exact``/bounds where relevant),
+computed per motion family from that family's NDBG (:func:`classify`), and says what its value
+is worth (:func:`label`): ``holds_for`` names the family's motions (:data:`HOLDS_FOR`) and
+``evidence`` is ``"proven"``, ``"candidate"`` or ``"bound"`` (:func:`evidence`). Also here:
+:func:`andor_section` (the report's AND/OR section); the searches behind the measures are in
+:mod:`decompose`.
 """
 
 from __future__ import annotations
@@ -78,8 +50,17 @@ MINIMA = ("min_depth", "min_nonlinear", "min_directions")
 
 
 def evidence(family: str, key: str, entry: dict) -> str:
-    """What ``entry`` (measure ``key`` of ``family``) proves, see the module docstring:
-    ``"proven"``, ``"candidate"``, ``"bound"`` or ``"undecided"`` (no value, nothing shown).
+    """What ``entry`` (measure ``key`` of ``family``) proves: ``"proven"``, ``"candidate"``,
+    ``"bound"`` or ``"undecided"`` (no value, nothing shown).
+
+    * ``"proven"``: true of the product for the family's motions (a yes of the infinite
+      translations is a real algorithm, so it holds without restriction; a no holds only for
+      those motions: "no 1-handed monotone algorithm with single translations" says nothing
+      of two translations);
+    * ``"candidate"``: a necessary condition only (infinitesimal families): a yes means
+      candidate algorithms exist, and a minimum over candidates is only a lower bound;
+    * ``"bound"``: ``lower_bound <= optimum <= upper_bound`` for real algorithms with those
+      motions (a search cut by its budget, a greedy grasp).
 
     A yes (or a minimum) of a necessary-only family is a candidate; a no of any family is
     proven, but only for that family's motions (``holds_for``). Interlocking is decided by
@@ -199,9 +180,25 @@ def andor_section(graph: AndOrGraph, depth: dict | None = None) -> dict:
 def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = None,
              graph: AndOrGraph | None = None,
              contained: Sequence[tuple[str, dict]] = ()) -> dict:
-    """All NDBG-based measures of one motion family (see the module docstring). The default
-    budget keeps the AND/OR graph to 2,000 nodes and the default work units (bounds are
-    reported beyond).
+    """All NDBG-based measures of one motion family. The default budget keeps the AND/OR
+    graph to 2,000 nodes and the default work units (bounds are reported beyond).
+
+    * ``one_handed_monotone``: a candidate algorithm exists. Exact and polynomial (heredity,
+      see :mod:`andor`): decompose by sink components; the witness is a tree, the failure
+      proof a subassembly whose every induced DBG is strongly connected. For infinitesimal
+      translations a candidate is only necessary (False is a guarantee); for infinite
+      translations it is a real 1-handed monotone 1-prismatic algorithm;
+    * ``prismatic``: 1-handed monotone 1-prismatic, decided by the infinite-translation NDBG
+      (True there is guaranteed); the infinitesimal NDBG can only refute it; ``None`` for
+      generalized;
+    * ``linearizable`` (exact, polynomial) and ``min_nonlinear`` (exact from the AND/OR graph,
+      else an upper bound): the minimum number of nonlinear instructions, ``p + 1`` assembly
+      lines;
+    * ``min_depth``: minimum candidate tree height (exact from the AND/OR graph; else bounds);
+    * ``stack_product``: one DBG on the whole product is acyclic (every subassembly then
+      splits along that single region);
+    * ``min_directions`` (:func:`min_directions`), and ``interlocked`` and ``grasp`` when their
+      inputs are supplied (:mod:`interlock`, :mod:`grasp`).
 
     ``contained``: ``(family, measures)`` of families whose every DBG is a DBG of ``ndbg``
     (:func:`andor.contains`; the generalized hybrid holds the infinitesimal translations), as
@@ -335,7 +332,7 @@ def stack_regions(ndbg: NDBG, *, base: int | None = None) -> list[int]:
     on a middle base needs up for the boxes above it and down for those below (two
     directions, no stack product). Tested by :func:`sink_decompose` on that one region, once
     per distinct DBG, after the cheap necessary test: a DBG with a cycle never separates the
-    parts of the cycle (the 115-part engine's 8,110 DBGs all have one: 1.6 s -> 0.07 s)."""
+    parts of the cycle (on large products most DBGs have one; benchmarks/NOTES.md)."""
     full = (1 << ndbg.n) - 1
     out = []
     for dbg, regions in ndbg.distinct():

@@ -1,52 +1,13 @@
 """Prismatic form-closure grasp of order 1 (paper section 7.2).
 
 A finger is a point-plane contact on a face of some part, fixed in space: it blocks that part
-translating along ``d`` iff ``d . n > 0`` (``n`` the face's outward unit normal). The grasp must
-make, for every direction ``d`` of every region of the NDBG, each sink strong component of the
-region's DBG (a set of parts that could translate along ``d`` on its own, the whole product
-included when it is one component) contain a part held by a finger blocking ``d``; then no
-subassembly can translate relative to the others and the fingers (order 1: one internal
-motion at a time).
-
-Face data is not in the NDBG, so the caller passes the candidate faces as
-``(part index, outward normal, point or None)`` (exterior faces of the parts).
-
-Regions are sets of directions
-------------------------------
-A region is an open 2D cell of S^2, an open arc or a point (on S^1 for 2D assemblies: an
-open arc or a point), and a finger blocks only on its open half-space ``d . n > 0``: covering
-a region's representative direction is not enough, the finger's great circle ``d . n = 0``
-may cross the region. So each requirement, a pair (region, sink component), is held over the
-region's whole extent. The region is cut into convex *pieces*, each a relatively open convex
-cone given by unit generators (the extreme rays of its closure, in cyclic order): one (a
-point), two (the open arc between them, shorter than ``pi``) or three and more (an open convex
-spherical polygon inside an open hemisphere). An open piece is the set of strictly positive
-combinations of its generators, so a finger blocks all of it iff every generator has
-``g . n >= 0`` and one has ``g . n > 0`` (on a region whose closure touches the finger's circle
-but lies on its positive side, every direction of the open region is still blocked). A finger
-whose circle crosses a piece splits it (the paper's refinement of the arrangement by the
-finger's plane): the part on its positive side is covered, and the part on its negative side
-and the chord on the circle itself (``d . n = 0`` does not block) are pieces still to cover.
-A requirement is met when none of its pieces is left: the open half-spaces of its
-component's fingers contain the whole region. The pieces, and where each family's region
-extents come from, are in :mod:`ndbg_cli.planning.pieces`.
-
-Tolerance
----------
-``tol`` (a cosine; about radians) is the NDBG's own angular tolerance: the infinitesimal
-family's ``angle_tolerance`` (the contact analysis', 1 degree by default in 3D; 1e-6 rad in
-2D), the infinite family's :data:`ndbg_cli.ndbg.infinite.build.OPEN_TOL` (1e-6 rad). A generator with
-``|g . n| <= tol`` is on the finger's circle, as the NDBG reads a direction within ``tol`` of
-a contact's circle as sliding along it: a piece is covered when all its generators have
-``g . n >= -tol`` and one has ``g . n > tol`` (a point: ``d . n > tol``), and cut when some
-have ``g . n > tol`` and others ``g . n < -tol``. The directions of a covered piece that the
-finger does not block lie within ``tol / cos(rho)`` of its circle (``rho``: the angular
-radius of a cap holding the piece); everything else is exact for polyhedral parts.
-
-Placement is the paper's scan made greedy: each step places the finger that covers the most
-of what is left wholly, then the most in part (each requirement weighs :data:`WEIGHT`,
-shared by its region's pieces; ties: lowest part, then face order). The count is not
-guaranteed minimal (neither is the paper's).
+translating along ``d`` iff ``d . n > 0`` (``n`` the face's outward unit normal). For every
+region of the NDBG, each sink strong component of the region's DBG (parts that could translate
+on their own, the whole product when it is one component) must hold a part with a finger
+blocking the *whole* region (:class:`_Pieces`); then no subassembly can translate relative to
+the others and the fingers. Face data is not in the NDBG, so the caller passes the candidate
+faces as ``(part index, outward normal, point or None)``. Placement is the paper's scan made
+greedy (:func:`grasp`); the count is not guaranteed minimal (neither is the paper's).
 """
 
 from __future__ import annotations
@@ -68,7 +29,7 @@ def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
     """``(region, sink component)`` pairs to cover, in region order."""
     m = (1 << ndbg.n) - 1 if mask is None else mask
     out = []
-    sinks: dict[tuple[int, ...], list[int]] = {}  # per distinct DBG (the engine: 348 of 8,110)
+    sinks: dict[tuple[int, ...], list[int]] = {}  # per distinct DBG (far fewer than regions)
     for k, r in enumerate(ndbg.regions):
         if r.direction is None:
             continue
@@ -83,7 +44,20 @@ def requirements(ndbg: NDBG, mask: int | None = None) -> list[tuple[int, int]]:
 # ----------------------------------------------------------------------------- the pieces
 class _Pieces:
     """Pieces to cover: each a ``(g, dim)`` array of generators and its requirement; the
-    flat array of all generators grows as fingers split pieces."""
+    flat array of all generators grows as fingers split pieces.
+
+    A region is an open 2D cell, an open arc or a point, and a finger blocks only its open
+    half-space ``d . n > 0``: its great circle may cross the region, so covering the
+    representative direction is not enough. Each requirement (region, sink component) is held
+    over the region's whole extent, cut into convex *pieces*: relatively open convex cones
+    given by unit generators (the extreme rays of the closure, in cyclic order): a point, an
+    open arc shorter than ``pi``, or an open convex spherical polygon inside an open
+    hemisphere (:mod:`ndbg_cli.planning.pieces` makes them). An open piece is the strictly
+    positive combinations of its generators, so a finger blocks all of it iff every generator
+    has ``g . n >= 0`` and one ``g . n > 0``. A finger whose circle crosses a piece splits it
+    (the paper's refinement by the finger's plane): the positive side is covered; the negative
+    side and the chord on the circle (``d . n = 0`` does not block) are still to cover. A
+    requirement is met when none of its pieces is left."""
 
     def __init__(self, dim: int):
         self.chunks: list[np.ndarray] = []
@@ -116,7 +90,7 @@ def _tests(gens: np.ndarray, seg: np.ndarray, normals: np.ndarray, tol: float
            ) -> tuple[np.ndarray, np.ndarray]:
     """``(covered, cut)`` ``(pieces, F)``: whether each finger (``normals`` ``(F, dim)``)
     blocks all of each piece (generators ``gens`` from :meth:`_Pieces.gather`), and whether
-    its circle crosses it (module docstring)."""
+    its circle crosses it (:class:`_Pieces`, :func:`tolerance`)."""
     if len(seg) == 0:
         return np.zeros((0, len(normals)), bool), np.zeros((0, len(normals)), bool)
     v = gens @ normals.T
@@ -130,9 +104,7 @@ def _tests(gens: np.ndarray, seg: np.ndarray, normals: np.ndarray, tol: float
 #: of a piece and face of a part in the piece's sink component. When the first gains alone
 #: would take more, the grasp is not computed (``"skipped"``); when the greedy placement
 #: reaches it, it stops there (incomplete, and the report says so). A count, so the answer
-#: does not depend on the machine. About 30 million tests a second: the bell takes 66,000,
-#: AS1 470,000, the beam 1.5 million; the 115-part engine (8,110 regions, 66,865 candidate
-#: faces) would take 1.8 billion (a minute).
+#: does not depend on the machine (rates and example counts in benchmarks/NOTES.md).
 GRASP_BUDGET = 100_000_000
 
 #: A requirement's weight in the gains, shared by its region's pieces (so that a region cut
@@ -144,10 +116,20 @@ _BLOCK = 4_000_000
 
 
 def tolerance(ndbg: NDBG) -> float:
-    """The angular tolerance of ``ndbg``'s sign tests (see the module docstring)."""
+    """The angular tolerance of ``ndbg``'s sign tests.
+
+    ``tol`` (a cosine; about radians) is the NDBG's own: the infinitesimal family's
+    ``angle_tolerance`` (the contact analysis', 1 degree by default in 3D; 1e-6 rad in 2D), the
+    infinite family's :data:`ndbg_cli.ndbg.infinite.build.OPEN_TOL` (1e-6 rad). A generator with
+    ``|g . n| <= tol`` is on the finger's circle, as the NDBG reads a direction within ``tol``
+    of a contact's circle as sliding: a piece is covered when all its generators have
+    ``g . n >= -tol`` and one ``g . n > tol`` (a point: ``d . n > tol``), and cut when some
+    have ``g . n > tol`` and others ``g . n < -tol``. The directions of a covered piece that the
+    finger does not block lie within ``tol / cos(rho)`` of its circle (``rho``: the angular
+    radius of a cap holding the piece); everything else is exact for polyhedral parts."""
+    from ..core.constants import INFINITE
     from ..geometry.sphere import DEFAULT_ANGLE_TOL
     from ..ndbg.infinite.blocked_sets import OPEN_TOL
-    from ..core.constants import INFINITE
 
     if ndbg.family == INFINITE:
         return OPEN_TOL
@@ -157,8 +139,10 @@ def tolerance(ndbg: NDBG) -> float:
 def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
           tol: float | None = None, budget: int = GRASP_BUDGET) -> dict:
     """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts),
-    each requirement held over its region's whole extent (module docstring; ``tol``: the
-    angular tolerance, default :func:`tolerance`).
+    each requirement held over its region's whole extent (:class:`_Pieces`; ``tol``: the
+    angular tolerance, default :func:`tolerance`). Each step places the finger that covers
+    the most of what is left wholly, then the most in part (each requirement weighs
+    :data:`WEIGHT`, shared by its region's pieces; ties: lowest part, then face order).
 
     Returns ``{"value": number of fingers, "fingers": [{"part", "normal", "point", "covers",
     "covers_part"}...], "uncovered": [{"region", "parts", "direction"}...], "complete": bool,

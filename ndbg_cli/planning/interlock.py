@@ -1,21 +1,9 @@
-"""Infinitesimal interlocking by linear programming (any number of hands).
+"""Infinitesimal interlocking by linear programming (any number of hands; paper section 7.1).
 
-Parts get translational velocities ``v_i`` in R^3. For every contact normal ``n`` pointing out
-of part ``a`` into part ``b`` the motion must not make ``a`` penetrate ``b``:
-``n . (v_b - v_a) >= 0`` (sliding allowed). One part (``fixed``, default the first) stays:
-``v_fixed = 0``. The product is *infinitesimally interlocked* iff the only admissible motion is
-``v = 0`` (every part rigidly attached to the fixed one).
-
-Test: (1) maximise the total separation ``sum n . (v_b - v_a)`` under ``-1 <= v <= 1`` (HiGHS
-via ``scipy.optimize.linprog``); an optimum > tol gives a separating motion; (2) otherwise every
-admissible motion keeps all contacts sliding, so the admissible set is the linear subspace
-``{n . (v_b - v_a) = 0, v_fixed = 0}``: its null-space basis (SVD) gives a sliding motion when
-nonempty (e.g. a peg sliding out of a through-hole). The moved sets are the parts grouped by
-equal velocity besides the fixed part's group; their number (``moved_set_count``) is the
-number of hands *this* motion uses. It is not a minimum: maximising the total separation
-spreads the parts over many velocities (a stack of boxes comes apart in several sets at once
-although lifting the top box alone would do); :func:`classes.interlock_hands` adds the fewest
-moved sets when the NDBG decides it.
+Parts get translational velocities ``v_i``; for every contact normal ``n`` out of part ``a``
+into part ``b`` the motion must not make ``a`` penetrate ``b``: ``n . (v_b - v_a) >= 0``
+(sliding allowed), and one part (``fixed``, default the first) stays. The product is
+*infinitesimally interlocked* iff the only admissible motion is ``v = 0`` (:func:`interlock`).
 """
 
 from __future__ import annotations
@@ -67,8 +55,17 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
     ``ids`` the ``why`` text names the parts and ``moved_ids`` lists them): parts are grouped
     by equal velocity; ``fixed_set`` is the fixed part's group, ``moved_sets`` the others (so
     the motion is an instruction with ``moved_set_count + 1`` moved sets in the paper's
-    terms). That count is the LP motion's, not the fewest any motion needs (see the module
-    docstring).
+    terms).
+
+    Test: (1) maximise the total separation ``sum n . (v_b - v_a)`` under ``-1 <= v <= 1``
+    (HiGHS via ``scipy.optimize.linprog``); an optimum > tol gives a separating motion; (2)
+    otherwise every admissible motion keeps all contacts sliding, so the admissible set is the
+    subspace ``{n . (v_b - v_a) = 0, v_fixed = 0}``, whose null-space basis (SVD) gives a
+    sliding motion when nonempty (a peg sliding out of a through-hole). ``moved_set_count`` is
+    the number of hands *this* motion uses, not a minimum: maximising the total separation
+    spreads the parts over many velocities (a stack of boxes comes apart in several sets at
+    once although lifting the top box alone would do); :func:`classes.interlock_hands` adds
+    the fewest moved sets when the NDBG decides it.
     """
     fixed = 0 if fixed is None else fixed
     if n < 2:
@@ -100,7 +97,7 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
         if sub.shape[0] == 0:
             basis = np.eye(len(keep))
         else:
-            # only V is needed: no (rows x rows) U (AS1: thousands of normals, 0.3 s)
+            # only V is needed: no (rows x rows) U (costly with thousands of normals)
             _, s, vt = np.linalg.svd(sub, full_matrices=sub.shape[0] < sub.shape[1])
             rank = int(np.sum(s > tol * max(1.0, float(s.max()) if s.size else 1.0)))
             basis = vt[rank:]

@@ -1,29 +1,11 @@
-"""Convex pieces of an NDBG's regions: each region's extent as relatively open convex
-cones, and their split by a plane (for :mod:`ndbg_cli.planning.grasp`, which must hold every direction
-of a region, not its representative only).
+"""Convex pieces of an NDBG's regions: each region's extent as relatively open convex cones, and
+their split by a plane (for :mod:`ndbg_cli.planning.grasp`, which must hold every direction of a
+region, not its representative only).
 
 A piece is given by unit generators (the extreme rays of its closure, in cyclic order): one
 (a point), two (the open arc between them, shorter than ``pi``) or three and more (an open
 convex spherical polygon inside an open hemisphere); it is the set of strictly positive
 combinations of its generators. On S^1 (2D assemblies) the generators are 2-vectors.
-
-Where the regions' extents come from (:func:`region_pieces`)
--------------------------------------------------------------
-* infinitesimal 3D: :attr:`NDBG.geometry`, the arrangement of great circles (vertices, arcs
-  between vertices, faces' vertex cycles); cells that are not pointed (the whole sphere, a
-  hemisphere, the lunes of a pencil of circles, a whole circle) are cut into pointed pieces
-  by planes through the axes (or the pencil's axis), and long arcs into shorter ones;
-* infinitesimal 2D: the regions themselves (points and open arcs alternate round S^1);
-* infinite 2D: the runs of :func:`ndbg_cli.ndbg.infinite.equator.equator_extents` (ends open or closed);
-* infinite 3D: the cells of :func:`ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`, recomputed from
-  the NDBG's blocked sets (:attr:`NDBG.geometry`) and matched to its regions in order
-  (:func:`_match_cells`); chart polygons are triangulated (open triangles and their inner
-  diagonals), chains cut into segments and inner vertices; a lower-dimensional region's
-  representative (moved onto contact circles, or a thin cell's centroid, which may lie
-  outside it) is a point piece too;
-* otherwise (hand-built NDBGs): ``None``; the grasp then holds the
-  representatives only and says ``"coverage": "representatives"``. Generalized suggested
-  motions are single motions, not directions: they make no requirement.
 """
 
 from __future__ import annotations
@@ -259,11 +241,28 @@ def _cell_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
 
 
 def region_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
-    """Every region's extent as convex pieces (see the module docstring): per region a list
-    of ``(g, dim)`` arrays of unit generators; ``None`` when the NDBG keeps no geometry its
-    regions can be matched to (then only their representatives are known)."""
-    from ..core.constants import INFINITE
-    from ..core.constants import INFINITESIMAL
+    """Every region's extent as convex pieces: per region a list of ``(g, dim)`` arrays of
+    unit generators; ``None`` when the NDBG keeps no geometry its regions can be matched to
+    (then only their representatives are known). The extents come from:
+
+    * infinitesimal 3D: :attr:`NDBG.geometry`, the arrangement of great circles (vertices,
+      arcs between vertices, faces' vertex cycles); cells that are not pointed (the whole
+      sphere, a hemisphere, the lunes of a pencil of circles, a whole circle) are cut into
+      pointed pieces by planes through the axes (or the pencil's axis), long arcs into
+      shorter ones;
+    * infinitesimal 2D: the regions themselves (points and open arcs alternate round S^1);
+    * infinite 2D: the runs of :func:`ndbg_cli.ndbg.infinite.equator.equator_extents` (ends
+      open or closed);
+    * infinite 3D: the cells of :func:`ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`,
+      recomputed from the NDBG's blocked sets and matched to its regions in order
+      (:func:`_match_cells`); chart polygons are triangulated (open triangles and their
+      inner diagonals), chains cut into segments and inner vertices; a lower-dimensional
+      region's representative (moved onto contact circles, or a thin cell's centroid, which
+      may lie outside it) is a point piece too;
+    * otherwise (hand-built NDBGs): ``None``; the grasp then holds the representatives only
+      and says ``"coverage": "representatives"``. Generalized suggested motions are single
+      motions, not directions: they make no requirement."""
+    from ..core.constants import INFINITE, INFINITESIMAL
 
     if not ndbg.regions or any(r.direction is None for r in ndbg.regions):
         return None

@@ -2,27 +2,10 @@
 
 An assembly tree recursively partitions the product into two subassemblies; every internal
 node is an instruction: its ``moved`` side travels along a region's motion away from the
-``rest`` (disassembly), i.e. it is inserted along the opposite direction when assembling.
-Directions in the output: ``removal_direction`` is the region's direction ``d`` (the moved side
-is free along ``d``), ``direction`` is the assembly (insertion) direction ``-d``; generalized
-regions give their ``motion`` dict (the removal motion) instead. A verified plan
-(:func:`verify`) states a coordinate axis instead of a region's representative direction
-where the direct sweep test frees every step of that region along it (:func:`axis_directions`;
-the step then says ``"axis": true``: its ``region`` is the one it was planned in, and the
-axis may lie on that region's boundary, e.g. sliding along a contact face, or beyond it).
-
-Strategies (all deterministic):
-
-* ``shortest``: minimum tree height, exact from the AND/OR graph (ties: fewer nonlinear steps,
-  balance); when the budget truncates the graph, by iterative deepening
-  (:func:`classes.min_depth_search`), exact if its budget suffices, else its best tree;
-* ``linear``: fewest nonlinear instructions (one part at a time when possible), exact from
-  the AND/OR graph, else greedy (a linear split whenever one exists: exact for linearizable
-  products by heredity);
-* ``fewest-directions``: only the regions of a minimum direction set (:func:`classes.
-  min_directions`, which ignores ``connected``), most balanced split first;
-* ``balanced``: greedy, the most balanced split at every node.
-
+``rest`` (disassembly), i.e. it is inserted along the opposite direction when assembling. In
+the output ``removal_direction`` is the region's direction ``d``, ``direction`` the insertion
+direction ``-d``; generalized regions give their ``motion`` dict instead. :func:`plan` builds
+a tree with one of :data:`STRATEGIES`; :func:`verify` checks it with the direct sweep test.
 With ``base`` (a part index) the base is never moved: it always stays on the ``rest`` side.
 """
 
@@ -134,11 +117,11 @@ def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
     lower-dimensional or thin region sliding along the most contacts exactly
     (:attr:`Region.sliding`), then the highest dimension, then the lowest index.
 
-    A thin free band round a bore's axis holds many lower-dimensional cells a few ``eps / L``
-    wide (the eroded contacts, :mod:`ndbg_cli.ndbg.infinite.build`); only the axis itself, on every
+    A thin free band round a bore's axis holds many lower-dimensional cells a few ``eps / L`` wide
+    (the eroded contacts, :mod:`ndbg_cli.ndbg.infinite.build`); only the axis itself, on every
     contact circle of the bore, is free for the direct sweep test (``ndbg query``) and for a
-    designer. In 2D such bands are 1-dimensional arcs of S^1 (wider than ``eta``), marked
-    thin (:mod:`ndbg_cli.ndbg.infinite.equator`): beside a sliding direction the direct test blocks their
+    designer. In 2D such bands are 1-dimensional arcs of S^1 (wider than ``eta``), marked thin
+    (:mod:`ndbg_cli.ndbg.infinite.equator`): beside a sliding direction the direct test blocks their
     middles. Families without contact counts rank by dimension and index alone."""
     return min(regions, key=lambda r: _rank(ndbg, r))
 
@@ -150,15 +133,19 @@ VERIFY_REGIONS = 4
 
 def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool],
            tries: int = VERIFY_REGIONS) -> dict:
-    """Check a translation plan's steps with an independent test: ``frees(moved, rest, d)``
-    says whether ``moved`` comes out of ``rest`` by one translation to infinity along ``d``
-    (:meth:`ndbg_cli.ndbg.infinite.sweep.SweepChecker.frees`). A step whose direction fails is moved to
-    another region where its split is a candidate, if one passes (at most ``tries`` regions
-    tried, the step's own first). Every step passing makes the candidate tree a real
-    1-handed monotone 1-prismatic assembly algorithm (paper 7.1), whatever its family.
+    """Check a translation plan's steps with an independent test: ``frees(moved, rest, d)`` says
+    whether ``moved`` comes out of ``rest`` by one translation to infinity along ``d``
+    (:meth:`ndbg_cli.ndbg.infinite.sweep.SweepChecker.frees`). A step whose direction fails is moved
+    to another region where its split is a candidate, if one passes (at most ``tries`` regions
+    tried, the step's own first). Every step passing makes the candidate tree a real 1-handed
+    monotone 1-prismatic assembly algorithm (paper 7.1), whatever its family.
 
     Returns ``{"value", "steps", "why"}`` (``value``: all steps free; the first failing step
-    named in ``why``) and updates ``p``'s steps in place."""
+    named in ``why``) and updates ``p``'s steps in place. A verified plan may then state a
+    coordinate axis instead of a region's representative direction where the sweep test
+    frees every step of that region along it (:func:`axis_directions`; the step says
+    ``"axis": true``, its ``region`` is the one it was planned in, and the axis may lie on
+    that region's boundary, e.g. sliding along a contact face, or beyond it)."""
     nd = p.ndbg
     seq = p.sequence()
     for k, s in enumerate(seq, start=1):
@@ -282,6 +269,18 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
          graph: AndOrGraph | None = None, mask: int | None = None) -> Plan:
     """Build an assembly tree of ``mask`` (default: the whole product) with ``strategy``.
 
+    Strategies (all deterministic):
+
+    * ``shortest``: minimum tree height, exact from the AND/OR graph (ties: fewer nonlinear
+      steps, balance); when the budget truncates the graph, by iterative deepening
+      (:func:`classes.min_depth_search`), exact if its budget suffices, else its best tree;
+    * ``linear``: fewest nonlinear instructions (one part at a time when possible), exact from
+      the AND/OR graph, else greedy (a linear split whenever one exists: exact for
+      linearizable products by heredity);
+    * ``fewest-directions``: only the regions of a minimum direction set
+      (:func:`classes.min_directions`, which ignores ``connected``), most balanced split first;
+    * ``balanced``: greedy, the most balanced split at every node.
+
     ``graph`` may pass an already built AND/OR graph (same ``base``/``connected``) to reuse."""
     if strategy not in STRATEGIES:
         raise ValueError(f"unknown strategy {strategy!r}; expected one of {STRATEGIES}")
@@ -289,8 +288,8 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
     root = (1 << ndbg.n) - 1 if mask is None else mask
     out = Plan(ndbg=ndbg, root=root, strategy=strategy, connected=connected is not None)
     # Whether any candidate tree exists is polynomial (heredity, classes.sink_decompose); a
-    # contact-connected tree is one of them. When none does, no search can find one (on the
-    # 115-part engine the searches used to spend their whole budget proving it).
+    # contact-connected tree is one of them. When none does, no search can find one, and a
+    # search would spend its whole budget proving it.
     sink, stuck = sink_decompose(ndbg, root, base=base)
     if stuck is not None:
         out.found, out.stuck = False, stuck

@@ -2,19 +2,12 @@
 cares about, the paper's "posting warnings to the designers when the product changes from one
 complexity class to another" (section 7).
 
-Inputs are reports as ``ndbg analyze`` writes them: one JSON report, a batch document
-(``--format json`` over several assemblies), a JSON Lines stream, or an ``--out-dir`` folder
-(the reports its ``index.json`` names; every ``*.json`` in it when it has no index; for
-``ndbg check``, :func:`holds_reports` tells such a folder from one of assemblies).
-Assemblies are matched by name. Each change is a :class:`Change` graded ``worse``, ``better``
-or ``changed`` (neither, e.g. a part renamed or a measure becoming undecided):
-
-* classes per motion family: ``one_handed_monotone``, ``prismatic``, ``linearizable``,
-  ``stack_product`` are good when true, ``interlocked`` when false;
-* measures per family, lower is better: ``min_depth``, ``min_directions``, ``min_nonlinear``,
-  grasp fingers;
-* interferences (new ones are worse), parts added or removed, a plan lost or found, an
-  assembly that now fails to analyse, assemblies added to or removed from a batch.
+Inputs are reports as ``ndbg analyze`` writes them (:func:`read_reports`), matched by
+assembly name. Each change is a :class:`Change` graded ``worse``, ``better`` or ``changed``
+(neither, e.g. a part renamed or a measure becoming undecided): classes (:data:`GOOD_TRUE`,
+:data:`GOOD_FALSE`), measures per family (:data:`LOWER_BETTER`), interferences (new ones are
+worse), parts added or removed, a plan lost or found, an assembly that now fails to analyse,
+assemblies added to or removed from a batch.
 """
 
 from __future__ import annotations
@@ -65,7 +58,10 @@ def _fmt(v: Any) -> str:
 
 
 def read_reports(path: str | Path) -> dict[str, dict]:
-    """Reports in ``path`` by assembly name (see the module docstring for the forms)."""
+    """Reports in ``path`` by assembly name: one JSON report, a batch document (``--format
+    json`` over several assemblies), a JSON Lines stream, or an ``--out-dir`` folder (the
+    reports its ``index.json`` names; every ``*.json`` in it when it has no index; for
+    ``ndbg check``, :func:`holds_reports` tells such a folder from one of assemblies)."""
     p = Path(path)
     docs: list[dict] = []
     if p.is_dir():

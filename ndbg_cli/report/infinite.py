@@ -17,9 +17,10 @@ FAMILY = "infinite_translation"
 # --------------------------------------------------------------------------------------------
 
 def partitioning_records(ndbg: NDBG, parts: list[Partitioning]) -> list[dict]:
-    """Partitionings as report records (:func:`~ndbg_cli.ndbg.infinitesimal.build.partitioning_record`:
-    at most ``MAX_DIRECTIONS`` region directions, lowest-dimensional first, and the number of
-    regions; AS1 has up to 2,900 for one nut)."""
+    """Partitionings as report records
+    (:func:`~ndbg_cli.ndbg.infinitesimal.build.partitioning_record`: at most
+    ``MAX_DIRECTIONS`` region directions, lowest-dimensional first, and the number of regions,
+    which may run into thousands for one part)."""
     return [partitioning_record(ndbg, p) for p in parts]
 
 

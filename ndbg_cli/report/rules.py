@@ -1,45 +1,10 @@
 """Design rules for CI gates: what an assembly's report must show (``ndbg check``).
 
-A rules file is YAML::
-
-    family: auto          # which motion family the class rules read (see FAMILIES)
-    undecided: fail       # fail | pass: how a measure the analysis left undecided counts
-    rules:                # every assembly
-      no_interference: true
-      linearizable: true
-      max_depth: 6
-    assemblies:           # extra or stricter rules per assembly: a name, or a glob matched
-      bell:               # against the assembly name and its source path
-        max_directions: 1
-
-Rule keys (:data:`RULES`): booleans state the required value of a class, ``max_*`` an upper
-bound on a measure. A rule is met or violated only when the analysis *proves* it; otherwise it
-is *undecided* (the line says so) and counts as ``undecided`` says. What counts as proof
-(each class measure carries ``holds_for`` and ``evidence``, see :mod:`classes`):
-
-* a yes, or an upper bound, needs a real algorithm: the infinite-translation family's (its
-  trees are 1-handed monotone 1-prismatic algorithms). A yes or a minimum of the
-  infinitesimal or generalized families is a *candidate* (a necessary condition) and proves
-  nothing; their minimum is a lower bound;
-* a no, or a lower bound, of a class the paper defines for every motion (1-handed monotone,
-  linearizable, depth, nonlinear steps) needs a family holding every motion analysed: the
-  generalized one when computed, else the infinitesimal translations (the reason then says
-  "with translations"). The infinite translations' no only says "not with single
-  translations": the L-shaped channel whose part leaves by +x then +y is 1-handed monotone;
-* ``prismatic``, ``stack_product`` and ``max_directions`` are defined by single translations
-  (paper 7.1), so either translation family refutes them and the infinite one decides them;
-  ``interlocked`` is the infinitesimal LP's, decided either way;
-* ``max_hands``: at least 1 (two parts or more); at most 1 when a 1-handed monotone algorithm
-  is proven, else ``n - 1`` (any admissible n-part product, paper 7.1) unless the product is
-  infinitesimally interlocked. No analysis here proves that 2 hands are needed;
-* ``plan_found``: a search cut by its budget (the plan's ``exact: false``) that found nothing
-  is undecided, not false.
-
-``family: auto`` reads the evidence of every family computed; naming a family reads only that
-one (``prismatic`` always reads the translation families and ``interlocked`` the
-infinitesimal one, where the paper defines them).
-
-:func:`evaluate` is pure: a report dict and the rules in, a list of :class:`Outcome` out.
+A rules file (:func:`load_rules`) names rules (:data:`RULES`): booleans state the required
+value of a class, ``max_*`` an upper bound on a measure. A rule is met or violated only when
+the analysis *proves* it (:func:`measure`); otherwise it is *undecided* and counts as the
+file's ``undecided`` setting says. :func:`evaluate` is pure: a report dict and the rules in,
+a list of :class:`Outcome` out.
 """
 
 from __future__ import annotations
@@ -166,6 +131,21 @@ def _check_rules(data: Any, path: tuple, doc: Any) -> tuple[tuple[str, Any], ...
 
 def load_rules(path: str | Path) -> RuleSet:
     """Parse and validate a rules file; any problem is an :class:`InputError` (exit code 2).
+    A rules file is YAML::
+
+        family: auto          # which motion family the class rules read (see FAMILIES)
+        undecided: fail       # fail | pass: how a measure the analysis left undecided counts
+        rules:                # every assembly
+          no_interference: true
+          linearizable: true
+          max_depth: 6
+        assemblies:           # extra or stricter rules per assembly: a name, or a glob
+          bell:               # matched against the assembly name and its source path
+            max_directions: 1
+
+    ``family: auto`` reads the evidence of every family computed; naming a family reads only
+    that one (``prismatic`` always reads the translation families and ``interlocked`` the
+    infinitesimal one, where the paper defines them).
 
     Read with the manifests' :class:`~ndbg_cli.io.manifest.YamlLoader`, so that a rules file
     reads numbers as a manifest or config does (``1e-3`` a float, not YAML 1.1's string)
@@ -359,7 +339,29 @@ def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
     """``(value, lower, upper, note)`` of a rule's measure in ``report``, from what the
     ``family`` setting reads (``auto``: every computed family). Only proven facts count:
     ``value`` is ``None`` unless proven (booleans then have ``lower = upper = value``), and the
-    bounds are those proven; the note says what each family shows and for which motions."""
+    bounds are those proven; the note says what each family shows and for which motions.
+
+    What counts as proof (each class measure carries ``holds_for`` and ``evidence``,
+    :mod:`classes`):
+
+    * a yes, or an upper bound, needs a real algorithm: the infinite-translation family's (its
+      trees are 1-handed monotone 1-prismatic algorithms). A yes or a minimum of the
+      infinitesimal or generalized families is a *candidate* (a necessary condition) and
+      proves nothing; their minimum is a lower bound;
+    * a no, or a lower bound, of a class the paper defines for every motion (1-handed
+      monotone, linearizable, depth, nonlinear steps) needs a family holding every motion
+      analysed: the generalized one when computed, else the infinitesimal translations (the
+      reason then says "with translations"). The infinite translations' no only says "not
+      with single translations": the L-shaped channel whose part leaves by +x then +y is
+      1-handed monotone;
+    * ``prismatic``, ``stack_product`` and ``max_directions`` are defined by single
+      translations (paper 7.1), so either translation family refutes them and the infinite
+      one decides them; ``interlocked`` is the infinitesimal LP's, decided either way;
+    * ``max_hands``: at least 1 (two parts or more); at most 1 when a 1-handed monotone
+      algorithm is proven, else ``n - 1`` (any admissible n-part product, paper 7.1) unless
+      the product is infinitesimally interlocked. No analysis here proves 2 hands are needed;
+    * ``plan_found``: a search cut by its budget (the plan's ``exact: false``) that found
+      nothing is undecided, not false."""
     if rule == "no_interference":
         n = len(report.get("interferences") or [])
         return n == 0, n == 0, n == 0, f"{n} interference(s)"

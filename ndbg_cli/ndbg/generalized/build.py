@@ -1,78 +1,13 @@
 """The generalized-motion family: suggested rotations and screws (paper section 6), thread
-semantics, and exact local-freedom checks with the twist LP (:mod:`ndbg_cli.ndbg.generalized.twist`,
-:mod:`ndbg_cli.ndbg.generalized.motion_lp`).
+semantics, and exact local-freedom checks with the twist LP (paper section 5.2;
+:mod:`ndbg_cli.ndbg.generalized.twist`, :mod:`ndbg_cli.ndbg.generalized.motion_lp`).
 
-Suggested motions
------------------
-The paper's hybrid considers all pure translations plus motions *suggested* by the contacts.
-:func:`suggested_motions` lists, with both senses each:
-
-* every cylindrical contact (``surface == "cylinder"`` with an ``axis``): the rotation about
-  its axis line and the translation along it;
-* every manifest joint: ``revolute`` -> rotation about its axis line; ``screw`` -> the screw
-  ``v = -w x point + pitch / (2 pi) w`` (advance ``pitch`` per turn).
-
-Motions of the same type on the same axis line are merged (their ``source`` lists joined):
-two lines are the same when their directions differ by at most :data:`AXIS_ANGLE_TOL` radians
-(either orientation) and each one's point is within :data:`LINE_FACTOR` length tolerances of
-the other line; translations compare directions only; screws also need pitches within the
-length tolerance.
-
-Each suggested motion becomes one region ``Region(-1, None, dbg, motion)`` of an
-``NDBG(family="generalized")``; its DBG has an arc ``i -> j`` iff part ``i`` moving by the
-motion's twist (``j`` fixed) penetrates ``j`` at some contact point: ``n . u > eps`` with
-:func:`ndbg_cli.ndbg.generalized.twist.block_tolerance` (``length_tol |w| + ANGLE_TOL |u|``).
-
-Threads
--------
-A ``screw`` joint ``(a, b)`` declares a threaded pair. Unless ``threads_as_cylinders``, the
-pair may move relative to each other only by that screw (either sense): every translation
-and every other twist is blocked by the thread, so the pair gets arcs ``a -> b`` and ``b -> a``
-in every translational region (:func:`block_threads`) and in every suggested motion that is
-not the joint's screw, and the LP constrains the relative twist to the screw's line
-(:class:`ndbg_cli.ndbg.generalized.motion_lp.Thread`). With ``threads_as_cylinders`` the joint is ignored as a
-thread (its screw is still suggested) and the contact is a plain cylinder.
-
-Candidates and exact checks (the report section)
-------------------------------------------------
-The section validates the *candidate partitionings* of the suggested motions' DBGs (every
-split ``{S, rest}`` with ``S`` free in some region and both sides connected in the contact
-graph) and looks for subassemblies that *need a rotation* (single parts and the candidates'
-moving sides). The work is kept near the cost of the NDBG itself:
-
-* the candidates are found by :func:`ndbg_cli.ndbg.candidates.connected_partitionings`, a
-  search over connected sets per distinct DBG (a motion and its reverse searched once),
-  polynomial per candidate, not by enumerating every free set (a DBG with few arcs has
-  exponentially many) and filtering; the same list comes out. At most ``limit`` are listed
-  and the search has a node budget (``candidates.DEFAULT_CANDIDATE_LIMIT``,
-  ``DEFAULT_SEARCH_BUDGET``); the section says when either cut the list
-  (``candidates_truncated``, with ``candidate_limit``);
-* a candidate is valid as soon as one of its regions' suggested motions, checked on the
-  split's contact rows with the LP's own tolerances, breaks a contact without pushing into
-  any (or is a translation along which every contact slides): the LP would then find a
-  motion too, so it is not solved and that suggested motion is reported
-  (``motion_source: "suggested"``; else ``"lp"`` with the LP's motion);
-* a split that some translation frees needs no rotation: a few translations (axes, suggested
-  translations, frequent normals) are checked on the rows first
-  (:meth:`ndbg_cli.ndbg.generalized.motion_solver.MotionSolver.translation_frees`);
-* the remaining splits get the LP (``MotionSolver``, memoised; a split's reverse reuses its
-  answer), whose stages a locking certificate skips when it proves them empty
-  (:mod:`ndbg_cli.ndbg.generalized.motion_lp`): that is where locked and spinning-only parts end.
-
-Every shortcut decides a split exactly as the LP would (a witness is a feasible LP point; a
-certificate bounds every LP-feasible motion); only the motion shown for a candidate may be a
-different freeing motion than the LP's. The needs-rotation motions always come from the LP.
-The section's ``checks`` counts LPs solved, stages certified and splits witnessed.
-
-API
----
-``rows = twist.contact_rows(asm, contacts)`` once per assembly (contacts from
-``analyze_contacts(asm).contacts``), then :func:`generalized_ndbg` (the family),
-:func:`block_threads` on the translational NDBGs with :func:`threaded_pairs`, :func:`hybrid`
-(translations + suggested motions), ``motion_solver.MotionSolver`` / ``motion_lp.free_motion``
-per split (exact local freedom, with the motion), ``candidates.connected_partitionings``,
-:func:`generalized_partitionings`, :func:`needs_rotation`, :func:`generalized_section` and
-:func:`generalized_text` (report).
+Each motion suggested by the contacts and joints (:func:`suggested_motions`) becomes one
+region of an ``NDBG(family="generalized")`` with its DBG (:func:`motion_dbgs`);
+:func:`hybrid` adds them to the translations. :func:`generalized_partitionings` validates the
+candidate partitionings exactly, and :func:`generalized_section` writes the report section.
+Usage: ``rows = twist.contact_rows(asm, contacts)`` once per assembly, then the functions
+above (and :func:`block_threads` on the translational NDBGs).
 """
 
 from __future__ import annotations
@@ -129,7 +64,22 @@ def _same_line(a1: np.ndarray, p1: np.ndarray, a2: np.ndarray, p2: np.ndarray,
 def suggested_motions(asm: Assembly, contacts: Iterable[Any]) -> list[dict]:
     """Distinct suggested motion lines (one sense each), as dicts ``{"type", "axis",
     "point", "pitch", "sources"}`` (``point`` is ``None`` for translations, ``pitch`` 0 for
-    rotations); see the module docstring."""
+    rotations). The paper's hybrid considers all pure translations plus motions *suggested*
+    by the contacts; here:
+
+    * every cylindrical contact (``surface == "cylinder"`` with an ``axis``): the rotation
+      about its axis line and the translation along it;
+    * every manifest joint: ``revolute`` -> rotation about its axis line; ``screw`` -> the
+      screw ``v = -w x point + pitch / (2 pi) w`` (advance ``pitch`` per turn).
+
+    Motions of the same type on the same axis line are merged (``sources`` joined): two lines
+    are the same when their directions differ by at most :data:`AXIS_ANGLE_TOL` (either
+    orientation) and each one's point is within :data:`LINE_FACTOR` length tolerances of the
+    other line; translations compare directions only; screws also need pitches within the
+    length tolerance. Each becomes a region ``Region(-1, None, dbg, motion)`` (both senses)
+    whose DBG has an arc ``i -> j`` iff ``i`` moving by the twist (``j`` fixed) penetrates
+    ``j`` at some contact point: ``n . u > eps`` with
+    :func:`~ndbg_cli.ndbg.generalized.twist.block_tolerance`."""
     tol = asm.length_tolerance
     line_tol = LINE_FACTOR * tol
     out: list[dict] = []
@@ -199,15 +149,22 @@ def motion_record(m: dict, sense: int) -> dict:
 # ----------------------------------------------------------------------------- threads
 def threaded_pairs(asm: Assembly, threads_as_cylinders: bool = False) -> set[tuple[str, str]]:
     """``(moving, fixed)`` part ids of every declared screw joint (empty with
-    ``threads_as_cylinders``): pairs that cannot translate relative to each other."""
+    ``threads_as_cylinders``): pairs that cannot translate relative to each other.
+
+    Unless ``threads_as_cylinders``, a threaded pair may move relative to each other only by
+    its screw (either sense): it gets arcs both ways in every translational region
+    (:func:`block_threads`) and in every suggested motion that is not the joint's screw, and
+    the LP constrains the relative twist to the screw's line
+    (:class:`~ndbg_cli.ndbg.generalized.motion_lp.Thread`). With ``threads_as_cylinders`` the
+    joint is no thread (its screw is still suggested) and the contact a plain cylinder."""
     if threads_as_cylinders:
         return set()
     return {(j.parts[0], j.parts[1]) for j in asm.joints if j.type == "screw"}
 
 
 def threads(asm: Assembly, threads_as_cylinders: bool = False) -> list[Thread]:
-    """The LP's :class:`~ndbg_cli.ndbg.generalized.motion_lp.Thread` constraints of the declared screw joints
-    (:func:`ndbg_cli.ndbg.generalized.motion_lp.assembly_threads`)."""
+    """The LP's :class:`~ndbg_cli.ndbg.generalized.motion_lp.Thread` constraints of the declared
+    screw joints (:func:`ndbg_cli.ndbg.generalized.motion_lp.assembly_threads`)."""
     return assembly_threads(asm, threads_as_cylinders)
 
 
@@ -226,9 +183,9 @@ def block_threads(ndbg: NDBG, pairs: Iterable[tuple[str, str]]) -> NDBG:
 
 # ----------------------------------------------------------------------------- the family
 def motion_dbg(rows: ContactRows, xi: np.ndarray, thread_list: Sequence[Thread] = ()) -> DBG:
-    """DBG of the origin twist ``xi``: arc ``a -> b`` where ``a`` moving by ``xi`` pushes into
-    ``b`` faster than :func:`~ndbg_cli.ndbg.generalized.twist.block_tolerance`, ``b -> a`` where ``b`` moving
-    does (``-n . u > eps``); threaded pairs block each other unless ``xi`` is their screw."""
+    """DBG of the origin twist ``xi``: arc ``a -> b`` where ``a`` moving by ``xi`` pushes into ``b``
+    faster than :func:`~ndbg_cli.ndbg.generalized.twist.block_tolerance`, ``b -> a`` where ``b``
+    moving does (``-n . u > eps``); threaded pairs block each other unless ``xi`` is their screw."""
     return motion_dbgs(rows, np.asarray(xi, float)[None, :], thread_list)[0]
 
 
@@ -271,12 +228,12 @@ def motion_dbgs(rows: ContactRows, twists: np.ndarray, thread_list: Sequence[Thr
 
 def _pushes(P: np.ndarray, S: np.ndarray, X: np.ndarray, length_tol: float,
             chunk: int = 1 << 15) -> tuple[np.ndarray, np.ndarray]:
-    """Which rows push in under which twists: ``S`` ``(K, R)`` the normal speeds of the
-    rows at ``P`` ``(K, 3)`` under the origin twists ``X`` ``(R, 6)``; returns ``S > eps``
-    (``a`` into ``b``) and ``S < -eps`` (``b`` into ``a``), bool ``(K, R)``, with
-    ``eps = length_tol |w| + ANGLE_TOL |v + w x p|`` (:func:`~ndbg_cli.ndbg.generalized.twist.block_tolerance`).
-    Computed in blocks of about ``chunk`` entries into reused buffers (cache-sized, no
-    fresh pages per operation); each entry's arithmetic is the unblocked one."""
+    """Which rows push in under which twists: ``S`` ``(K, R)`` the normal speeds of the rows at
+    ``P`` ``(K, 3)`` under the origin twists ``X`` ``(R, 6)``; returns ``S > eps`` (``a`` into
+    ``b``) and ``S < -eps`` (``b`` into ``a``), bool ``(K, R)``, with ``eps = length_tol |w| +
+    ANGLE_TOL |v + w x p|`` (:func:`~ndbg_cli.ndbg.generalized.twist.block_tolerance`). Computed in
+    blocks of about ``chunk`` entries into reused buffers (cache-sized, no fresh pages per
+    operation); each entry's arithmetic is the unblocked one."""
     K, R = S.shape
     fwd = np.empty((K, R), dtype=bool)
     bwd = np.empty((K, R), dtype=bool)
@@ -310,8 +267,9 @@ def _pushes(P: np.ndarray, S: np.ndarray, X: np.ndarray, length_tol: float,
 def generalized_ndbg(asm: Assembly, contacts: Sequence[Any] | None = None, *,
                      threads_as_cylinders: bool = False, rows: ContactRows | None = None
                      ) -> NDBG:
-    """``NDBG(family="generalized")`` with one region per suggested motion and sense (see the
-    module docstring). ``stats``: ``suggested`` (lines), ``regions``, ``contact_points``."""
+    """``NDBG(family="generalized")`` with one region per suggested motion and sense
+    (:func:`suggested_motions`). ``stats``: ``suggested`` (lines), ``regions``,
+    ``contact_points``."""
     contacts = list(contacts or [])
     rows = rows if rows is not None else contact_rows(asm, contacts)
     thr = threads(asm, threads_as_cylinders)
@@ -365,7 +323,18 @@ def _validate(asm: Assembly, rows: ContactRows, ndbg_gen: NDBG, mask: int | None
               connected: bool, limit: int | None, solver: MotionSolver
               ) -> tuple[list[tuple[Partitioning, Motion, str]], list[Partitioning], bool]:
     """:func:`generalized_partitionings` with each valid motion's source (``"suggested"`` or
-    ``"lp"``) and whether the candidate list was truncated."""
+    ``"lp"``) and whether the candidate list was truncated.
+
+    The work stays near the cost of the NDBG itself. Candidates come from a search over
+    connected sets per distinct DBG (:func:`connected_partitionings`; a motion and its
+    reverse searched once), polynomial per candidate, not from enumerating every free set (a
+    DBG with few arcs has exponentially many). A split that some translation frees needs no
+    rotation: a few translations (axes, suggested translations, frequent normals) are
+    checked on the rows first (:meth:`MotionSolver.translation_frees`). The rest get the LP
+    (memoised; a split's reverse reuses its answer), whose stages a locking certificate
+    skips when it proves them empty. Every shortcut decides a split exactly as the LP would
+    (a witness is a feasible LP point; a certificate bounds every LP-feasible motion); only
+    the motion shown may be a different freeing motion than the LP's."""
     if connected:
         cands, truncated = connected_partitionings(ndbg_gen, contact_neighbours(rows), mask,
                                                    limit=limit)

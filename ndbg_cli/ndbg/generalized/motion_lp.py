@@ -1,36 +1,12 @@
-"""The exact local-freedom test: a linear program over infinitesimal rigid motions.
+"""The exact local-freedom test: a linear program over infinitesimal rigid motions
+(paper section 5.2).
 
 Given a split of an assembly into a moved set ``S`` and the rest, is there a twist of ``S``
-that respects every contact between them and breaks at least one (paper section 5.2)? The
-rows, the scaled twist and the tolerances (``LP_SLACK``, ``slide_tol``, ``break_tol``) are
-those of :mod:`ndbg_cli.ndbg.generalized.twist`. Threads (declared screw joints) restrict the relative twist
-of their two parts to the screw's line.
-
-Locking certificates
---------------------
-Most splits of a real product are locked (or can only turn in place), and proving that is
-what costs: the LP has one slack per contact row (thousands on a bolted bracket). Before a
-stage's LP, :func:`free_motion_rows` therefore tries a cheap *sound* certificate that the LP
-cannot return a breaking motion (:func:`_locked`; the general stage's first, since it rules
-out translations too). When it holds, the stage is skipped with exactly the LP's outcome (no
-breaking motion; the sliding fallback runs as before); otherwise the LP is solved. It never
-claims a motion: a split that comes apart fails it and gets the LP.
-
-The certificate (Farkas): let ``H = G B`` be the rows on the stage's orthonormal twist basis
-``B`` (the translations; all free axes; or a thread's screw), ``x = B l``. Split ``H``'s
-right singular vectors into the sliding directions (singular value ``<= slide_tol``, moving
-every row by at most ``delta``) and the others ``V``, ``l = V a + (sliding part)``,
-``P = H V``. For each coordinate target ``q = +-e_i``, non-negative least squares
-(``scipy.optimize.nnls``; column generation from the rows best aligned with ``q``, once more
-over all rows if the bound fails with those weights) finds ``z >= 0`` with ``P.T z = q + r``.
-Every motion the LP may return has ``G x <= CERT_SLACK`` (its slack plus HiGHS's tolerance)
-and ``|x_i| <= 1`` (so ``|a| <= sqrt(6)``), hence ``P a <= CERT_SLACK + delta = eps`` and
-``q . a = z . P a - r . a <= eps sum(z) + |r| sqrt(6) = A_i``: every ``|a_i| <= A_i``. A row
-then separates at most ``sum_i |P_ki| A_i + delta``; below ``break_tol`` for every row, the
-stage cannot break a contact. The per-target weights are tried last: first one NNLS gives
-weights for all ``2 d`` targets at once (:func:`_basis_bounds`; looser, enough for most
-locked splits, at a third of the cost). ``stats`` (optional dict) counts ``lp`` (HiGHS
-solves) and ``certified`` (stages skipped).
+that respects every contact between them and breaks at least one
+(:func:`free_motion_rows`)? Rows, scaled twist and tolerances are those of
+:mod:`ndbg_cli.ndbg.generalized.twist`; threads (declared screw joints) restrict the relative
+twist of their two parts to the screw's line. Most splits of a real product are locked, and
+a cheap sound certificate (:func:`_locked`) skips most LPs that would prove it.
 """
 
 from __future__ import annotations
@@ -119,7 +95,7 @@ def free_motion_rows(rows: ContactRows, moved: int, rest: int, *,
     slides (``broken = 0``, e.g. a pin sliding along its hole) is returned if one exists
     (translations preferred).
 
-    Each stage first tries the locking certificate (module docstring): a stage it proves
+    Each stage first tries the locking certificate (:func:`_locked`): a stage it proves
     empty is skipped without an LP (same outcome); the general stage's is tried first, since
     it rules out translations too. ``stats`` counts ``lp`` and ``certified``.
     """
@@ -288,8 +264,8 @@ def _basis_bounds(P: np.ndarray, eps: float) -> np.ndarray | None:
     generation) gives ``u >= 0`` with ``P.T u = -M.T 1``, so ``y = 1_R + u`` is a
     non-negative combination of the rows summing to (nearly) zero with weight at least 1 on
     every basis row. Adding ``t y`` (``t`` the largest negative weight) makes each target's
-    weights non-negative: ``z = +-w + t y >= 0``, ``P.T z = q + t P.T y``; the bound of the
-    module docstring then holds with this ``z`` and its residual, recomputed. Looser than
+    weights non-negative: ``z = +-w + t y >= 0``, ``P.T z = q + t P.T y``; the bound of
+    :func:`_locked` then holds with this ``z`` and its residual, recomputed. Looser than
     the per-target NNLS (larger ``sum(z)``), but one solve instead of ``2 d``."""
     m, d = P.shape
     if m < d or d == 0:
@@ -326,8 +302,26 @@ def _basis_bounds(P: np.ndarray, eps: float) -> np.ndarray | None:
 
 def _locked(rows: ContactRows, G: np.ndarray, crossing: Sequence[Thread], rotate: bool) -> bool:
     """Whether no motion the stage's LP may return (``G x <= CERT_SLACK``, ``|x_i| <= 1``,
-    in the stage's basis) separates any row faster than ``break_tol``: a sound certificate
-    (module docstring); ``False`` means "not proven", never "free"."""
+    in the stage's basis) separates any row faster than ``break_tol``: a sound certificate;
+    ``False`` means "not proven", never "free".
+
+    Proving a split locked is what costs: the LP has one slack per contact row (thousands on
+    a bolted bracket). When the certificate holds, the stage is skipped with exactly the LP's
+    outcome (no breaking motion; the sliding fallback still runs); it never claims a motion.
+
+    The certificate (Farkas): let ``H = G B`` be the rows on the stage's orthonormal twist
+    basis ``B`` (the translations; all free axes; or a thread's screw), ``x = B l``. Split
+    ``H``'s right singular vectors into the sliding directions (singular value
+    ``<= slide_tol``, moving every row by at most ``delta``) and the others ``V``,
+    ``P = H V``. For each coordinate target ``q = +-e_i``, non-negative least squares
+    (:func:`_cone_weights`: column generation from the rows best aligned with ``q``, once more
+    over all rows if the bound fails) finds ``z >= 0`` with ``P.T z = q + r``. Every motion the
+    LP may return has ``G x <= CERT_SLACK`` and ``|x_i| <= 1`` (so ``|a| <= sqrt(6)``), hence
+    ``P a <= CERT_SLACK + delta = eps`` and ``q . a = z . P a - r . a <= eps sum(z) + |r|
+    sqrt(6) = A_i``. A row then separates at most ``sum_i |P_ki| A_i + delta``; below
+    ``break_tol`` for every row, the stage cannot break a contact. First one NNLS gives weights
+    for all ``2 d`` targets at once (:func:`_basis_bounds`; looser, enough for most locked
+    splits, at a third of the cost); the per-target weights are tried last."""
     B = _stage_basis(rows, crossing, rotate)
     if B.shape[1] == 0 or len(G) == 0:
         return True  # the LP can only return x = 0; with no rows its answer is not used
@@ -480,8 +474,8 @@ def free_motion(asm: Assembly, contacts: Iterable[Any] | ContactRows, moved_mask
                 threads_as_cylinders: bool = False, translation_only: bool = False,
                 allow_sliding: bool = False) -> Motion | None:
     """:func:`free_motion_rows` from an assembly and its contacts (or prebuilt
-    :class:`~ndbg_cli.ndbg.generalized.twist.ContactRows`, faster when called per split). ``rest_mask``
-    defaults to every part not in ``moved_mask`` (pass ``mask & ~moved`` inside a
+    :class:`~ndbg_cli.ndbg.generalized.twist.ContactRows`, faster when called per split).
+    ``rest_mask`` defaults to every part not in ``moved_mask`` (pass ``mask & ~moved`` inside a
     subassembly ``mask``); ``threads`` default to the assembly's declared screw joints
     (:func:`assembly_threads`)."""
     rows = contacts if isinstance(contacts, ContactRows) else contact_rows(asm, contacts)

@@ -1,17 +1,13 @@
 """Exact local-freedom checks of splits, memoised, with cheap witnesses before the LP.
 
-:class:`MotionSolver` answers, for a split ``(moved, rest)`` of one assembly's contact rows
-(:class:`ndbg_cli.ndbg.generalized.twist.ContactRows`), whether some infinitesimal rigid motion frees
-``moved`` (:func:`ndbg_cli.ndbg.generalized.motion_lp.free_motion_rows`, memoised, a split's reverse reusing
-its answer) and whether it needs a rotation. Before an LP it tries *witnesses*: given twists
-(the suggested motions, :meth:`MotionSolver.witness`) or a fixed set of translations
-(:meth:`MotionSolver.translation_frees`) checked on the split's rows with the LP's own
-tolerances (``LP_SLACK``, ``break_tol``, ``slide_tol``). A witness is a feasible point of the
-LP, so it decides the split exactly as the LP would; only the motion shown may differ.
-
-The speeds of every row under a set of twists are reduced once per ordered part pair
-(:class:`PairSpeeds`), so checking ``R`` motions on a split costs a few array operations over
-the part pairs, and many splits are checked at once (:meth:`PairSpeeds.prefetch`).
+:class:`MotionSolver` answers whether some infinitesimal rigid motion frees ``moved`` from
+``rest`` (:func:`ndbg_cli.ndbg.generalized.motion_lp.free_motion_rows`, memoised; a split's
+reverse reuses its answer) and whether it needs a rotation. Before an LP it tries
+*witnesses* (suggested twists, :meth:`MotionSolver.witness`; a few translations,
+:meth:`MotionSolver.translation_frees`) checked on the split's rows with the LP's own
+tolerances: a witness is a feasible LP point, so it decides the split exactly as the LP
+would; only the motion shown may differ. Row speeds are reduced once per ordered part pair
+(:class:`PairSpeeds`), so checking many motions on many splits is a few array operations.
 """
 
 from __future__ import annotations

@@ -1,58 +1,14 @@
 """Infinitesimal rigid motions (twists): the 6D contact constraints, their tolerances and the
-naming of a motion (paper section 5.2, Fig. 5 and 6). The local-freedom LP over these rows
-is :mod:`ndbg_cli.ndbg.generalized.motion_lp`.
+naming of a motion (paper section 5.2, Fig. 5 and 6). The LP over these rows is
+:mod:`ndbg_cli.ndbg.generalized.motion_lp`.
 
-Conventions
------------
-A *twist* ``(v, w)`` (a 6-vector, ``v`` first) is an infinitesimal rigid motion about the
-assembly origin: a point ``p`` of the moving set moves with velocity ``u(p) = v + w x p``
-(``v`` in assembly units per unit time, ``w`` in radians per unit time).
-
-A contact point ``p`` between parts ``a`` and ``b`` carries a unit normal ``n`` pointing *out
-of* ``a`` *into* ``b`` (the contact stage's convention). Moving ``a`` with velocity ``u`` at
-``p`` (``b`` staying) pushes ``a`` into ``b`` iff ``n . u > 0``; this is the translation rule
-of paper section 4.3 (``a`` translating along ``d`` is blocked by ``b`` iff ``d . n > 0``)
-applied to the velocity of each point. Hence the twist ``X = (v, w)`` of ``a`` relative to
-``b`` is *allowed* by the contact point iff::
-
-    g . X <= 0,   g = (n, p x n)          (since n . (w x p) = w . (p x n))
-
-It *breaks* the contact iff ``g . X < 0`` and *slides* iff ``g . X = 0``. The paper writes the
-same half-space as ``n_F J_V dX >= 0`` with the outgoing normal of the *fixed* face (``-n``).
-When ``b`` is the part that moves (``a`` stays), the row is ``-g``. A planar contact
-contributes one row per convex-hull vertex of its contact polygon (Fig. 6); curved contacts
-one row per contact point; edge and point contacts (``blocking == "all"``) one row per point
-and normal of their cone, grouped (:func:`contact_rows`).
-
-Cylindrical contacts: a tessellated cylinder's facet normals are radial only on each facet's
-centre line, so at the facet's other points they would spuriously block the rotation about
-the cylinder's own axis. On a contact reported as ``surface == "cylinder"`` (with ``axis`` and
-``center``), and on a curved contact between the two parts of a declared joint that is a
-surface of revolution about the joint's axis, each point is turned about the axis onto the
-line where its facet normal is radial (:func:`contact_points`). Rows sharing a normal are then
-reduced to the extreme points (:func:`reduce_points`).
-
-Scaling and tolerances
-----------------------
-``L`` is the assembly's bounding-box diagonal and ``c`` its centre. The LP works with the
-scaled, centred twist ``x = (v + w x c, L w)``: both halves are then speeds in assembly units
-(the rotational half is the speed of a point at distance ``L`` from the axis), so the box
-``|x_i| <= 1`` treats translation and rotation alike and every row reads
-``g' = (n, (p - c) x n / L)``, speeds of order 1. The LP's constraints are nearly exact,
-``G x <= LP_SLACK`` (1e-7, the order of the rounding in CAD normals and axes and of HiGHS's
-own feasibility tolerance): a larger allowance would let a part turn about an axis close to a
-small pin while violating the pin's rows by the allowance, and break far contacts ``L / r``
-times faster (the bell's armature about its 1.5 mm peg "came out" that way with 1e-4). Noise
-in the contact data is removed before (exact planar normals, radial cylinder normals). Two
-more dimensionless tolerances, in these scaled speed units (the model's size is in ``L``, so
-they are scale-invariant):
-
-* ``slide_tol`` = :data:`SLIDE_TOL`: a row with ``|G_k x| <= slide_tol`` slides (null-space
-  and polishing computations);
-* ``break_tol`` = :data:`BREAK_TOL`: a contact counts as broken only when it separates faster
-  than this, i.e. 1000 times the allowance: a spurious motion would need ``L / r > 1000``.
-  A screw of pitch ``h`` separates at about ``h / (2 pi L)`` (4e-3 for a 1.25 mm thread on a
-  50 mm model): threads finer than ``2 pi L BREAK_TOL`` (0.6 mm on a 1 m model) are missed.
+A twist ``X = (v, w)`` moves a point ``p`` with velocity ``v + w x p`` (about the assembly
+origin). A contact point ``p`` between parts ``a`` and ``b`` has a unit normal ``n`` out of
+``a`` into ``b``; moving ``a`` (``b`` staying) pushes into ``b`` iff ``n . u(p) > 0``, the
+translation rule of paper section 4.3 applied to each point's velocity. So the row
+``g = (n, p x n)`` allows ``X`` iff ``g . X <= 0`` (breaks the contact if ``< 0``, slides if
+``= 0``); the paper's ``n_F J_V dX >= 0`` uses the fixed face's normal ``-n``. When ``b`` is
+the part that moves, the row is ``-g``.
 """
 
 from __future__ import annotations
@@ -67,13 +23,28 @@ from scipy.spatial import ConvexHull
 
 from ...core.assembly import Assembly
 
+# Scaling. With L the bounding-box diagonal and c its centre, the LP works with the scaled,
+# centred twist x = (v + w x c, L w): both halves are speeds in assembly units (the rotational
+# half is that of a point at distance L from the axis), so the box |x_i| <= 1 treats
+# translation and rotation alike and every row g' = (n, (p - c) x n / L) has speeds of order 1.
+# The tolerances below are dimensionless in these units, hence scale-invariant.
+
 #: Angular tolerance (radians) for comparing directions: the project's sphere tolerance.
 ANGLE_TOL = 1e-6
-#: Largest ``|G_k x|`` of a sliding row, in the LP's scaled speed units (module docstring).
+#: Largest ``|G_k x|`` of a sliding row, in the LP's scaled speed units (null-space and
+#: polishing computations).
 SLIDE_TOL = 1e-6
-#: Smallest separation speed of a broken row, in the LP's scaled speed units.
+#: Smallest separation speed of a broken row, in the LP's scaled speed units: 1000 times
+#: :data:`LP_SLACK`, so a spurious motion would need ``L / r > 1000``. A screw of pitch ``h``
+#: separates at about ``h / (2 pi L)`` (4e-3 for a 1.25 mm thread on a 50 mm model): threads
+#: finer than ``2 pi L BREAK_TOL`` (0.6 mm on a 1 m model) are missed.
 BREAK_TOL = 1e-4
-#: Allowed violation of each LP row (scaled units): rounding of normals and axes.
+#: Allowed violation of each LP row, ``G x <= LP_SLACK`` (scaled units): the order of the
+#: rounding in CAD normals and axes and of HiGHS's own feasibility tolerance. A larger
+#: allowance lets a part turn about an axis close to a small pin (radius ``r``) while
+#: violating the pin's rows by the allowance, breaking far contacts ``L / r`` times faster (the
+#: bell's armature "came out" about its 1.5 mm peg with 1e-4). Noise in the contact data is
+#: removed before (exact planar normals, radial cylinder normals).
 LP_SLACK = 1e-7
 #: A twist whose rotational speed ``L |w|`` is below this fraction of its largest component is
 #: read as a pure translation.
@@ -212,7 +183,9 @@ def contact_points(c: Any, length_tol: float,
     at its own radius and height, onto the line where that normal is exactly radial: the
     rows then let the part turn about the axis exactly; of the points sharing a normal only
     the lowest and highest along the axis are kept (exact, see :func:`reduce_points`).
-    (:func:`contact_rows` does the same for all contacts at once.)
+    (:func:`contact_rows` does the same for all contacts at once.) Without this, a tessellated
+    cylinder's facet normals, radial only on each facet's centre line, would spuriously block
+    the rotation about the cylinder's own axis.
     """
     pts, pn, gens, final = _raw_rows(c)
     if final:
@@ -376,7 +349,9 @@ def _pad3(v: np.ndarray) -> np.ndarray:
 def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
     """Flatten ``contacts`` (objects with ``a``, ``b`` (ids or indices), ``points``,
     ``point_normals``/``normals``, optional ``surface``/``axis``/``center``/``blocking``) into
-    rows.
+    rows: one per convex-hull vertex of a planar contact's polygon (Fig. 6), one per contact
+    point of a curved contact; rows sharing a normal are reduced to the extreme points
+    (:func:`reduce_points`).
 
     Curved contacts between the two parts of a declared joint get radial normals about the
     joint's axis when they are surfaces of revolution about it (:func:`contact_points`).

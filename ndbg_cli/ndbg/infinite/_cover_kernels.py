@@ -1,8 +1,9 @@
-"""Compiled kernels (numba) of the raster cover's tests (:class:`ndbg_cli.ndbg.infinite.cover.Cover`): the
-window tests on a term's generators or facets, the summed-area tables and the fused
-"inside the covered cells" tests of a cone. The same conventions as :mod:`ndbg_cli.ndbg.infinite._kernels`
-(whose dot products and per-cone clip and facet helpers they use): numpy's rounding repeated,
-so the results are bit-identical to the numpy code they replace.
+"""Compiled kernels (numba) of the raster cover's tests
+(:class:`ndbg_cli.ndbg.infinite.cover.Cover`): the window tests on a term's generators or facets,
+the summed-area tables and the fused "inside the covered cells" tests of a cone. The same
+conventions as :mod:`ndbg_cli.ndbg.infinite._kernels` (whose dot products and per-cone clip and
+facet helpers they use): numpy's rounding repeated, so the results are bit-identical to the numpy
+code they replace.
 """
 
 from __future__ import annotations
@@ -152,15 +153,14 @@ def _cone_covered(cone: np.ndarray, faces: np.ndarray, corners: np.ndarray,
 @njit(cache=True)
 def covers(cones: np.ndarray, faces: np.ndarray, corners: np.ndarray, rects: np.ndarray,
            sats: np.ndarray, blocks: np.ndarray, h: float, size: int) -> np.ndarray:
-    """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every face
-    it meets (:meth:`ndbg_cli.ndbg.infinite.cover.Cover.covers`). Only the faces ``faces`` ``(w,)`` with a
+    """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every face it meets
+    (:meth:`ndbg_cli.ndbg.infinite.cover.Cover.covers`). Only the faces ``faces`` ``(w,)`` with a
     window count (elsewhere every cell is covered): window ``w`` has corner directions
-    ``corners[w]`` ``(4, 3)`` and chart rectangle ``rects[w]`` (``x0, y0, x1, y1``). A cone
-    with a half-space that has the four corners strictly outside misses the window; else its
-    polygon clipped to the rectangle, when it has 3 vertices or more, must have its bounding
-    box in covered cells (the summed-area tables ``sats`` ``(6, ., .)`` of the ``blocks``
-    ``(6, 4)`` of a ``size x size`` raster, cells ``h`` chart units wide:
-    :func:`box_covered`)."""
+    ``corners[w]`` ``(4, 3)`` and chart rectangle ``rects[w]`` (``x0, y0, x1, y1``). A cone with a
+    half-space that has the four corners strictly outside misses the window; else its polygon
+    clipped to the rectangle, when it has 3 vertices or more, must have its bounding box in covered
+    cells (the summed-area tables ``sats`` ``(6, ., .)`` of the ``blocks`` ``(6, 4)`` of a ``size x
+    size`` raster, cells ``h`` chart units wide: :func:`box_covered`)."""
     p, k, _ = cones.shape
     ok = np.ones(p, dtype=np.bool_)
     coef = np.empty((k, 3))
@@ -323,10 +323,10 @@ def mark_cells(poly: np.ndarray, cnt: np.ndarray, h: float, covered: np.ndarray)
 @njit(cache=True)
 def open_window(covered: np.ndarray, row0: int, row1: int, col0: int, col1: int,
                 margin: float) -> tuple[bool, float, float, float, float]:
-    """:func:`ndbg_cli.ndbg.infinite.cover.cells_window` of the cells not ``covered`` (``(r, r)``, one
-    face) in the block ``row0:row1, col0:col1`` (every other cell covered): ``(found, x0,
-    y0, x1, y1)``, the chart rectangle on cell boundaries, ``margin`` (the chart square's
-    half side) where it reaches the face's border."""
+    """:func:`ndbg_cli.ndbg.infinite.cover.cells_window` of the cells not ``covered`` (``(r, r)``,
+    one face) in the block ``row0:row1, col0:col1`` (every other cell covered): ``(found, x0, y0,
+    x1, y1)``, the chart rectangle on cell boundaries, ``margin`` (the chart square's half side)
+    where it reaches the face's border."""
     r = covered.shape[0]
     h = 2.0 / r
     lo_r, hi_r, lo_c, hi_c = r, -1, r, -1

@@ -1,14 +1,13 @@
 """Compiled kernels (numba, ``@njit(cache=True)``) of the hot loops of the infinite-translation
 NDBG: per-item loops that the numpy versions ran as padded, masked array passes.
 
-Each kernel computes, operation by operation, what the numpy code it replaces computed
-(same expressions, same evaluation order, no fast-math; a fused multiply-add exactly where
-numpy's matmul uses one, see the dot products below), so the results are bit-identical; only
-the padding of the outputs (entries past a count) may differ, and no caller reads it. The
-first call of a kernel in a fresh environment compiles it (about 10 s for all of them and
-:mod:`ndbg_cli.ndbg.infinite._cover_kernels`; the cache then lives in ``__pycache__`` beside this file, or in
-the user's cache folder when that is not writable). Numba freezes module globals
-(:data:`FACES`) into the compiled code.
+Each kernel computes, operation by operation, what the numpy code it replaces computed (same
+expressions, same evaluation order, no fast-math; a fused multiply-add exactly where numpy's
+matmul uses one, see the dot products below), so the results are bit-identical; only the
+padding of the outputs (entries past a count) may differ, and no caller reads it. The first
+call in a fresh environment compiles the kernels (the cache lives in ``__pycache__`` beside
+this file, or in the user's cache folder when that is not writable). Numba freezes module
+globals (:data:`FACES`) into the compiled code.
 """
 
 from __future__ import annotations
@@ -151,12 +150,11 @@ def _clip(coef: np.ndarray, sq: np.ndarray, cur: np.ndarray, buf: np.ndarray, f:
 @njit(cache=True)
 def clip_cones(normals: np.ndarray, face: int, sq: np.ndarray, shrink: float,
                max_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """Clip the convex quadrilateral ``sq`` ``(4, 2)`` (counter-clockwise, chart units) of
-    ``face`` by the chart half-planes ``a s + b t + c >= 0`` of each open cone of
-    ``normals`` ``(p, k, 3)`` (:func:`ndbg_cli.ndbg.infinite.cubemap.clip_halfplanes`): row ``m`` gives
-    ``(a, b, c) = (m . u, m . v, m . e)`` (as numpy's matmul rounds them), ``c`` lowered by
-    ``shrink * hypot(a, b)`` when ``shrink > 0``; an all-zero row is no constraint
-    (padding).
+    """Clip the convex quadrilateral ``sq`` ``(4, 2)`` (counter-clockwise, chart units) of ``face``
+    by the chart half-planes ``a s + b t + c >= 0`` of each open cone of ``normals`` ``(p, k, 3)``
+    (:func:`ndbg_cli.ndbg.infinite.cubemap.clip_halfplanes`): row ``m`` gives ``(a, b, c) = (m . u,
+    m . v, m . e)`` (as numpy's matmul rounds them), ``c`` lowered by ``shrink * hypot(a, b)`` when
+    ``shrink > 0``; an all-zero row is no constraint (padding).
 
     Returns ``(poly, count)``: ``poly`` ``(p, w, 2)`` vertices (counter-clockwise; the entries
     past ``count[i]`` are zero) and ``count`` ``(p,)``; ``count[i] < 3`` when cone ``i``
@@ -253,13 +251,12 @@ def _cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: flo
 def cone_normals(gens: np.ndarray, pa: np.ndarray, pb: np.ndarray, rel_tol: float
                  ) -> np.ndarray:
     """Candidate facets of the conic hulls of generator sets (see
-    :func:`ndbg_cli.ndbg.infinite.cubemap.cone_normals`): ``gens`` ``(p, g, 3)``, candidate planes through
-    generators ``pa[c]``, ``pb[c]`` (``(q,)`` each). Returns ``(p, q, 3)`` signed unit normals
-    (zero where the candidate is not a facet), or ``(p, 2 q, 3)`` when some candidate of the
-    batch has every generator in its plane within tolerance: its ``-n`` is then in row
-    ``q + c`` (zero rows elsewhere). A candidate is valid when ``|n| > 1e-12 big^2`` (``big``
-    the longest generator) and a side holds every generator within ``rel_tol`` times its
-    length."""
+    :func:`ndbg_cli.ndbg.infinite.cubemap.cone_normals`): ``gens`` ``(p, g, 3)``, candidate planes
+    through generators ``pa[c]``, ``pb[c]`` (``(q,)`` each). Returns ``(p, q, 3)`` signed unit
+    normals (zero where the candidate is not a facet), or ``(p, 2 q, 3)`` when some candidate of the
+    batch has every generator in its plane within tolerance: its ``-n`` is then in row ``q + c``
+    (zero rows elsewhere). A candidate is valid when ``|n| > 1e-12 big^2`` (``big`` the longest
+    generator) and a side holds every generator within ``rel_tol`` times its length."""
     p, g, _ = gens.shape
     q = len(pa)
     out = np.zeros((p, 2 * q, 3))

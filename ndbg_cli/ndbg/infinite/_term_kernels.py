@@ -1,11 +1,11 @@
-"""Compiled kernels (numba) of the terms of ``B_ij`` (:func:`ndbg_cli.ndbg.infinite.blocking_cones.terms`):
-which triangle pairs can face each other (:func:`facing_pairs`), then (:func:`terms`), per
-triangle pair, the generators, the cover's quick window tests, the facets, their
-compaction and the flat test, one pair at a time with no intermediate arrays. The same
-operations in the same order as the batched numpy and kernel code it replaces (see
-:mod:`ndbg_cli.ndbg.infinite._kernels`), so each kept cone has the same nonzero rows, bit for bit, in the
-same order; only where the zero padding sits differs (after the facing rows here, before
-them there), which no consumer of a cone reads.
+"""Compiled kernels (numba) of the terms of ``B_ij``
+(:func:`ndbg_cli.ndbg.infinite.blocking_cones.terms`): which triangle pairs can face each other
+(:func:`facing_pairs`), then (:func:`terms`), per triangle pair, the generators, the cover's quick
+window tests, the facets, their compaction and the flat test, one pair at a time with no
+intermediate arrays. The same operations in the same order as the batched numpy and kernel code it
+replaces (see :mod:`ndbg_cli.ndbg.infinite._kernels`), so each kept cone has the same nonzero rows,
+bit for bit, in the same order; only where the zero padding sits differs (after the facing rows
+here, before them there), which no consumer of a cone reads.
 """
 
 from __future__ import annotations
@@ -27,21 +27,21 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     each other), in the order given: ``(p, w, 3)`` and their number ``p`` (rows past it
     unused).
 
-    Pair ``k``'s generators are ``tj[jb[k], v] - ti[ia[k], w]`` (index ``3 v + w``), both
-    triangles moved inward by ``1.5 eps`` along their normals when ``near[k]``, and their
-    vertices by ``di``, ``dj`` ``(t, 3, 3)`` in their planes (:mod:`ndbg_cli.ndbg.infinite.erosion`; a
-    near pair with a triangle ``gi`` / ``gj`` gone has no term); its facing
-    half-spaces are ``ni[ia[k]]`` and ``-nj[jb[k]]``. With ``use_cover`` a pair is dropped
-    when it misses every window (corner directions ``corners`` ``(nw, 4, 3)``, inward side
-    normals ``sides``), first on its generators and facing half-spaces
-    (:func:`ndbg_cli.ndbg.infinite._cover_kernels.spanned_misses`), then on its facets and facing
-    half-spaces (:func:`ndbg_cli.ndbg.infinite._cover_kernels.open_misses`). The facets are the candidates
-    ``pa``, ``pb`` (:func:`ndbg_cli.ndbg.infinite._kernels.cone_normals`, ``rel_tol``), compacted
-    (:func:`ndbg_cli.ndbg.infinite._kernels.compact`); a cone with two rows ``m . m' <= -1 + flat_tol``
-    (:func:`ndbg_cli.ndbg.infinite._kernels.flat`) is dropped. Two such cones are known early and dropped
-    then, the same ones: facing rows anti-parallel (parallel faces facing the same way, as
-    in a row of identical bolts: half the terms some pairs of AS1 make), and every generator
-    in one candidate's plane (its rows ``n`` and ``-n``)."""
+    Pair ``k``'s generators are ``tj[jb[k], v] - ti[ia[k], w]`` (index ``3 v + w``), both triangles
+    moved inward by ``1.5 eps`` along their normals when ``near[k]``, and their vertices by ``di``,
+    ``dj`` ``(t, 3, 3)`` in their planes (:mod:`ndbg_cli.ndbg.infinite.erosion`; a near pair with a
+    triangle ``gi`` / ``gj`` gone has no term); its facing half-spaces are ``ni[ia[k]]`` and
+    ``-nj[jb[k]]``. With ``use_cover`` a pair is dropped when it misses every window (corner
+    directions ``corners`` ``(nw, 4, 3)``, inward side normals ``sides``), first on its generators
+    and facing half-spaces (:func:`ndbg_cli.ndbg.infinite._cover_kernels.spanned_misses`), then on
+    its facets and facing half-spaces (:func:`ndbg_cli.ndbg.infinite._cover_kernels.open_misses`).
+    The facets are the candidates ``pa``, ``pb``
+    (:func:`ndbg_cli.ndbg.infinite._kernels.cone_normals`, ``rel_tol``), compacted
+    (:func:`ndbg_cli.ndbg.infinite._kernels.compact`); a cone with two rows ``m . m' <= -1 +
+    flat_tol`` (:func:`ndbg_cli.ndbg.infinite._kernels.flat`) is dropped. Two such cones are known
+    early and dropped then, the same ones: facing rows anti-parallel (parallel faces facing the same
+    way, as in a row of identical bolts: up to half of some pairs' terms), and every generator in
+    one candidate's plane (its rows ``n`` and ``-n``)."""
     n = len(ia)
     q = len(pa)
     width = 2 * q + 2
@@ -175,12 +175,12 @@ def prune_pairs(a: np.ndarray, b: np.ndarray, lo_i: np.ndarray, hi_i: np.ndarray
     ``hi_*`` ``(nodes, 3)``, model units) a pruning walk keeps
     (:meth:`ndbg_cli.ndbg.infinite.blocking_cones._Walk.prune`), and how many far pairs it tested.
 
-    A pair's box cone is spanned by the 8 corners of the box of differences grown by
-    ``2 eps``. Pairs whose grown box holds the origin are kept. Far pairs (gap above
-    ``4 eps``) are dropped when ``cover`` covers their box cone, near ones when ``outside``
-    does (the domain alone), each when its ``use_*`` is set: :func:`~ndbg_cli.ndbg.infinite._cover_kernels.
-    covers_spanned` with the generator pairs ``pa``, ``pb`` and the cover's windows
-    ``(faces, corners, rects, sats, blocks, h, size)``."""
+    A pair's box cone is spanned by the 8 corners of the box of differences grown by ``2 eps``.
+    Pairs whose grown box holds the origin are kept. Far pairs (gap above ``4 eps``) are dropped
+    when ``cover`` covers their box cone, near ones when ``outside`` does (the domain alone), each
+    when its ``use_*`` is set: :func:`~ndbg_cli.ndbg.infinite._cover_kernels.covers_spanned` with
+    the generator pairs ``pa``, ``pb`` and the cover's windows ``(faces, corners, rects, sats,
+    blocks, h, size)``."""
     p = len(a)
     keep = np.ones(p, dtype=np.bool_)
     grow = 2.0 * eps

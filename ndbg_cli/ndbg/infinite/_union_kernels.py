@@ -1,12 +1,11 @@
-"""Compiled kernels (numba) of :mod:`ndbg_cli.ndbg.infinite.chart_union`: the areas and bounding boxes of
-a pair's chart pieces, and which of them the union needs (:func:`maximal_pieces`,
-:func:`inside_kept`).
+"""Compiled kernels (numba) of :mod:`ndbg_cli.ndbg.infinite.chart_union`: the areas and
+bounding boxes of a pair's chart pieces, and which of them the union needs
+(:func:`maximal_pieces`, :func:`inside_kept`).
 
-A pair's set near a contact is a fan of wedges and half-planes meeting at the free
-directions, most of them inside another single one (many exact duplicates within their
-window): on AS1 14,761 of the 95,722 pieces clipped to the domain's windows enter the
-unions. Finding them costs a scan of the kept pieces' boxes per piece, far less than
-building and testing the others in GEOS (:func:`ndbg_cli.ndbg.infinite.chart_union.union`).
+A pair's set near a contact is a fan of wedges and half-planes, most of them inside another single
+one (many exact duplicates within their window), so only a small fraction of the pieces enters the
+unions. Finding them costs a scan of the kept pieces' boxes per piece, far less than building and
+testing the others in GEOS (:func:`ndbg_cli.ndbg.infinite.chart_union.union`).
 """
 
 from __future__ import annotations
@@ -20,8 +19,8 @@ from ._kernels import cut_polygon
 @njit(cache=True)
 def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For convex polygons ``poly`` ``(p, m, 2)`` with ``cnt`` ``(p,)`` vertices each
-    (counter-clockwise, :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`'s output): their areas ``(p,)``
-    (shoelace, 0 below 3 vertices) and bounding boxes ``(p, 4)`` (``x0, y0, x1, y1``)."""
+    (counter-clockwise, :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`'s output): their areas
+    ``(p,)`` (shoelace, 0 below 3 vertices) and bounding boxes ``(p, 4)`` (``x0, y0, x1, y1``)."""
     p = len(cnt)
     area = np.zeros(p)
     boxes = np.zeros((p, 4))
@@ -51,8 +50,8 @@ def _edges_hold(poly: np.ndarray, cnt: np.ndarray, a: int, kpoly: np.ndarray,
     of, or on, every edge ``p -> q`` of convex polygon ``b`` (``kpoly``, ``kcnt``), both
     counter-clockwise: ``(q - p) x (v - p) >= 0`` in floating point. With ``b``'s bounding
     box holding ``a``'s (tested by the callers, in their loops: written there, the scans run
-    about 20 times faster than through one inlined function with both tests), ``a`` lies
-    inside ``b``."""
+    much faster than through one inlined function with both tests; benchmarks/NOTES.md),
+    ``a`` lies inside ``b``."""
     nb = kcnt[b]
     for e in range(nb):
         px, py = kpoly[b, e, 0], kpoly[b, e, 1]

@@ -1,9 +1,10 @@
-"""The arrangement of the blocked-direction sets on the cube map: its cells (regions of
-dimension 2, 1 and 0), face by face, from the chart geometry of
-:class:`ndbg_cli.ndbg.infinite.blocked_sets.BlockedSets`, and the seam candidates on the contact circles.
+"""The arrangement of the blocked-direction sets on the cube map: its cells (regions of dimension 2,
+1 and 0), face by face, from the chart geometry of
+:class:`ndbg_cli.ndbg.infinite.blocked_sets.BlockedSets`, and the seam candidates on the contact
+circles.
 
-Chart coordinates are those of :mod:`ndbg_cli.ndbg.infinite.cubemap` (about radians near a face's centre);
-linework is snapped to :data:`~ndbg_cli.ndbg.infinite.chart_union.GRID`.
+Chart coordinates are those of :mod:`ndbg_cli.ndbg.infinite.cubemap` (about radians near a face's
+centre); linework is snapped to :data:`~ndbg_cli.ndbg.infinite.chart_union.GRID`.
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
-from .chart_union import GRID, antipodal
 from ._kernels import FACES
+from .chart_union import GRID, antipodal
 from .cubemap import SQUARE_MARGIN, direction_of
 
 if TYPE_CHECKING:
@@ -162,7 +163,7 @@ def off_circles(region: object, normals: np.ndarray, face: int) -> np.ndarray | 
     then 64 x 64 when none lies inside), the inside one farthest from every circle (largest
     ``min |n . d|``); ``None`` when none is farther than :data:`OFF_CIRCLE` (the point
     stays). Vectorised over points and circles: a tessellated bore's thousands of concurrent
-    circles made a buffered union of their lines take minutes on AS1."""
+    circles made a buffered union of their lines take minutes on a real assembly."""
     x0, y0, x1, y1 = region.bounds
     shapely.prepare(region)
     for k in (16, 64):
@@ -192,7 +193,7 @@ def merged_segments(lines: list) -> np.ndarray:
 
     The boundaries of many ``B_ij`` lie on the same great circles (boxes, faces of one plane,
     the contact circles), whose collinear, overlapping pieces make snap-rounding slow
-    (a 64-box grid: 9,036 segments on 175 lines, 1.9 s per face to node, 0.02 s merged)."""
+    (benchmarks/NOTES.md)."""
     parts = shapely.get_parts(shapely.get_parts(np.asarray(lines, dtype=object)))
     xy, idx = shapely.get_coordinates(parts, return_index=True)
     same = idx[1:] == idx[:-1]
@@ -261,7 +262,7 @@ def seam_cells(noded: object, normals: np.ndarray, face: int, dom: object,
         meets = shapely.intersects(dom, circ)
         if meets.sum() > SEAM_CIRCLES:
             # past SEAM_CIRCLES the pieces are not used (below), only the crossings: the
-            # circles are not cut (AS1: 0.07 s)
+            # circles are not cut (benchmarks/NOTES.md)
             circ = [None] * int(meets.sum())
         else:
             circ = [g for g in shapely.intersection(np.asarray(circ, dtype=object)[meets], dom)
@@ -390,8 +391,8 @@ FUSED_KEYS = 1 << 24
 
 def _fused_inputs(groups: list, boxes: np.ndarray, domain: list | None, q: float, c: int
                   ) -> tuple | None:
-    """What :func:`ndbg_cli.ndbg.infinite._kernels.first_crossings` takes besides the circles, or ``None``
-    when it cannot replace the chunked path: no domain, a domain polygon with an edge that
+    """What :func:`ndbg_cli.ndbg.infinite._kernels.first_crossings` takes besides the circles, or
+    ``None`` when it cannot replace the chunked path: no domain, a domain polygon with an edge that
     is not axis-parallel (domain polygons are unions of raster cells), or too many keys."""
     if domain is None:
         return None

@@ -1,5 +1,5 @@
 """The blocked-direction sets ``B_ij`` of every ordered pair of parts on the cube map, for the
-infinite-translation NDBG (:mod:`ndbg_cli.ndbg.infinite.build`, whose docstring gives the route and the
+infinite-translation NDBG (:mod:`ndbg_cli.ndbg.infinite.build`, which gives the route and the
 tolerances): :func:`blocked_sets` computes them (each unordered pair once, the other order its
 antipodal image; cached per pair; optionally inside a domain of directions only), and
 :class:`BlockedSets` holds them and reads the DBG at any direction, with the closed chart sets
@@ -52,8 +52,8 @@ class BlockedSets:
     circles: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     space_dimension: int = 3
     stats: dict = field(default_factory=dict)
-    #: Per face, the chart geometry of the directions where the sets are right (``None``
-    #: entries: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.ndbg.infinite.domain`).
+    #: Per face, the chart geometry of the directions where the sets are right (``None`` entries:
+    #: none on that face), or ``None`` for all directions (:mod:`ndbg_cli.ndbg.infinite.domain`).
     domain: list | None = None
     #: 2D assemblies: each ordered pair's open arcs on the equator (radians,
     #: :func:`ndbg_cli.ndbg.infinite.equator.cone_arcs`), set by :func:`build_infinite`.
@@ -144,10 +144,10 @@ class BlockedSets:
         ``(i, j)`` whose chart pieces' bounding boxes hold them (a superset); returns the
         sorted indices of those inside one.
 
-        A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices:
-        each direction's pieces are scanned up to its first hit
-        (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`; a compiled scan of the boxes, where an STR-tree
-        query listed 48 million candidates on AS1). Only the directions in no open cone
+        A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices: each
+        direction's pieces are scanned up to its first hit
+        (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`; a compiled scan of the boxes, where an
+        STR-tree query listed tens of millions of candidates). Only the directions in no open cone
         (seams, boundaries) scan every piece."""
         from . import _kernels as kernels
         out = np.zeros(len(d), dtype=bool)
@@ -211,9 +211,9 @@ def succ_from_bits(bits: np.ndarray) -> list[tuple[int, ...]]:
     return out
 
 
-#: Against the budget, a pair of convex parts far apart (one cone, about 0.3 ms) counts as
-#: this many triangle pairs (set when a pair cost 20-70 microseconds through the terms; about
-#: 1 on AS1 now, so the count errs towards computing them), plus one per
+#: Against the budget, a pair of convex parts far apart (one cone) counts as this many
+#: triangle pairs: the ratio of the two costs when it was set (benchmarks/NOTES.md; triangle
+#: pairs have become cheaper since, so the count errs towards computing them), plus one per
 #: :data:`CONVEX_DIFFERENCES_PER_PAIR` difference vectors (``|V_i| |V_j|``).
 CONVEX_PAIR_COST = 16
 CONVEX_DIFFERENCES_PER_PAIR = 128
@@ -234,8 +234,7 @@ def triangle_pairs(asm: Assembly) -> int:
     (:func:`~ndbg_cli.ndbg.infinite.convex_cones.far_convex` decides), counts as
     :data:`CONVEX_PAIR_COST` plus one per :data:`CONVEX_DIFFERENCES_PER_PAIR` difference
     vectors. The CLI skips the NDBG with a warning above
-    ``--infinite-budget`` (AS1: 1.1e8 pairs; a grid of 100 separate boxes: 1.4e6 triangle
-    pairs, 1.6e5 counted)."""
+    ``--infinite-budget`` (example counts in benchmarks/NOTES.md)."""
     t = np.array([p.check.triangles if asm.dimension == 3 else 4 * p.check.vertices
                   for p in asm.parts], dtype=float)
     total = t.sum() ** 2 - (t ** 2).sum()
@@ -256,15 +255,15 @@ def triangle_pairs(asm: Assembly) -> int:
 def blocked_sets(asm: Assembly, cache: PairCache | None = None,
                  domain: np.ndarray | None = None, workers: int = 1,
                  progress: bool = False) -> BlockedSets:
-    """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is
-    computed once, the part with fewer triangles moving, and the other order is its antipodal
-    image (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed
-    pair's cones and chart polygons are looked up by the two parts' content hashes and the
-    tolerance (:mod:`ndbg_cli.core.cache`). With ``domain`` (``(6, r, r)`` bool cube-map cells,
-    symmetric under ``d -> -d``, :func:`ndbg_cli.ndbg.infinite.domain.free_domain`) the sets are right only
+    """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is computed
+    once, the part with fewer triangles moving, and the other order is its antipodal image
+    (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed pair's cones
+    and chart polygons are looked up by the two parts' content hashes and the tolerance
+    (:mod:`ndbg_cli.core.cache`). With ``domain`` (``(6, r, r)`` bool cube-map cells, symmetric
+    under ``d -> -d``, :func:`ndbg_cli.ndbg.infinite.domain.free_domain`) the sets are right only
     inside those cells, and computed only there. ``workers``: processes computing the pairs
-    (:func:`ndbg_cli.ndbg.infinite.pair_workers.pair_sets`; the result does not depend on it); ``progress``:
-    a bar over the pairs on stderr (a terminal only)."""
+    (:func:`ndbg_cli.ndbg.infinite.pair_workers.pair_sets`; the result does not depend on it);
+    ``progress``: a bar over the pairs on stderr (a terminal only)."""
     if domain is not None and not antipodal_symmetric(domain):
         # B_ji is made from B_ij on the opposite face: both must lie in the domain
         raise ValueError("the domain must be symmetric under d -> -d")
@@ -311,12 +310,11 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for a, b in order:
         if (a, b) in fast or cache is None:
             continue
-        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-6":
-        # near triangles inset from their parts' convex sharp edges (ndbg_cli.ndbg.infinite.erosion), and
+        # 2D parts are extruded to the assembly's diagonal: that enters the result. "pruned-6": near
+        # triangles inset from their parts' convex sharp edges (ndbg_cli.ndbg.infinite.erosion), and
         # with a domain the terms whose window pieces lie inside kept ones left out; older:
-        # "pruned-5", unions of the pieces inside no other one, "pruned-4", the pieces
-        # themselves stored rather than their boxes before, and unions not checked for lost
-        # area before that
+        # "pruned-5", unions of the pieces inside no other one, "pruned-4", the pieces themselves
+        # stored rather than their boxes before, and unions not checked for lost area before that
         keys[(a, b)] = cache.key("infinite", "pruned-6", gkeys[a], gkeys[b], eps,
                                  asm.dimension, asm.diagonal if asm.dimension == 2 else None,
                                  *extra)
@@ -361,11 +359,11 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
 
 
 def _cut_face_pair(geoms: list[dict], face: int, dom: object, memo: dict) -> None:
-    """Cut the sets on the even ``face`` to the domain's polygons ``dom`` there (``None``:
-    none), and set those on the opposite face to their antipodal images: every set there is
-    the image of one here (``B_ji = -B_ij``, as :func:`blocked_sets` stores them) and so is
-    the domain (:func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`), so the images are the cuts, made
-    once and exactly symmetric. ``memo``: cuts made already (the workers')."""
+    """Cut the sets on the even ``face`` to the domain's polygons ``dom`` there (``None``: none),
+    and set those on the opposite face to their antipodal images: every set there is the image of
+    one here (``B_ji = -B_ij``, as :func:`blocked_sets` stores them) and so is the domain
+    (:func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`), so the images are the cuts, made once
+    and exactly symmetric. ``memo``: cuts made already (the workers')."""
     fd, od = geoms[face], geoms[face ^ 1]
     if dom is None:
         fd.clear()

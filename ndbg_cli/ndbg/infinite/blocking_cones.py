@@ -1,80 +1,15 @@
-"""The blocked-direction set ``B_ij`` of one ordered pair of parts, as a union of open cones.
+"""The blocked-direction set ``B_ij`` of one ordered pair of parts, as a union of open cones
+(paper section 5.3).
 
-Part ``P_j`` blocks the infinite translation of ``P_i`` along ``d`` when the sweep of ``P_i``
-along ``d`` meets the interior of ``P_j``. For closed polyhedral parts a generic blocking ray
-leaves ``P_i`` through a triangle ``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a
-triangle ``t_j`` (``n_j . d < 0``), so
+``P_j`` blocks the infinite translation of ``P_i`` along ``d`` when the sweep of ``P_i`` along
+``d`` meets the interior of ``P_j``. A generic blocking ray leaves ``P_i`` through a triangle
+``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a triangle ``t_j`` (``n_j . d < 0``), so
 
     B_ij = union over triangle pairs of  cone(t_j - t_i) ∩ {n_i . d > 0} ∩ {n_j . d < 0},
 
-each term an open convex polyhedral cone (H-representation, :mod:`ndbg_cli.ndbg.infinite.cubemap`).
-:func:`pair_cones` lists every term of the triangle pairs that can face each other (dense,
-``O(t_i t_j)``); :func:`pruned_pair_cones` gives the same set from far fewer terms.
-
-Pruning (exact)
----------------
-The triangles of each part are put in a bounding-box tree (:func:`tri_tree`). For a pair of
-nodes, every term of their triangle pairs lies in the cone spanned by the box difference
-``box_j - box_i`` (grown by the erosion margin); if that cone lies inside the union of the
-terms already kept, *each polygon eroded by* :data:`~ndbg_cli.ndbg.infinite.cover.SHRINK` chart units, the
-node pair adds nothing: every one of its directions is already strictly inside some kept open
-cone. "Inside" is decided conservatively on a raster per cube face
-(:class:`~ndbg_cli.ndbg.infinite.cover.Cover`: the cells wholly inside some eroded kept polygon; a cone is
-inside when the bounding box of its chart image meets only such cells), which costs the same
-however many terms are kept; on the whole sphere a new term inside it is dropped the same way
-(with a domain the containment test of its window pieces, below, does that: the raster
-test dropped only 2% of AS1's 402k terms there, for 0.2 s). So the union of the
-kept terms equals ``B_ij``, both as a closed chart set and as a union of open cones (which the
-open-set re-test of :class:`ndbg_cli.ndbg.infinite.build.BlockedSets` relies on). Node pairs within
-``4 eps`` of each other (contacts) are never pruned, so every near triangle pair is kept and
-the contact circles are complete. The tree is walked breadth-first; at each level every
-surviving node pair contributes the exact term of its two largest triangles, which fills the
-union from the inside before the leaves are reached. Leaf pairs (at most
-:data:`~ndbg_cli.ndbg.infinite.tritree.LEAF`
-triangles a side) that survive contribute all their terms. Flat terms (:func:`flat`: two
-coplanar triangles, an empty open cone) are dropped as they are made.
-
-With a *domain* (cube-map cells, :mod:`ndbg_cli.ndbg.infinite.domain`), the cells outside it count as
-covered from the start: what lies only there is pruned, near node pairs included, and the
-union is right inside the domain only. The near leaf pairs are then emitted before the walk:
-inside the domain's small caps a contact's terms often block the whole cap, and the far
-pairs behind them are pruned (the order changes which terms are kept, not their union).
-Most terms there miss every open cell: two quick tests drop them before their facets are
-computed or clipped (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_spanned_open` on the generators and
-the facing half-spaces, :meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_open` on the facets), and the
-trees have larger leaves (:data:`ndbg_cli.ndbg.infinite.pair_workers.DOMAIN_LEAF`).
-
-The facets of a term's cone are sought among the planes through two of its 9 generators
-``t_j[v] - t_i[w]`` that share ``v`` or ``w`` (:data:`~ndbg_cli.ndbg.infinite.cubemap.DIFFERENCE_PAIRS`,
-18 of 36), those of a node pair's box cone among its 12 edges
-(:data:`~ndbg_cli.ndbg.infinite.cubemap.BOX_EDGE_PAIRS`, of 28 corner pairs).
-
-Tolerance (``eps``, the assembly's length tolerance)
----------------------------------------------------
-Near triangle pairs (bounding boxes closer than ``4 eps``) are eroded: both triangles move
-inward by ``1.5 eps`` along their normals, so contact never blocks by itself (see
-:mod:`ndbg_cli.ndbg.infinite.build`). Far pairs use the exact triangles.
-
-Moving a triangle along its own normal does not pull its edges back as eroding the solid
-does: two faces of two parts that meet at an angle (an L-shaped corner where the parts touch
-along an edge or at a point) would cross each other once moved, the origin would fall inside
-their difference set, and their term would be the whole facing quarter of the sphere (the
-Fig. 10 latch: latch_b "blocked" latch_a along half of all directions, where the sweep test
-and manifold3d find it free). So the near pairs whose normals are not opposed within 45
-degrees also have their triangles' edges that lie on convex sharp edges of their parts moved
-inward by ``1.5 eps`` in their planes (:mod:`ndbg_cli.ndbg.infinite.erosion`); opposed pairs (faces in
-contact, flat or tessellated) are moved along their normals only. Not eroding the angled
-pairs at all is no cure: tessellation overlaps at the nuts' edges then block AS1 everywhere.
-
-With a domain the unions are made in its windows only, and a term whose pieces there all
-lie inside single pieces of the terms kept so far is left out (:func:`_new_pieces_of`):
-without the spurious quarter spheres, which had covered the raster, a contact's fan of
-wedges round a free axis kept 372,776 terms on AS1; 61,560 are left. A term lies in its
-two facing half-spaces, so a triangle whose facing half-space has its window pieces inside
-single kept pieces adds nothing with any partner: its pairs are left out before their terms
-are made (:meth:`_Walk._open_sides`; tested again each time the kept pieces have doubled).
-The contact faces' far pairs made tens of thousands of terms whose window piece was the
-same half-window: AS1's term kernel took 2.0 million pairs, now 0.85 million.
+each term an open convex polyhedral cone (:mod:`ndbg_cli.ndbg.infinite.cubemap`).
+:func:`pair_cones` lists every term (dense, ``O(t_i t_j)``); :func:`pruned_pair_cones` gives
+the same set from far fewer terms.
 """
 
 from __future__ import annotations
@@ -138,22 +73,33 @@ def pair_cones(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, e
 _EMPTY = (np.zeros((0, 1, 3)), np.zeros((0, 3)))
 
 
+# Tolerance (eps, the assembly's length tolerance). Near triangle pairs (boxes closer than
+# 4 eps) are eroded: both triangles move inward by 1.5 eps along their normals, so contact
+# never blocks by itself (see ndbg_cli.ndbg.infinite.build); far pairs use the exact triangles.
+# Near pairs whose normals are not opposed within 45 degrees also have their edges on convex
+# sharp part edges moved inward by 1.5 eps in their planes (ndbg_cli.ndbg.infinite.erosion
+# says why); opposed pairs (faces in contact, flat or tessellated) move along their normals
+# only. Not eroding angled pairs at all is no cure: tessellation overlaps at nuts' edges then
+# block a real assembly everywhere.
+# A term's facets are sought among the planes through two of its 9 generators
+# t_j[v] - t_i[w] that share v or w (DIFFERENCE_PAIRS, 18 of 36).
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,
           jb: np.ndarray, eps: float, boxes: tuple[np.ndarray, ...] | None = None,
           cover: Cover | None = None,
           skip: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
           raw_circles: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other:
-    open cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs.
-    ``boxes``: the triangles' bounding boxes ``(lo_i, hi_i, lo_j, hi_j)`` (each ``(n, 3)``),
-    when the caller has them (a walk calls this hundreds of times on the same parts).
-    ``cover``: what is kept so far (a non-empty :class:`~ndbg_cli.ndbg.infinite.cover.Cover`); the terms
-    that miss every cell it leaves open are left out early, by its quick tests on the
-    generators (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_spanned_open`) before the facets are
-    computed, then on the facets (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_open`), made pair by
-    pair in :func:`ndbg_cli.ndbg.infinite._term_kernels.terms`. ``skip``: a function of ``(ia, jb)`` giving
-    the pairs to keep (after the contact normals are taken); ``raw_circles``: the contact
-    normals as they are, not deduplicated (a walk deduplicates them once, at its end)."""
+    """The terms of the triangle pairs ``(ti[ia[k]], tj[jb[k]])`` that can face each other: open
+    cones ``(p, k, 3)`` and the contact normals ``(c, 3)`` of the near pairs. ``boxes``: the
+    triangles' bounding boxes ``(lo_i, hi_i, lo_j, hi_j)`` (each ``(n, 3)``), when the caller has
+    them (a walk calls this hundreds of times on the same parts). ``cover``: what is kept so far (a
+    non-empty :class:`~ndbg_cli.ndbg.infinite.cover.Cover`); the terms that miss every cell it
+    leaves open are left out early, by its quick tests on the generators
+    (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_spanned_open`) before the facets are
+    computed, then on the facets (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_open`), made
+    pair by pair in :func:`ndbg_cli.ndbg.infinite._term_kernels.terms`. ``skip``: a function of
+    ``(ia, jb)`` giving the pairs to keep (after the contact normals are taken); ``raw_circles``:
+    the contact normals as they are, not deduplicated (a walk deduplicates them once, at its
+    end)."""
     from . import _term_kernels as term_kernels
     if not len(ia):
         return _EMPTY
@@ -212,8 +158,8 @@ def _kept_for(memo: dict, arrays: tuple, extra: object, make: Callable[[], objec
 
 
 def insets(tri: np.ndarray, nrm: np.ndarray, r: float) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`ndbg_cli.ndbg.infinite.erosion.edge_insets` of one part's triangles, kept for the same arrays
-    (by identity) and ``r``."""
+    """:func:`ndbg_cli.ndbg.infinite.erosion.edge_insets` of one part's triangles, kept for the same
+    arrays (by identity) and ``r``."""
     return _kept_for(_INSETS, (tri, nrm), r, lambda: edge_insets(tri, nrm, r))
 
 
@@ -236,7 +182,7 @@ FLAT = 1e-14
 def flat(cones: np.ndarray) -> np.ndarray:
     """``(p,)`` whether each cone ``(p, k, 3)`` (unit or zero rows) has two anti-parallel rows
     within :data:`FLAT`: an empty open set. Coplanar faces of two parts make such terms (the
-    generators of ``t_j - t_i`` in one plane, or ``n_i = n_j``); on AS1 they are about half of
+    generators of ``t_j - t_i`` in one plane, or ``n_i = n_j``); they can be about half of
     all terms, and being lines across a whole face, the cover could never prune them."""
     from . import _kernels as kernels
     if not len(cones):
@@ -282,23 +228,46 @@ def pruned_pair_cones(ti: np.ndarray, ni: np.ndarray, tree_i: TriTree, tj: np.nd
                       nj: np.ndarray, tree_j: TriTree, eps: float, stats: dict | None = None,
                       domain: np.ndarray | None = None, pieces: list | None = None
                       ) -> tuple[np.ndarray, np.ndarray]:
-    """The terms of ``B_ij`` that the union needs (see the module docstring): the same set
-    as :func:`pair_cones`, as open cones ``(p, k, 3)``, and the same contact normals.
-    ``stats`` (if given) receives counts of node pairs tested and terms computed and kept.
-    With ``domain`` (``(6, c, c)`` bool cells of the cube map, :mod:`ndbg_cli.ndbg.infinite.domain`) the
-    union is right only inside the domain cells: nothing is computed for the others; then
-    ``pieces`` (a list, if given) receives per face the kept terms' chart pieces in the
-    domain's window (``None`` where there is none), as
-    :func:`~ndbg_cli.ndbg.infinite.chart_union.union_pieces` takes them: the walk clipped them already."""
+    """The terms of ``B_ij`` that the union needs: the same set as :func:`pair_cones`, as
+    open cones ``(p, k, 3)``, and the same contact normals.
+
+    Pruning is exact. Each part's triangles are in a bounding-box tree (:func:`tri_tree`).
+    Every term of a node pair lies in the cone spanned by ``box_j - box_i`` (grown by the
+    erosion margin; its facets among the 12 box edges, ``BOX_EDGE_PAIRS``); if that cone is
+    inside the union of the kept terms, each eroded by
+    :data:`~ndbg_cli.ndbg.infinite.cover.SHRINK` chart units, the node pair adds nothing.
+    "Inside" is decided conservatively on a raster per cube face
+    (:class:`~ndbg_cli.ndbg.infinite.cover.Cover`), at a cost independent of the number of
+    kept terms; a new term inside it is dropped the same way on the whole sphere. So the
+    kept terms' union equals ``B_ij``, both as a closed chart set and as a union of open cones
+    (which the open-set re-test of ``BlockedSets`` relies on). Node pairs within ``4 eps``
+    (contacts) are never pruned, so the contact circles are complete. The walk is
+    breadth-first; each surviving node pair first contributes the term of its two largest
+    triangles (filling the union from inside), surviving leaf pairs (at most
+    :data:`~ndbg_cli.ndbg.infinite.tritree.LEAF` triangles a side) all their terms. Flat terms
+    (:func:`flat`) are dropped as they are made.
+
+    With a domain, the cells outside it count as covered from the start (near node pairs included),
+    and the union is right inside the domain only. Its near leaf pairs are emitted before the walk;
+    most terms there miss every open cell and are dropped by the cover's quick tests before their
+    facets are computed or clipped; the unions are made in the domain's windows, where
+    :func:`_new_pieces_of` and :meth:`_Walk._open_sides` drop terms and triangles that add nothing
+    (the trees have larger leaves, :data:`ndbg_cli.ndbg.infinite.pair_workers.DOMAIN_LEAF`).
+
+    ``stats`` (if given) receives counts of node pairs tested and terms computed and kept. With
+    ``domain`` (``(6, c, c)`` bool cells of the cube map, :mod:`ndbg_cli.ndbg.infinite.domain`) the
+    union is right only inside the domain cells: nothing is computed for the others; then ``pieces``
+    (a list, if given) receives per face the kept terms' chart pieces in the domain's window
+    (``None`` where there is none), as :func:`~ndbg_cli.ndbg.infinite.chart_union.union_pieces`
+    takes them: the walk clipped them already."""
     if not len(ti) or not len(tj):
         return _EMPTY
     walk = _Walk(ti, ni, tree_i, tj, nj, tree_j, eps, domain)
     # With a domain (small caps around the directions where contacts leave something free),
     # the near leaf pairs go first: they are pruned only when wholly outside it, and their
     # terms (a contact's lunes and half-spaces) block whole caps, so most far pairs are then
-    # pruned (AS1: 694k terms computed and 80k kept instead of 936k and 192k). On the whole
-    # sphere their terms are mostly slivers along the contact circles that cover no cell,
-    # and the breadth-first order prunes as well (the 15 small examples: the same time).
+    # pruned (see benchmarks/NOTES.md). On the whole sphere their terms are mostly slivers
+    # along the contact circles that cover no cell, and the breadth-first order prunes as well.
     near_first = domain is not None
     if near_first:
         a, b = _near_leaves(tree_i, tree_j, eps)
@@ -401,7 +370,10 @@ class _Walk:
     def _open_sides(self, ia: np.ndarray, jb: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each triangle pair ``(ia[k], jb[k])`` may still add to the unions
         in the windows: neither facing half-space (``n_i . d > 0``, ``-n_j . d > 0``, which
-        hold the pair's term) has all its window pieces inside single kept pieces."""
+        hold the pair's term) has all its window pieces inside single kept pieces. A term
+        lies in its two facing half-spaces, so such a triangle adds nothing with any partner:
+        its pairs are left out before their terms are made (the contact faces' far pairs made
+        tens of thousands of terms whose window piece was the same half-window)."""
         total = sum(kp.n for kp in self.pieces)
         if not total:
             return np.ones(len(ia), dtype=bool)
@@ -419,9 +391,9 @@ class _Walk:
         return keep
 
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Boxes
-        around the origin are kept, and so are near node pairs (gap <= 4 eps) unless the box
-        cone lies wholly outside the domain (:func:`~ndbg_cli.ndbg.infinite._term_kernels.prune_pairs`)."""
+        """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Boxes around the
+        origin are kept, and so are near node pairs (gap <= 4 eps) unless the box cone lies wholly
+        outside the domain (:func:`~ndbg_cli.ndbg.infinite._term_kernels.prune_pairs`)."""
         from . import _term_kernels as term_kernels
         if not len(a) or self.cover.empty:
             return a, b
@@ -527,7 +499,9 @@ def _new_pieces_of(walk: _Walk, cones: np.ndarray) -> np.ndarray:
     """The terms among ``cones`` with a chart piece (of area above ``GRID**2``) in some
     window of the walk's domain that lies inside no single piece kept so far; their pieces
     are kept. The others add nothing to the unions, which are made in those windows only
-    (:func:`~ndbg_cli.ndbg.infinite.chart_union.cones_to_face_geoms`)."""
+    (:func:`~ndbg_cli.ndbg.infinite.chart_union.cones_to_face_geoms`). Without this test a
+    contact's fan of wedges round a free axis keeps several times more terms (numbers in
+    benchmarks/NOTES.md)."""
     inside, found = _window_pieces(walk, cones)
     keep = ~inside
     # the kept terms' indices among all those the walk keeps

@@ -1,58 +1,14 @@
 """The NDBG for infinite translations (paper section 5.3).
 
-Part ``P_j`` blocks the infinite translation of ``P_i`` along ``d`` when the volume ``P_i``
-sweeps from its place to infinity along ``d`` meets the interior of ``P_j``. The blocked set
-``B_ij`` is the radial projection onto S^2 of the interior of the Minkowski difference
-``P_j - P_i``; the NDBG is the arrangement of all ``B_ij`` boundaries with one DBG per region.
-
-Exact route (no sampling of directions)
----------------------------------------
-For closed polyhedral parts, a generic blocking ray leaves ``P_i`` through the relative
-interior of a triangle ``t_i`` (``n_i . d > 0``) and enters ``P_j`` through a triangle ``t_j``
-(``n_j . d < 0``), possibly at the same point (a face contact). Hence
-
-    B_ij = union over triangle pairs of  cone(t_j - t_i) ∩ {n_i . d > 0} ∩ {n_j . d < 0},
-
-each term an open convex polyhedral cone, i.e. a convex spherical polygon, i.e. a convex
-polygon on each face of the gnomonic cube map (:mod:`ndbg_cli.ndbg.infinite.cubemap`). Pairs that cannot
-face each other (``t_j`` wholly behind ``t_i``'s plane or ``t_i`` wholly behind ``t_j``'s) are
-pruned exactly, vectorised; every pair of parts is processed, since distant parts block too
-(each unordered pair once: ``B_ji = -B_ij``),
-but the triangle pairs whose terms lie strictly inside the terms already kept are skipped
-wholesale by a walk over bounding-box trees (:func:`ndbg_cli.ndbg.infinite.blocking_cones.
-pruned_pair_cones`; same union, same open cones, same contact circles). Two convex parts
-more than ``4 eps`` apart need no terms: ``B_ij`` is the one open cone spanned by their
-Minkowski difference (:func:`ndbg_cli.ndbg.infinite.convex_cones.convex_pair_cone`, the same set).
-
-Tolerance (``eps = asm.length_tolerance``)
-------------------------------------------
-For *near* triangle pairs (bounding boxes closer than ``4 eps``) both triangles are moved
-inward by ``1.5 eps`` along their normals (and, where two parts touch at an angle, pulled
-back by as much from their parts' convex sharp edges: :mod:`ndbg_cli.ndbg.infinite.erosion`): the parts
-are eroded by about ``eps``. Contact then
-never blocks by itself: a part blocks only if the sweep penetrates it deeper than about
-``eps``, sliding along a contact face is free, tessellation overlaps below ``eps`` are
-ignored, and the directions through a zero-clearance slot or bore form a thin free region of
-angular width about ``eps / L`` (``L`` the contact length). Regions whose width in the chart is
-below the angular tolerance ``eta = ANGULAR_FACTOR * eps / diagonal``
-(:data:`ndbg_cli.ndbg.infinite.blocked_sets.ANGULAR_FACTOR`) are reported as 1-dimensional, those smaller
-than ``eta`` in every direction as 0-dimensional, with the representative direction inside
-them; for such a thin region round a bore's axis, the point
-where the contacts' circles meet, if its DBG is the region's (:func:`_snap_to_circles`: the
-direction the direct sweep test, which erodes nothing, finds free too). *Far* pairs use the
-exact triangles, with closed polygons: a direction grazing a distant part with exactly zero
-clearance counts as blocked.
-
-The arrangement is computed per cube face with shapely: the union ``U_ij`` of each pair's
-polygons (those inside another single polygon left out first: the same set,
-:func:`ndbg_cli.ndbg.infinite.chart_union.face_pieces`), all their boundaries noded (collinear pieces
-merged first) and polygonized; each face of the overlay is a region, and its DBG is read at
-a point inside it; each chain of boundary between two nodes is a 1-dimensional cell, each
-node a 0-dimensional one. Regions cut by the
-cube edges are counted once per cube face (the DBG is constant on each piece, so the NDBG stays
-exact; region counts are those of the arrangement refined by the 12 cube-edge arcs). 2D
-assemblies are extruded to prisms and the arrangement is read on the equator (S^1) from the
-open cones themselves (:mod:`ndbg_cli.ndbg.infinite.equator`).
+``P_j`` blocks the infinite translation of ``P_i`` along ``d`` when the volume ``P_i`` sweeps
+to infinity along ``d`` meets the interior of ``P_j``. ``B_ij``, the radial projection of the
+interior of the Minkowski difference ``P_j - P_i``, is computed exactly as a union of open
+cones (:mod:`ndbg_cli.ndbg.infinite.blocking_cones`; no sampling of directions) for every pair
+of parts, since distant parts block too (each unordered pair once: ``B_ji = -B_ij``). The NDBG
+is the arrangement of their boundaries (:mod:`ndbg_cli.ndbg.infinite.arrangement`, per cube
+face; on S^1 for 2D assemblies, :mod:`ndbg_cli.ndbg.infinite.equator`) with one DBG per region.
+Near parts are eroded by about the length tolerance so that contact never blocks by itself
+(see the comment at :func:`build_infinite`).
 """
 
 from __future__ import annotations
@@ -102,11 +58,17 @@ class TooLarge(NdbgError):
 
 
 def _regions_3d(bs: BlockedSets, workers: int = 1) -> tuple[list[Region], int, float]:
-    """The regions of S^2 (:func:`~ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`), each with its DBG,
-    the seam candidates kept where the open-set semantics frees something; the number of
+    """The regions of S^2 (:func:`~ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`), each with
+    its DBG, the seam candidates kept where the open-set semantics frees something; the number of
     lower-dimensional cells whose exact re-test was skipped (:data:`EXACT_CELLS`); and the
-    ``perf_counter`` time when the arrangement was done (its DBGs are read after).
-    :class:`TooLarge` when their DBGs would pass :data:`MAX_DBG_BYTES`."""
+    ``perf_counter`` time when the arrangement was done (its DBGs are read after). :class:`TooLarge`
+    when their DBGs would pass :data:`MAX_DBG_BYTES`.
+
+    Each face of the overlay is a region whose DBG is read at a point inside it; each chain
+    of boundary between two nodes is a 1-dimensional cell, each node a 0-dimensional one.
+    Regions cut by the cube edges are counted once per cube face (the DBG is constant on each
+    piece, so the NDBG stays exact; region counts are those of the arrangement refined by the
+    12 cube-edge arcs)."""
     cells = arrangement_cells(bs, workers)
     t_cells = time.perf_counter()
     size = len(cells) * bs.n * ((bs.n + 7) // 8)
@@ -223,8 +185,8 @@ def sliding_counts(circles: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     out = np.zeros(len(dirs), dtype=np.int64)
     if not len(circles) or not len(dirs):
         return out
-    # in blocks of directions: AS1's 15,755 cells x 2,639 circles made a 330 MB temporary
-    # (1.7 s a call; 0.4 s so)
+    # in blocks of directions: all cells x all circles at once made a temporary of hundreds
+    # of MB (benchmarks/NOTES.md)
     ct = np.ascontiguousarray(np.asarray(circles, float).T)
     for lo in range(0, len(dirs), SLIDING_BLOCK):
         p = dirs[lo:lo + SLIDING_BLOCK] @ ct
@@ -237,13 +199,24 @@ def sliding_counts(circles: np.ndarray, dirs: np.ndarray) -> np.ndarray:
 SLIDING_BLOCK = 1024
 
 
+# Tolerance (eps = asm.length_tolerance). For near triangle pairs (boxes closer than 4 eps) both
+# triangles move inward by 1.5 eps along their normals (and, where two parts touch at an angle,
+# back from their parts' convex sharp edges: ndbg_cli.ndbg.infinite.erosion): the parts are
+# eroded by about eps. A part then blocks only if the sweep penetrates it deeper than about
+# eps: sliding along a contact face is free, tessellation overlaps below eps are ignored, and
+# the directions through a zero-clearance slot or bore form a thin free region about eps / L
+# wide (L the contact length). Regions narrower in the chart than eta = ANGULAR_FACTOR * eps /
+# diagonal are 1-dimensional, those smaller than eta every way 0-dimensional; a thin region
+# round a bore's axis takes the point where the contacts' circles meet (_snap_to_circles).
+# Far pairs use the exact triangles with closed polygons: a direction grazing a distant part
+# with exactly zero clearance counts as blocked.
 def build_infinite(asm: Assembly, cache: PairCache | None = None,
                    domain: np.ndarray | None = None, workers: int = 1,
                    progress: bool = False) -> NDBG:
     """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
-    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache``
-    reuses per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map
-    cells, :func:`ndbg_cli.ndbg.infinite.domain.free_domain`) only the cells of the arrangement inside it
+    (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache`` reuses
+    per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map cells,
+    :func:`ndbg_cli.ndbg.infinite.domain.free_domain`) only the cells of the arrangement inside it
     are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
     outside), not for its subassemblies'; the stats say ``restricted``. ``progress``: a bar on
     stderr over the part pairs (:mod:`ndbg_cli.core.progress`: on a terminal only)."""
@@ -290,11 +263,11 @@ def _build(asm: Assembly, cache: PairCache | None, domain: np.ndarray | None, wo
 
 
 def lookup(ndbg: NDBG, d: np.ndarray, exact: bool = False) -> list[DBG]:
-    """DBGs at directions ``d`` (``(m, 3)``; ``(m, 2)`` in 2D) from the NDBG's blocked sets:
-    a vectorised point location in the arrangement, no geometry of the parts. With
-    ``exact`` the open-set semantics is applied too (right on the contact circles, e.g.
-    exactly along a bore's axis; slower). Threaded pairs the NDBG's regions block
-    (``stats["threaded_pairs"]``, :func:`ndbg_cli.ndbg.generalized.build.block_threads`) block here too."""
+    """DBGs at directions ``d`` (``(m, 3)``; ``(m, 2)`` in 2D) from the NDBG's blocked sets: a
+    vectorised point location in the arrangement, no geometry of the parts. With ``exact`` the
+    open-set semantics is applied too (right on the contact circles, e.g. exactly along a bore's
+    axis; slower). Threaded pairs the NDBG's regions block (``stats["threaded_pairs"]``,
+    :func:`ndbg_cli.ndbg.generalized.build.block_threads`) block here too."""
     bs = _blocked(ndbg)
     d = np.atleast_2d(np.asarray(d, dtype=float))
     if bs.arcs is not None:  # 2D: the open arcs on S^1 (always the open-set semantics)

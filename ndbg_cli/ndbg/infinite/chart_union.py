@@ -2,13 +2,12 @@
 the arrangement (:mod:`ndbg_cli.ndbg.infinite.arrangement`) and the region lookup
 (:class:`ndbg_cli.ndbg.infinite.blocked_sets.BlockedSets`) use them.
 
-A cone's chart polygon is its image under the central projection onto a cube face
-(:func:`~ndbg_cli.ndbg.infinite.cubemap.clip_halfplanes`), clipped to the face's square or to a window of it.
-Of a pair's thousands of overlapping convex pieces only those inside no other single piece
-enter the union (:func:`face_pieces`: a compiled scan, 14,761 of AS1's 95,722); it is made
-largest first, leaving out the pieces already covered (:func:`union`), with GEOS's overlay
-checked and redone on a snapping grid where it fails (:func:`robust_union`). Every piece's
-bounding box is kept for the open re-test of lower-dimensional cells.
+A cone's chart polygon is its central projection onto a cube face, clipped to the face's
+square or to a window of it. Of a pair's thousands of overlapping convex pieces only those
+inside no other single piece enter the union (:func:`face_pieces`, a compiled scan); it is
+made largest first, leaving out the pieces already covered (:func:`union`), with GEOS's
+overlay checked and redone on a snapping grid where it fails (:func:`robust_union`). Every
+piece's bounding box is kept for the open re-test of lower-dimensional cells.
 """
 
 from __future__ import annotations
@@ -48,10 +47,10 @@ def face_polygons(cones: np.ndarray, face: int, max_vertices: int = 48,
 def clipped_pieces(cones: np.ndarray, face: int,
                    rect: tuple[float, float, float, float] | None = None,
                    max_vertices: int = 48) -> tuple[np.ndarray, ...]:
-    """The chart pieces of ``cones`` ``(p, k, 3)`` on ``face`` clipped to ``rect`` (the chart
-    square when ``None``): vertices ``(p, w, 2)`` (counter-clockwise), counts ``(p,)``,
-    areas ``(p,)`` and bounding boxes ``(p, 4)`` (:func:`~ndbg_cli.ndbg.infinite._union_kernels.
-    piece_boxes`), and whether each has area above ``GRID**2`` ``(p,)``."""
+    """The chart pieces of ``cones`` ``(p, k, 3)`` on ``face`` clipped to ``rect`` (the chart square
+    when ``None``): vertices ``(p, w, 2)`` (counter-clockwise), counts ``(p,)``, areas ``(p,)`` and
+    bounding boxes ``(p, 4)`` (:func:`~ndbg_cli.ndbg.infinite._union_kernels.piece_boxes`), and
+    whether each has area above ``GRID**2`` ``(p,)``."""
     from . import _union_kernels as kernels
     poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
     cnt = np.minimum(cnt, poly.shape[1])
@@ -161,9 +160,9 @@ def off_rect_runs(g: object, rect: tuple[float, float, float, float]) -> object:
     the same side of ``rect`` (exactly: the pieces were clipped to it): the same point set.
 
     Every piece clipped to a window's side leaves two points on it in the union, and GEOS
-    keeps them all: AS1's unions had 670 points on their windows' sides around a 75-point
-    hole, and a prepared ``covers`` test of a piece touching a side falls back to a full
-    relate over all of them (0.39 s for one pair's 2,327 pieces; 0.029 s without them)."""
+    keeps them all (hundreds of points around a small hole), and a prepared ``covers`` test
+    of a piece touching a side falls back to a full relate over all of them, an order of
+    magnitude slower (benchmarks/NOTES.md)."""
     x0, y0, x1, y1 = rect
     polys = []
     changed = False
@@ -227,7 +226,7 @@ def loses_area(out: object, polys: np.ndarray) -> bool:
     if not len(out_of):
         return False
     # Each piece against the union cut to its box grown by CLIP_MARGIN (the same difference:
-    # the cuts lie off the piece), not against the whole union: 3 times faster on AS1. A cut
+    # the cuts lie off the piece), not against the whole union, which is slower. A cut
     # GEOS's fast rectangle clip leaves invalid is not used.
     lo_x, lo_y, hi_x, hi_y = (shapely.bounds(out_of) + CLIP_MARGIN * np.array([-1, -1, 1, 1])).T
     near = np.array([shapely.clip_by_rect(out, *box) for box in zip(lo_x, lo_y, hi_x, hi_y)])
@@ -239,9 +238,9 @@ def loses_area(out: object, polys: np.ndarray) -> bool:
 
 
 def _inset_covered(out: object, polys: np.ndarray) -> np.ndarray:
-    """``(p,)`` whether each of ``polys`` is a convex polygon whose inset by
-    ``LOST_AREA / 2`` over its perimeter (:func:`~ndbg_cli.ndbg.infinite._union_kernels.inset_convex`) is
-    covered by ``out`` (prepared)."""
+    """``(p,)`` whether each of ``polys`` is a convex polygon whose inset by ``LOST_AREA / 2`` over
+    its perimeter (:func:`~ndbg_cli.ndbg.infinite._union_kernels.inset_convex`) is covered by
+    ``out`` (prepared)."""
     from . import _union_kernels as kernels
     ok = np.zeros(len(polys), dtype=bool)
     simple = np.flatnonzero((shapely.get_type_id(polys) == 3)
@@ -278,10 +277,10 @@ ANTIPODAL = np.array([[0.0, -1.0], [-1.0, 0.0]])
 
 def reverse_entries(entries: list) -> list:
     """The per-face chart geometry of ``B_ji`` from that of ``B_ij``
-    (:func:`~ndbg_cli.ndbg.infinite.chart_union.cones_to_face_geoms`): ``P_i`` moving along ``d`` meets
-    ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
-    the antipodal map is a chart isometry onto the opposite cube face. The cone index of each
-    piece is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""
+    (:func:`~ndbg_cli.ndbg.infinite.chart_union.cones_to_face_geoms`): ``P_i`` moving along ``d``
+    meets ``P_j`` exactly when ``P_j`` moving along ``-d`` meets ``P_i``, so ``B_ji = -B_ij``, and
+    the antipodal map is a chart isometry onto the opposite cube face. The cone index of each piece
+    is unchanged (the cones of ``B_ji`` are the negated cones of ``B_ij``, in order)."""
     out: list = [None] * 6
     for face, e in enumerate(entries):
         if e is None:

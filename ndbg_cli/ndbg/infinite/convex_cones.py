@@ -1,9 +1,9 @@
-"""Convex parts far apart: ``B_ij`` is one open cone, spanned by the Minkowski difference
-``P_j - P_i = conv(V_j - V_i)`` (:func:`convex_pair_cone`), instead of the union of the
-triangle pairs' terms (:mod:`ndbg_cli.ndbg.infinite.blocking_cones`): the same set, far cheaper. Which pairs
-qualify (:func:`far_convex`: closed convex parts whose bounding boxes are more than ``4 eps``
-apart, with few enough difference vectors), their cones (:func:`convex_pairs`) and their chart
-entries (:func:`convex_entries`).
+"""Convex parts far apart: ``B_ij`` is one open cone, spanned by the Minkowski difference ``P_j -
+P_i = conv(V_j - V_i)`` (:func:`convex_pair_cone`), instead of the union of the triangle pairs'
+terms (:mod:`ndbg_cli.ndbg.infinite.blocking_cones`): the same set, far cheaper. Which pairs qualify
+(:func:`far_convex`: closed convex parts whose bounding boxes are more than ``4 eps`` apart, with
+few enough difference vectors), their cones (:func:`convex_pairs`) and their chart entries
+(:func:`convex_entries`).
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ import numpy as np
 from .blocking_cones import stack_cones
 from .chart_union import face_polygons
 
-#: Most difference vectors (``|V_i| |V_j|``, about 0.2 microseconds each) of a convex pair's
-#: cone (:func:`convex_pair_cone`); pairs of larger parts go through the terms.
+#: Most difference vectors (``|V_i| |V_j|``, each costing time) of a convex pair's cone
+#: (:func:`convex_pair_cone`); pairs of larger parts go through the terms.
 CONVEX_DIFFERENCES = 1_000_000
 #: A convex pair's cone is accepted when every difference vector is inside it within this
 #: (radians, about); else (qhull rounding with a gap tiny against the parts) the terms decide.

@@ -142,10 +142,11 @@ class Cover:
 
     def _table(self, face: int) -> None:
         """Bring the summed-area table of the covered cells of ``face``'s block up to date:
-        ``sat[face, :rows + 1, :cols + 1]``, the block's own rows and columns counted from
-        its corner (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.update_sat`). A box of cells is covered
-        when its part in the block is (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.box_covered`): with a
-        domain of a few hundred cells the tables are that small, not 513 x 513 per face."""
+        ``sat[face, :rows + 1, :cols + 1]``, the block's own rows and columns counted from its
+        corner (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.update_sat`). A box of cells is
+        covered when its part in the block is
+        (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.box_covered`): with a domain of a few hundred
+        cells the tables are that small, not 513 x 513 per face."""
         from . import _cover_kernels as kernels
         if self.sat is None:
             size = [(b[1] - b[0], b[3] - b[2]) for b in self.block if b is not None]
@@ -160,14 +161,13 @@ class Cover:
 
     def covers_spanned(self, gens: np.ndarray,
                        pairs: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-        """``(p,)`` whether each closed cone spanned by generators ``gens`` ``(p, g, 3)``
-        lies in covered cells on every face it meets. On a face whose axis ``e`` has
-        ``g . e > 0`` for every generator, the cone's chart image is the convex hull of the
-        generators' charts, so their bounding box is used (no clipping); a face with no
-        generator in front of it is missed. A cone with generators on both sides of some
-        face's plane is clipped (:meth:`covers` of its H-representation; ``pairs``: the
-        generator pairs that can span its facets, as :func:`~ndbg_cli.ndbg.infinite.cubemap.cone_normals`
-        takes them)."""
+        """``(p,)`` whether each closed cone spanned by generators ``gens`` ``(p, g, 3)`` lies in
+        covered cells on every face it meets. On a face whose axis ``e`` has ``g . e > 0`` for every
+        generator, the cone's chart image is the convex hull of the generators' charts, so their
+        bounding box is used (no clipping); a face with no generator in front of it is missed. A
+        cone with generators on both sides of some face's plane is clipped (:meth:`covers` of its
+        H-representation; ``pairs``: the generator pairs that can span its facets, as
+        :func:`~ndbg_cli.ndbg.infinite.cubemap.cone_normals` takes them)."""
         from . import _cover_kernels as kernels
         if self.empty:
             return np.zeros(len(gens), dtype=bool)

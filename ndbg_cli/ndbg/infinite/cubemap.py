@@ -1,18 +1,12 @@
 """Direction-space machinery: the gnomonic cube map of the unit sphere S^2 and open polyhedral
 cones clipped to its six faces.
 
-A direction ``d`` (any non-zero 3-vector) is charted on the cube face whose axis ``e`` has the
-largest ``d . e``; its chart coordinates are ``(s, t) = (d . u, d . v) / (d . e)`` in
-``[-1, 1]^2``. Central projection maps great circles to straight lines, so a convex spherical
-polygon becomes a convex polygon on each face it meets, and an open half-sphere ``{d : d . m >
-0}`` becomes the open half-plane ``m.e + s m.u + t m.v > 0``.
-
-A *cone* is given in H-representation: normals ``m_k`` (``(k, 3)``), the cone being
-``{d : d . m_k > 0 for all k}``. A zero normal is no constraint, so batches of cones are padded
-with zeros. :func:`cone_normals` computes the H-representation of the conic hull of a set of
-generator vectors (pointed or not: a half-space, a wedge or a line-containing cone come out
-right, and a set whose hull contains the origin in its interior gives no facet, i.e. every
-direction).
+A direction ``d`` is charted on the cube face whose axis ``e`` has the largest ``d . e``, at
+``(s, t) = (d . u, d . v) / (d . e)`` in ``[-1, 1]^2``. Central projection maps great circles
+to lines, so a convex spherical polygon is a convex polygon on each face it meets, and the
+open half-sphere ``d . m > 0`` the open half-plane ``m.e + s m.u + t m.v > 0``. A *cone* is
+given by normals ``m_k`` (``(k, 3)``): ``{d : d . m_k > 0 for all k}``; a zero normal is no
+constraint, so batches are zero-padded (:func:`cone_normals` makes them from generators).
 """
 
 from __future__ import annotations
@@ -57,6 +51,8 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
     all lie in one plane through the origin, both orientations survive and the open cone is
     empty, as it should be. ``pairs`` (two index arrays) restricts the candidates to those
     generator pairs (:data:`DIFFERENCE_PAIRS` for the 9 vertex differences of two triangles).
+    Pointed or not, the hull comes out right (a half-space, a wedge, a line-containing cone);
+    a set whose hull contains the origin in its interior gives no facet, i.e. every direction.
     """
     from . import _kernels as kernels
     gens = np.ascontiguousarray(gens, dtype=float)
@@ -123,10 +119,10 @@ def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
 
 
 def compact(normals: np.ndarray) -> np.ndarray:
-    """Drop zero rows and duplicates (rows equal when rounded to 1e-9) per cone, trimming
-    the padding ``(p, k, 3)``: :func:`ndbg_cli.ndbg.infinite._kernels.compact`. Two different facets can
-    share the sort number (a circle of unit normals does): only equal rows are duplicates
-    (dropping a different facet would enlarge the cone)."""
+    """Drop zero rows and duplicates (rows equal when rounded to 1e-9) per cone, trimming the
+    padding ``(p, k, 3)``: :func:`ndbg_cli.ndbg.infinite._kernels.compact`. Two different facets can
+    share the sort number (a circle of unit normals does): only equal rows are duplicates (dropping
+    a different facet would enlarge the cone)."""
     from . import _kernels as kernels
     if not len(normals):
         return normals

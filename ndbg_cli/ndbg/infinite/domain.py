@@ -1,20 +1,12 @@
-"""Where the infinite-translation NDBG can free anything: a conservative raster of directions.
+"""Where the infinite-translation NDBG can free anything: a conservative raster of directions
+(paper sections 5.3 with 4.2).
 
-A contact arc of the infinitesimal DBG is also an arc of the infinite one: if ``P_i`` moving
-along ``d`` immediately enters ``P_j`` at a contact, its sweep meets ``P_j``'s interior. So at
-a direction where the infinitesimal DBG is strongly connected, the infinite DBG (more arcs) is
-too, and no subassembly comes out there by one translation. The *free domain* is the closure
-of the directions where the infinitesimal DBG is not strongly connected; every partitioning of
-the infinite NDBG of the whole assembly lies in it (paper 5.3 with 4.2). Subassemblies are not
-covered: a part of the assembly can be free where the whole is not.
-
-:func:`free_domain` marks the cube-map cells (``(6, r, r)``, chart cells of
-:class:`ndbg_cli.ndbg.infinite.cover.Cover`) that may meet it. Per cell, an arc is *certain* when it
-holds at every direction within the cell's angular radius ``rho`` (plus :data:`MARGIN`) of its
-centre: with unit normals, ``n . d`` moves by at most that much, so the test of
-:func:`ndbg_cli.ndbg.infinitesimal.build.dbg_at` (``n . d > tol``) is applied at ``tol + rho``. A cell
-whose certain arcs already make a strongly connected DBG is outside the domain; every other
-cell is in it (conservative: a cell is never left out wrongly).
+A contact arc of the infinitesimal DBG is also an arc of the infinite one, so where the
+infinitesimal DBG is strongly connected the infinite one is too. The *free domain* is the
+closure of the directions where the infinitesimal DBG is not strongly connected; every
+partitioning of the whole assembly's infinite NDBG lies in it (not those of subassemblies: a
+part of the assembly can be free where the whole is not). :func:`free_domain` marks the
+cube-map cells that may meet it, conservatively (a cell is never left out wrongly).
 """
 
 from __future__ import annotations
@@ -26,9 +18,9 @@ import shapely
 
 from ..dbg import DBG, strong_components
 from ..infinitesimal.build import blocking_sides
+from ._kernels import FACES
 from .chart_union import antipodal
 from .cover import RASTER, cells_window
-from ._kernels import FACES
 
 #: Extra angular margin (radians) around each cell, for the contact normals' own noise.
 MARGIN = 1e-3
@@ -69,7 +61,12 @@ def free_domain(n: int, pairs: Sequence[tuple], tol: float, r: int = RASTER,
     connected. Decided on a ``coarse`` raster first, then on the cells of ``r`` inside the
     coarse cells kept. Symmetric under ``d -> -d``. ``None`` when it is every cell: at once
     when the contact graph is not connected (a part touching nothing, or two groups touching
-    each other nowhere, come apart in every direction)."""
+    each other nowhere, come apart in every direction).
+
+    Per cell, an arc is *certain* when it holds at every direction within the cell's angular
+    radius ``rho`` (plus :data:`MARGIN`) of its centre: with unit normals ``n . d`` moves by at
+    most that much, so the test of ``dbg_at`` (``n . d > tol``) is applied at ``tol + rho``. A
+    cell whose certain arcs already make a strongly connected DBG is outside the domain."""
     reach = [0] * n  # a DBG holding every arc any direction can give: each contact, both ways
     for entry in pairs:
         reach[entry[0]] |= 1 << entry[1]
@@ -98,7 +95,7 @@ def free_domain(n: int, pairs: Sequence[tuple], tol: float, r: int = RASTER,
 
 
 #: Cells per side of the raster tested before the :data:`COARSE` one (its cells' children
-#: are tested only where it may be free: AS1 keeps 16 of the 24,576 coarse cells).
+#: are tested only where it may be free: typically a tiny fraction of the coarse cells).
 PRE = 8
 #: Added to a :data:`PRE` cell's radius (radians) over the rounding of its computation.
 PRE_SLACK = 1e-9
@@ -198,10 +195,10 @@ def domain_polygons(dom: np.ndarray) -> list[object]:
 
 
 def domain_windows(dom: np.ndarray) -> list[tuple[float, float, float, float] | None]:
-    """Per face, the chart rectangle round the domain cells (:func:`ndbg_cli.ndbg.infinite.cover.
-    cells_window`), ``None`` where the face has none: what the blocked sets are clipped to
-    before their union (nothing outside it is used). The last domain's are kept (every
-    pair's walk asks)."""
+    """Per face, the chart rectangle round the domain cells
+    (:func:`ndbg_cli.ndbg.infinite.cover.cells_window`), ``None`` where the face has none: what the
+    blocked sets are clipped to before their union (nothing outside it is used). The last domain's
+    are kept (every pair's walk asks)."""
     key = (dom.tobytes(), dom.shape)
     if _last_windows[0] != key:
         _last_windows[:] = key, [cells_window(dom[f]) for f in range(6)]

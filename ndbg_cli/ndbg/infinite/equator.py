@@ -1,67 +1,12 @@
-"""The infinite-translation NDBG of a 2D assembly on S^1, exactly, from the open cones.
+"""The infinite-translation NDBG of a 2D assembly on S^1, exactly, from the open cones
+(paper section 5.3).
 
-2D parts are extruded to prisms (:func:`ndbg_cli.ndbg.infinite.blocking_cones.part_triangles`) and their
-blocked sets ``B_ij`` computed as for 3D parts: unions of open cones. The directions of the
-plane are the equator ``z = 0``. A cone meets it in an open arc: each facet normal ``m`` gives
-the open half-circle ``m . (cos phi, sin phi, 0) > 0``, i.e. ``|phi - atan2(m_y, m_x)| <
-pi / 2``, and a facet normal along ``z`` (the prisms' caps) none: such a cone only *touches*
-the equator, which its open set does not contain. (Reading the equator off the cones' closed
-chart polygons instead took those touching cones for blocking: the cap terms of the two sides
-``z > 0`` and ``z < 0`` meet along it.)
-
-So ``B_ij`` on S^1 is a union of open arcs (:func:`cone_arcs`), each shrunk by
-:data:`~ndbg_cli.ndbg.infinite.build.OPEN_TOL` radians at both ends, as the 3D exact test does with a
-cone's facets. The arcs' endpoints cut the circle into points and open intervals, each with
-one DBG (a direction is blocked by a pair when strictly inside one of its arcs); neighbouring
-pieces with the same DBG are one region (:func:`equator_regions`).
-
-Dimension and representative direction
---------------------------------------
-A region shorter than the angular tolerance ``eta`` (radians, ``ANGULAR_FACTOR * eps /
-diagonal`` of :mod:`ndbg_cli.ndbg.infinite.blocked_sets`: 5e-3 rad at the default tolerance) is 0-dimensional;
-longer regions are 1-dimensional. A region's direction is its middle, except near the sliding
-directions of the contacts (perpendicular to a contact normal), where the erosion (both parts
-moved ``1.5 eps`` inward, :mod:`ndbg_cli.ndbg.infinite.build`) widens the single free direction of a
-zero-clearance slot or pocket into a band reaching ``3 eps / L`` radians past it on the side of
-a contact ``L`` long: ``6 eps / L`` wide for two walls ``L`` long, i.e. ``0.12 diagonal / L``
-``eta``. Inside that band but off the sliding direction, the sweep penetrates a wall by up to
-``3 eps``: the direct sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`, no erosion; ``ndbg query``) blocks
-there. So:
-
-* a 0-dimensional region takes the sliding direction within its extent (ends included) nearest
-  its middle, when there is one;
-* a 1-dimensional region at most :data:`BAND_ETA` ``eta`` wide takes the sliding direction
-  nearest its middle among those *in* it (strictly inside, or at a closed end: its DBG there,
-  read from the arcs, is the region's); it stays 1-dimensional and its DBG is unchanged. That
-  covers the bands of contacts down to ``0.12 / BAND_ETA`` of the diagonal (0.24 %, 24
-  ``eps``) long. A wider region keeps its middle: it is wide because the parts leave a real range of
-  directions free there (a block against one wall of a wide pocket comes out anywhere between
-  along that wall and over the far wall's top), and its middle is the direction farthest from
-  the region's ends.
-
-Angles and widths are in radians and ``eta`` is a fixed multiple of the relative length
-tolerance: turning or scaling the assembly changes neither which regions are represented by a
-sliding direction nor, up to the turn, their directions. Besides these bands, the erosion
-leaves regions *next to* a sliding direction, on one side of it, where the sweep also
-penetrates a wall by less than ``3 eps`` (their DBG holds nowhere without erosion): they keep
-their middles, within the length tolerance like every region of the eroded parts.
-
-Thin regions
-------------
-Such a one-sided band is ``3 eps / L`` radians, ``0.06 diagonal / L`` ``eta``, wide: within
-:data:`BAND_ETA` ``eta`` for contacts down to 0.12 % of the diagonal. So every 1-dimensional
-region at most :data:`BAND_ETA` ``eta`` wide (:func:`narrow`, the bound of the rule above) is
-*thin* (:attr:`ndbg_cli.ndbg.model.Region.thin`): :func:`ndbg_cli.planning.plans.pick_region` ranks it
-with the 0-dimensional regions (by the contacts its direction slides along, then dimension),
-after the wider 1-dimensional regions, whose middles lie more than ``BAND_ETA / 2`` ``eta``
-from their ends (past the band of any contact down to 0.24 % of the diagonal). A step free
-in a band and in the region at its sliding direction, or in a wide region beside it, is
-reported along the latter, which the direct test frees. A thin region need not be a band
-(at the default tolerance ``BAND_ETA eta`` is 0.25 rad, 14 degrees, e.g. fig3-2d's arc from
-0.1 to 14 degrees above +x): it is only ranked later. The thin regions' dimension,
-direction and DBG are unchanged. On 3,000 random 2D assemblies (``benchmarks/fuzz_pick2d.py``)
-the direct test blocked the picked direction of 2,929 of 26,030 partitionings before this
-ranking, none after.
+2D parts are extruded to prisms and their blocked sets ``B_ij`` computed as for 3D parts;
+the plane's directions are the equator ``z = 0``. Each open cone meets it in an open arc
+(:func:`cone_arcs`); the arcs' endpoints cut the circle into points and open intervals with
+one DBG each, and neighbouring pieces with the same DBG are one region
+(:func:`equator_regions`). A region's direction is its middle, or a contact's sliding
+direction inside it (:func:`_representative`).
 """
 
 from __future__ import annotations
@@ -81,15 +26,12 @@ FLAT_TOL = 1e-12
 TWO_PI = 2.0 * np.pi
 
 #: A 1-dimensional region at most this many ``eta`` wide that holds a contact's sliding
-#: direction is represented by it (module docstring): the erosion's band round a sliding
-#: direction is ``0.12 diagonal / L`` ``eta`` wide for walls ``L`` long (50: ``L`` down to 0.24 %
-#: of the diagonal, 24 ``eps``). On 1,600 random 2D box assemblies (half turned), no region
-#: holding a sliding direction whose middle the direct sweep test blocked was wider than 37
-#: ``eta``; without a bound, 8 times as many regions whose middle it freed moved too (e.g. out
-#: of a wide pocket, to along its wall, near the region's end). Every 1-dimensional region
-#: at most this wide is thin (ranked after the wider ones; module docstring): on 3,000 random
-#: 2D assemblies no picked region whose direction the direct test blocked was wider than 25.2
-#: ``eta`` (before thin regions were ranked later).
+#: direction is represented by it (:func:`_representative`): the erosion's band round a
+#: sliding direction is ``0.12 diagonal / L`` ``eta`` wide for walls ``L`` long (50: ``L`` down
+#: to 0.24 % of the diagonal, 24 ``eps``). Without a bound, regions whose middle the direct
+#: sweep test frees would move too (e.g. out of a wide pocket, to along its wall). Every
+#: 1-dimensional region at most this wide is thin (:func:`narrow`). The random-assembly
+#: figures that chose 50 are in benchmarks/NOTES.md.
 BAND_ETA = 50.0  # not infinite.SNAP_ETA (3D: how far from a thin cell circles are sought)
 
 
@@ -97,7 +39,14 @@ def cone_arcs(cones: np.ndarray, shrink: float) -> np.ndarray:
     """The open arcs ``(q, 2)`` (``lo`` in ``[0, 2 pi)``, ``lo < hi <= lo + 2 pi``, radians)
     in which the open cones ``(p, k, 3)`` (zero rows: no constraint) meet the equator, each
     shrunk by ``shrink`` at both ends; the cones that miss it, or whose arc is shorter than
-    ``2 shrink``, give none."""
+    ``2 shrink``, give none.
+
+    Each facet normal ``m`` gives the open half-circle ``|phi - atan2(m_y, m_x)| < pi / 2``;
+    a facet normal along ``z`` (the prisms' caps) gives none: such a cone only *touches* the
+    equator, which its open set does not contain. (The closed chart polygons would take
+    those cones for blocking: the cap terms of ``z > 0`` and ``z < 0`` meet along it.) The
+    callers shrink by :data:`~ndbg_cli.ndbg.infinite.build.OPEN_TOL`, as the 3D exact test
+    does with a cone's facets; a direction is blocked when strictly inside an arc."""
     if not len(cones):
         return np.zeros((0, 2))
     m = np.asarray(cones, dtype=float)
@@ -156,7 +105,7 @@ def equator_regions(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
 
     ``arcs``: each ordered pair's open arcs (:func:`cone_arcs`); ``eta``: the angular
     tolerance (radians; shorter regions are 0-dimensional); ``sliding``: angles of the
-    contacts' sliding directions (a thin region's direction, see the module docstring)."""
+    contacts' sliding directions (a thin region's direction, see :func:`_representative`)."""
     return [r[:3] for r in equator_extents(arcs, n, eta, sliding)]
 
 
@@ -205,7 +154,19 @@ def equator_extents(arcs: Mapping[tuple[int, int], np.ndarray], n: int, eta: flo
 
 def narrow(length: float, eta: float) -> bool:
     """Whether a region ``length`` radians long is at most :data:`BAND_ETA` ``eta`` (radians)
-    wide: the bound of the erosion's bands (module docstring)."""
+    wide: the bound of the erosion's bands (:func:`_representative`).
+
+    Such a region is *thin* (:attr:`ndbg_cli.ndbg.model.Region.thin`):
+    :func:`ndbg_cli.planning.plans.pick_region` ranks it with the 0-dimensional regions (by
+    the contacts its direction slides along, then dimension), after the wider 1-dimensional
+    regions, whose middles lie more than ``BAND_ETA / 2`` ``eta`` from their ends (past the
+    band of any contact down to 0.24 % of the diagonal). A one-sided band beside a sliding
+    direction (``3 eps / L`` radians, ``0.06 diagonal / L`` ``eta``) is thin for contacts down
+    to 0.12 % of the diagonal, so a step free in a band and in the region at its sliding
+    direction, or in a wide region beside it, is reported along the latter, which the direct
+    sweep test frees. A thin region need not be a band (at the default tolerance
+    ``BAND_ETA eta`` is 0.25 rad, 14 degrees, e.g. fig3-2d's arc from 0.1 to 14 degrees above
+    +x): it is only ranked later; its dimension, direction and DBG are unchanged."""
     return length <= BAND_ETA * eta
 
 
@@ -213,7 +174,26 @@ def _representative(arcs: Mapping[tuple[int, int], np.ndarray], n: int, sliding:
                     lo: float, hi: float, g: DBG, dim: int, eta: float) -> float:
     """The direction (angle in ``[0, 2 pi)``) of the region of dimension ``dim`` and DBG ``g``
     from ``lo`` to ``hi`` (counter-clockwise, radians): its middle, or a sliding direction of
-    ``sliding`` in it (see the module docstring)."""
+    ``sliding`` in it.
+
+    A region shorter than ``eta`` (``ANGULAR_FACTOR * eps / diagonal``, 5e-3 rad at the
+    default tolerance) is 0-dimensional. Near a contact's sliding direction the erosion (both
+    parts moved ``1.5 eps`` inward) widens a zero-clearance slot's single free direction into
+    a band ``3 eps / L`` radians past it on the side of a contact ``L`` long, where the direct
+    sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`, no erosion; ``ndbg query``) blocks. So:
+
+    * a 0-dimensional region takes the sliding direction within its extent (ends included)
+      nearest its middle, when there is one;
+    * a 1-dimensional region at most :data:`BAND_ETA` ``eta`` wide takes the sliding direction
+      nearest its middle among those *in* it (strictly inside, or at a closed end whose DBG,
+      read from the arcs, is the region's); its dimension and DBG are unchanged;
+    * a wider region keeps its middle: the parts leave a real range of directions free there,
+      and the middle is the direction farthest from its ends.
+
+    Angles are in radians and ``eta`` a fixed multiple of the relative length tolerance, so
+    turning or scaling the assembly changes neither choice. Regions *next to* a sliding
+    direction, on one side, where the sweep also penetrates a wall by less than ``3 eps``,
+    keep their middles, within the length tolerance like every region of the eroded parts."""
     mid, length = 0.5 * (lo + hi), hi - lo
     if dim == 0 or narrow(length, eta):
         t = np.mod(sliding - lo, TWO_PI)

@@ -1,17 +1,13 @@
-"""The in-plane part of the erosion of near triangle pairs (:mod:`ndbg_cli.ndbg.infinite.blocking_cones`):
-each triangle's edges on a convex sharp edge of its part are moved inward by ``r`` in the
-triangle's plane, as eroding the solid would pull that face back from its edge.
+"""The in-plane part of the erosion of near triangle pairs
+(:mod:`ndbg_cli.ndbg.infinite.blocking_cones`): each triangle's edges on a convex sharp edge of
+its part are moved inward by ``r`` in the triangle's plane, as eroding the solid would.
 
-Near triangle pairs are moved inward by ``r = 1.5 eps`` along their own normals, so that two
-faces in contact never block by themselves. That alone does not erode a solid at its edges:
-two faces of two parts that meet at an angle (an L-shaped corner where the parts touch along
-an edge or at a point) then cross each other once moved, their difference set holds the
-origin, and their term blocks the whole facing quarter of the sphere (the Fig. 10 latch:
-latch_b "blocked" latch_a along half of all directions, where the sweep test and manifold3d
-find it free). Pulling each face back by ``r`` from the part's convex sharp edges (where the
-faces meet at more than :data:`SHARP_DEGREES`) keeps them apart. Smooth edges (a tessellated
-cylinder's facets) and concave ones are left: eroding a solid pulls faces back at convex
-edges only.
+Moving near triangles only along their normals (``r = 1.5 eps``) does not erode a solid at
+its edges: two faces meeting at an angle (an L-shaped corner touching along an edge or at a
+point) cross once moved and their term blocks a whole facing quarter of the sphere (the
+Fig. 10 latch: latch_b "blocked" latch_a along half of all directions, where the sweep test
+and manifold3d find it free). Pulling faces back from convex edges sharper than
+:data:`SHARP_DEGREES` keeps them apart; smooth (tessellated) and concave edges are left.
 """
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ ORPHAN_POLL = 0.5
 #: Leaf size of the triangle trees with a domain (the NDBG restricted to small caps): larger
 #: leaves than on the whole sphere, since most of a leaf pair's terms are then dropped by
 #: the cheap window tests before their facets are computed, and fewer node pairs are tested
-#: (the beam: 1.63 -> 1.38 s). The whole sphere keeps :data:`~ndbg_cli.ndbg.infinite.tritree.LEAF`.
+#: (benchmarks/NOTES.md). The whole sphere keeps :data:`~ndbg_cli.ndbg.infinite.tritree.LEAF`.
 DOMAIN_LEAF = 16
 
 _STATE: dict = {}
@@ -48,13 +48,13 @@ _STATE: dict = {}
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
              eps: float, domain: np.ndarray | None, dom: list | None = None,
              memo: list | None = None) -> tuple:
-    """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union, cuts)``, ``faces``
-    as :func:`~ndbg_cli.ndbg.infinite.chart_union.cones_to_face_geoms` gives them. ``trees`` caches each
-    part's pruning tree (``None`` until built). With ``dom`` (the domain's polygons per face,
+    """``B_ab``: ``(cones, circles, faces, seconds_cones, seconds_union, cuts)``, ``faces`` as
+    :func:`~ndbg_cli.ndbg.infinite.chart_union.cones_to_face_geoms` gives them. ``trees`` caches
+    each part's pruning tree (``None`` until built). With ``dom`` (the domain's polygons per face,
     :func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`), ``cuts`` holds per face the memo of
-    :func:`~ndbg_cli.ndbg.infinite.chart_union.cut_to_domain` for the faces of ``B_ab`` and ``B_ba``: what
-    the caller would cut next, made here in parallel (else empty dicts); ``memo`` (per face
-    a dict, kept by the caller over its pairs) holds the cuts made so far. Only the even
+    :func:`~ndbg_cli.ndbg.infinite.chart_union.cut_to_domain` for the faces of ``B_ab`` and
+    ``B_ba``: what the caller would cut next, made here in parallel (else empty dicts); ``memo``
+    (per face a dict, kept by the caller over its pairs) holds the cuts made so far. Only the even
     faces' cuts are made (the domain is symmetric under ``d -> -d``: the odd faces' are their
     images, :func:`~ndbg_cli.ndbg.infinite.blocked_sets.blocked_sets`)."""
     t0 = time.perf_counter()
@@ -109,9 +109,10 @@ def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, 
               eps: float, domain: np.ndarray | None = None, workers: int = 1,
               dom: list | None = None) -> Iterator[tuple[int, tuple]]:
     """:func:`one_pair` for each ordered pair ``(a, b)`` of ``pairs``, as ``(k, result)`` for
-    ``pairs[k]``, each as soon as it is done (so that a caller can cache it), with up to
-    ``workers`` processes (one: in this process, in order). ``dom``: the domain's polygons
-    (:func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`) when the caller has them, else made here."""
+    ``pairs[k]``, each as soon as it is done (so that a caller can cache it), with up to ``workers``
+    processes (one: in this process, in order). ``dom``: the domain's polygons
+    (:func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`) when the caller has them, else made
+    here."""
     cost = sum(len(tris[a][0]) * len(tris[b][0]) for a, b in pairs)
     trees: list = [None] * len(tris)
     if dom is None and domain is not None:

@@ -1,18 +1,13 @@
 """A direct, per-direction test of blocking for infinite translations, independent of the
 arrangement in :mod:`ndbg_cli.ndbg.infinite.build` (it shares no code with it).
 
-``P_j`` blocks ``P_i`` along ``d`` when some ray parallel to ``d`` leaves ``P_i`` and then
-enters ``P_j``: a triangle of ``P_i`` facing ``d`` (``n_i . d > 0``) and a triangle of ``P_j``
-facing against it (``n_j . d < 0``) overlap with positive area in the orthographic projection
-along ``d``, and somewhere in the overlap ``t_j`` is not behind ``t_i`` (depth difference
-``z_j - z_i > -eps``; 0 for a face contact crossed transversally). A direction parallel to a
-contact face (``|n . d| <= FACING_TOL``) does not cross it: sliding does not block.
-
-Cost per direction: every front triangle of ``P_i`` against every back triangle of ``P_j``
-after a bounding-box cull, the overlaps clipped in numpy for all pairs at once (a direction's
-frame, boxes and facing triangles are kept for the next pair, :meth:`SweepChecker.view`);
-fine for tests, single queries (``ndbg query --direction``) and the plan checks, not for
-sweeping thousands of directions over large meshes.
+``P_j`` blocks ``P_i`` along ``d`` when a triangle of ``P_i`` facing ``d`` (``n_i . d > 0``)
+and a triangle of ``P_j`` facing against it (``n_j . d < 0``) overlap with positive area in
+the orthographic projection along ``d``, and somewhere in the overlap ``t_j`` is not behind
+``t_i`` (``z_j - z_i > -eps``). A direction parallel to a contact face
+(``|n . d| <= FACING_TOL``) does not cross it: sliding does not block. Every front triangle
+is tested against every back triangle after a box cull: fine for tests, single queries
+(``ndbg query --direction``) and plan checks, not for sweeping thousands of directions.
 """
 
 from __future__ import annotations
@@ -83,7 +78,8 @@ class SweepChecker:
 
     def view(self, d: np.ndarray) -> _View:
         """The :class:`_View` along ``d`` (a 3-vector, or a 2-vector in the plane), kept
-        for the next call with the same direction."""
+        for the next call with the same direction (its frame, boxes and facing triangles
+        serve the next part pair)."""
         d = np.asarray(d, dtype=float)
         d3 = d[:3] if len(d) == 3 else np.array([d[0], d[1], 0.0])
         key = tuple(d3.tolist())

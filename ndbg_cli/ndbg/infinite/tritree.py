@@ -1,7 +1,7 @@
 """A bounding-box tree over one part's triangles, for the pruning walk of
-:func:`ndbg_cli.ndbg.infinite.blocking_cones.pruned_pair_cones`: median splits along the longest axis of the
-centroids, each node with its box and its two largest triangles (the walk emits their terms
-first: they fill the union from the inside)."""
+:func:`ndbg_cli.ndbg.infinite.blocking_cones.pruned_pair_cones`: median splits along the longest
+axis of the centroids, each node with its box and its two largest triangles (the walk emits their
+terms first: they fill the union from the inside)."""
 
 from __future__ import annotations
 

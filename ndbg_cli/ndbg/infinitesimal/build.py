@@ -1,41 +1,13 @@
 """The NDBG for infinitesimal translations (paper sections 4.2-4.5 and 5.1), in 2D and 3D.
 
-Input: for every pair of parts in contact, the set ``N_ab`` of contact normals pointing out of
-part ``a`` into part ``b``. Blocking rule: part ``b`` blocks ``a`` moving along ``d`` (arc
-``a -> b``) iff ``max_{n in N_ab} d . n > 0``, and ``a`` blocks ``b`` (arc ``b -> a``) iff
-``min_n d . n < 0``. Sign tests use the angular tolerance ``tol`` (:data:`DEFAULT_ANGLE_TOL`):
-``d . n > tol`` is positive, ``|d . n| <= tol`` zero. ``a`` is locally free relative to ``b``
-exactly in the closed convex cone ``F_ab = {d : d . n <= 0 for all n}``.
-
-3D (:func:`build_ndbg_3d`)
-    The regions are those of the arrangement on S^2 of great circles ``n . d = 0``
-    (:mod:`ndbg_cli.geometry.sphere`; normals merged within ``tol``, ``n`` and ``-n`` one circle).
-    With ``refine`` (default) only the circles needed to bound every ``F_ab`` are drawn (the
-    paper's refinement): normals spanning a line: their one circle; a plane (normals
-    orthogonal to ``m``): the two circles bounding the 2D cone, or for a ray / the zero cone
-    two circles through ``+-m`` so that ``+-m`` are vertices (a peg in a facetted hole: 2
-    circles, not one per facet); a pointed 3D cone of normals: the circles of its extreme
-    rays (2D hull in a central projection); otherwise one LP finds the implicit equalities
-    ``E`` of ``N d <= 0``: ``F = {0}`` draws nothing, a ray or line two circles of ``E``
-    through it (a peg in a blind hole), a planar sector the circle of ``E`` plus the circles
-    through its two ends. A pair with ``"all"`` contacts (edge/point contacts of
-    :mod:`ndbg_cli.contacts.contacts3d`) keeps all its circles. *Exactness*: ``F_ab`` and ``-F_ab``
-    are unions of regions of the arrangement of the kept circles (each boundary point of
-    ``F_ab`` lies on a kept circle and its isolated points are vertices), and the arcs of
-    pair ``(a, b)`` depend on ``d`` only through ``d in F_ab`` and ``d in -F_ab``; so the DBG
-    is constant on every region. (Proof sketch: a connected region meeting both ``F`` and
-    its complement contains a boundary point ``p`` of ``F``; the constraints violated near
-    ``p`` are tight at ``p``, so their circles pass through ``p`` and cut the region, which
-    has constant signs on kept circles: contradiction.) With ``refine=False`` every normal's
-    circle is drawn (the unrefined arrangement, exact by sign constancy). Each region's DBG is
-    then computed from *all* the normals at its representative direction, vectorised.
-
-2D (:func:`iter_regions_2d`)
-    The points and open arcs of S^1 cut by the diameters bounding every ``F_ab`` (at most
-    two per pair: the paper's ``O(r)`` refinement), visited in angular order with the
-    crossing rule of section 4.5: one DBG with arc weights (the number of normals with a
-    strictly positive inner product), updated at every normal's diameter, each normal
-    touched twice. It is a generator: later stages can stream the regions.
+Input: for every pair of parts in contact, the set ``N_ab`` of contact normals out of ``a``
+into ``b``. Part ``b`` blocks ``a`` moving along ``d`` (arc ``a -> b``) iff
+``max_{n in N_ab} d . n > 0``, and ``a`` blocks ``b`` iff ``min_n d . n < 0``, with the angular
+tolerance ``tol`` (:data:`DEFAULT_ANGLE_TOL`): ``d . n > tol`` is positive, ``|d . n| <= tol``
+zero. ``a`` is locally free relative to ``b`` exactly in the closed convex cone
+``F_ab = {d : d . n <= 0 for all n}``. 3D: regions of an arrangement of great circles
+(:func:`build_ndbg_3d`); 2D: points and arcs of S^1 visited with the crossing rule
+(:func:`iter_regions_2d`).
 """
 
 from __future__ import annotations
@@ -152,7 +124,24 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
 
     ``ids`` are the part ids (node order); ``pairs`` yields ``(a, b, normals)`` with part
     indices and ``(k, 3)`` normals out of ``a`` into ``b``. Regions: every vertex, edge and
-    face of the arrangement (see the module docstring), in that order, each with its DBG.
+    face of the arrangement, in that order, each with its DBG.
+
+    The arrangement is that of the great circles ``n . d = 0`` on S^2
+    (:mod:`ndbg_cli.geometry.sphere`; normals merged within ``tol``, ``n`` and ``-n`` one
+    circle). With ``refine`` only the circles needed to bound every ``F_ab`` are drawn (the
+    paper's refinement, :func:`~ndbg_cli.geometry.sphere.cone_boundary_circles`; a peg in a
+    facetted hole gives 2 circles, not one per facet); a pair with ``"all"`` contacts (edge and
+    point contacts) keeps all its circles; with ``refine=False`` every normal's circle is
+    drawn (exact by sign constancy). Each region's DBG is computed from *all* the normals at
+    its representative direction.
+
+    Exactness of the refinement: ``F_ab`` and ``-F_ab`` are unions of regions of the kept
+    circles' arrangement (each boundary point of ``F_ab`` lies on a kept circle and its
+    isolated points are vertices), and pair ``(a, b)``'s arcs depend on ``d`` only through
+    ``d in F_ab`` and ``d in -F_ab``; so the DBG is constant on every region. (A connected
+    region meeting both ``F`` and its complement contains a boundary point ``p`` of ``F``; the
+    constraints violated near ``p`` are tight at ``p``, so their circles pass through ``p`` and
+    cut the region, which has constant signs on kept circles: contradiction.)
     """
     n = len(ids)
     groups = normalise_pairs(pairs, 3, snap_tol=tol)
@@ -296,7 +285,8 @@ def iter_regions_2d(n: int, pairs: Iterable[PairNormals], *,
     contact normal ``n`` of pair ``(a, b)`` is an arc weight of ``a -> b`` on the open half
     circle where ``d . n > 0`` and of ``b -> a`` on the opposite one; weights change only at
     the diameters orthogonal to the normals, and the DBG (arcs of positive weight) only at
-    the cone-boundary diameters.
+    the cone-boundary diameters (at most two per pair: the paper's ``O(r)`` refinement). Each
+    normal is touched twice; as a generator it lets later stages stream the regions.
     """
     prs = _pairs_2d(pairs, tol)
     # Directed weight entries: (arc index q = 2 p (a->b) or 2 p + 1 (b->a), angle of normal).
@@ -388,8 +378,8 @@ def contact_pairs(asm, contacts=None) -> list[PairNormals]:
     """Per-pair contact normals of an assembly as ``(a, b, normals)`` with part indices.
 
     2D: from :func:`ndbg_cli.contacts.contacts2d.find_contacts_2d`; 3D: from
-    ``ndbg_cli.contacts.contacts3d.analyze_contacts(asm).normals_by_pair()`` (keys may be part ids or
-    indices). ``contacts`` may be given: a list of ``Contact2D`` or a ``ContactAnalysis``.
+    ``ndbg_cli.contacts.contacts3d.analyze_contacts(asm).normals_by_pair()`` (keys may be part ids
+    or indices). ``contacts`` may be given: a list of ``Contact2D`` or a ``ContactAnalysis``.
     """
     if asm.dimension == 2:
         from ...contacts.contacts2d import find_contacts_2d
