@@ -1,4 +1,5 @@
-"""Benchmark: the NDBG for infinite translations (:func:`ndbg_cli.ndbg.infinite.build.build_infinite`).
+"""Benchmark: the NDBG for infinite translations
+(:func:`ndbg_cli.ndbg.infinite.build.build_infinite`).
 
 Cases: AS1 (18 parts, 11k triangles), the beam (5 parts, 48k triangles), the engine GLB (115
 open meshes), AS1 and the beam restricted to their free domains (what ``--motion infinite``
@@ -88,9 +89,9 @@ def _time(asm: Assembly) -> tuple[float, str]:
 
 def _restricted(name: str, path: Path, workers: int = 1) -> tuple[str, float, str]:
     """What ``ndbg analyze --motion infinite`` does above the budget: the NDBG only where the
-    infinitesimal NDBG frees a subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`); timed from the contacts
-    on (the contact analysis itself is in ``bench_contacts``), with ``workers`` processes for
-    the part pairs (``--jobs``)."""
+    infinitesimal NDBG frees a subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`); timed from the
+    contacts on (the contact analysis itself is in ``bench_contacts``), with ``workers`` processes
+    for the part pairs (``--jobs``)."""
     if not path.exists():
         return name, float("nan"), f"skipped: {path} not found"
     from ndbg_cli.contacts.contacts3d import analyze_contacts

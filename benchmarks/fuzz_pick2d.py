@@ -2,15 +2,15 @@
 free for the direct sweep test?
 
 Random small 2D polygon assemblies with many short zero-clearance contacts are built
-(:func:`random_assembly`): polyomino partitions of a grid with uneven (often very thin) rows
-and columns, some cells left empty (pockets, slots, pegs in notches, overhangs); stacks of
-blocks of random widths and offsets; plates with notches holding pegs. Half of them are
-turned by a random angle (and scaled). For each one the infinite-translation NDBG is built
-and, for every partitioning of the whole assembly (:func:`ndbg_cli.ndbg.model.partitionings`), the
-region ``pick_region`` picks among the regions where the moved set is free is checked with
-:class:`ndbg_cli.ndbg.infinite.sweep.SweepChecker` (no erosion, shares no code with :mod:`ndbg_cli.ndbg.infinite.equator`):
-``blocked`` counts picks whose direction the sweep test blocks, ``fixable`` those among them
-where another of the partitioning's regions is free for it.
+(:func:`random_assembly`): polyomino partitions of a grid with uneven (often very thin) rows and
+columns, some cells left empty (pockets, slots, pegs in notches, overhangs); stacks of blocks of
+random widths and offsets; plates with notches holding pegs. Half of them are turned by a random
+angle (and scaled). For each one the infinite-translation NDBG is built and, for every partitioning
+of the whole assembly (:func:`ndbg_cli.ndbg.model.partitionings`), the region ``pick_region`` picks
+among the regions where the moved set is free is checked with
+:class:`ndbg_cli.ndbg.infinite.sweep.SweepChecker` (no erosion, shares no code with
+:mod:`ndbg_cli.ndbg.infinite.equator`): ``blocked`` counts picks whose direction the sweep test
+blocks, ``fixable`` those among them where another of the partitioning's regions is free for it.
 
     python benchmarks/fuzz_pick2d.py [--n 400] [--seed 0] [--show 5]
 

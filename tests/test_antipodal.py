@@ -1,10 +1,10 @@
 """The antipodal symmetry of the infinite-translation NDBG: ``B_ji = -B_ij``, so the DBG at
-``-d`` is the DBG at ``d`` with every arc reversed, and the arrangement on a cube face is
-the image of the opposite face's under the exact chart map ``(s, t) -> (-t, -s)``
-(:data:`ndbg_cli.ndbg.infinite.chart_union.ANTIPODAL`). The arrangement maps the odd faces' cells instead
-of computing them (:func:`ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`): here the mapped cells
-are checked against the cells computed directly and against the DBGs read directly at their
-directions."""
+``-d`` is the DBG at ``d`` with every arc reversed, and the arrangement on a cube face is the image
+of the opposite face's under the exact chart map ``(s, t) -> (-t, -s)``
+(:data:`ndbg_cli.ndbg.infinite.chart_union.ANTIPODAL`). The arrangement maps the odd faces' cells
+instead of computing them (:func:`ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`): here the
+mapped cells are checked against the cells computed directly and against the DBGs read directly at
+their directions."""
 
 from __future__ import annotations
 
@@ -17,13 +17,13 @@ import shapely
 import ndbg_cli
 from ndbg_cli.contacts.contacts3d import analyze_contacts
 from ndbg_cli.ndbg.dbg import DBG
+from ndbg_cli.ndbg.infinite import arrangement
 from ndbg_cli.ndbg.infinite.blocked_sets import blocked_sets, succ_from_bits, transposed_bits
 from ndbg_cli.ndbg.infinite.build import build_infinite
 from ndbg_cli.ndbg.infinite.chart_union import antipodal
 from ndbg_cli.ndbg.infinite.cubemap import direction_of
 from ndbg_cli.ndbg.infinite.domain import domain_polygons, free_domain
 from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
-from ndbg_cli.ndbg.infinite import arrangement
 
 
 def test_chart_map_by_hand():

@@ -88,3 +88,20 @@ def test_the_cli_starts_without_numerical_libraries():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == ""
+
+
+def test_the_docstring_examples_run(monkeypatch):
+    """Every ``>>>`` example in the package's docstrings runs and prints what it says (from
+    the repository root, where the examples' assembly paths are)."""
+    import doctest
+    import importlib
+
+    monkeypatch.chdir(ROOT)
+    ran = 0
+    for name, path in _modules().items():
+        if ">>>" not in path.read_text(encoding="utf-8"):
+            continue
+        result = doctest.testmod(importlib.import_module(name), optionflags=doctest.ELLIPSIS)
+        assert result.failed == 0, name
+        ran += result.attempted
+    assert ran > 0

@@ -91,13 +91,12 @@ def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
     so does the infinite one (it imports the contacts), while an unrelated module's edit
     (the text report) changes neither."""
     import ast
+    import importlib.util
     import subprocess
     import sys
 
     import ndbg_cli
     from ndbg_cli.core.cache import stage_modules
-
-    import importlib.util
 
     here = Path(ndbg_cli.__file__).parent
     for stage in ("contacts", "infinite"):

@@ -19,15 +19,19 @@ from scipy.spatial.transform import Rotation
 
 import ndbg_cli
 import ndbg_cli.contacts.contacts3d as contacts_module
-from ndbg_cli.contacts.contacts3d import DEFAULT_ANGLE_TOLERANCE, _tree_rank, analyze_contacts, contacts_section, contacts_text
-from ndbg_cli.contacts.interference import check_interference_policy
-from ndbg_cli.contacts.facets import fcl_model
-from ndbg_cli.contacts.facets import box_pairs, fcl_object, part_geometry, sat_gap
+from ndbg_cli.contacts.contacts3d import (
+    DEFAULT_ANGLE_TOLERANCE,
+    _tree_rank,
+    analyze_contacts,
+    contacts_section,
+    contacts_text,
+)
+from ndbg_cli.contacts.facets import box_pairs, fcl_model, fcl_object, part_geometry, sat_gap
 from ndbg_cli.contacts.features import _distinct_points, classify_pairs
-from ndbg_cli.geometry.normals import unique_rows
+from ndbg_cli.contacts.interference import check_interference_policy
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.core.errors import InterferenceError
-from ndbg_cli.geometry.normals import one_cluster, cluster_normals
+from ndbg_cli.geometry.normals import cluster_normals, one_cluster, unique_rows
 from ndbg_cli.io.validate import make_part
 
 from conftest import shared

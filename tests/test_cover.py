@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ndbg_cli.ndbg.infinite.cover import Cover
-from ndbg_cli.ndbg.infinite._kernels import FACES
-from ndbg_cli.ndbg.infinite.cubemap import clip_halfplanes, compact, cone_normals
 from ndbg_cli.ndbg.infinite import blocking_cones as bc
+from ndbg_cli.ndbg.infinite._kernels import FACES
+from ndbg_cli.ndbg.infinite.cover import Cover
+from ndbg_cli.ndbg.infinite.cubemap import clip_halfplanes, compact, cone_normals
 
 
 def _random_cones(rng: np.random.Generator, p: int, spread: float) -> np.ndarray:
@@ -126,8 +126,8 @@ def test_compact_keeps_different_facets_with_equal_keys() -> None:
 
 def test_windows_sought_in_the_domain_block_are_the_whole_face_ones() -> None:
     """A cover with a domain seeks its windows in the block of cells the domain leaves open;
-    they are the rectangles :func:`~ndbg_cli.ndbg.infinite.cover.cells_window` finds on the whole face,
-    cube-edge margins included (blocks touching the face's border), as cells get marked."""
+    they are the rectangles :func:`~ndbg_cli.ndbg.infinite.cover.cells_window` finds on the whole
+    face, cube-edge margins included (blocks touching the face's border), as cells get marked."""
     from ndbg_cli.ndbg.infinite.cover import cells_window
 
     rng = np.random.default_rng(3)

@@ -61,7 +61,8 @@ def test_domain_holds_every_direction_where_something_is_free(name, restricted):
 
 @pytest.mark.parametrize("name", ["peg-37", "slot-37", "bolt-screw", "fig11-nonlinear"])
 def test_pre_pass_skips_only_cells_the_coarse_test_drops(name, monkeypatch):
-    """The :data:`~ndbg_cli.ndbg.infinite.domain.PRE` pass (parents tested with radii over their children)
+    """The :data:`~ndbg_cli.ndbg.infinite.domain.PRE` pass (parents tested with radii over their
+    children)
     gives the very domain of the plain coarse-then-fine test, with far fewer cells tested."""
     from ndbg_cli.ndbg.infinite import domain
     asm, pairs, tol, dom = _domain(name)

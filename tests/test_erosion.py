@@ -1,4 +1,5 @@
-"""The in-plane part of the erosion of near triangles (:mod:`ndbg_cli.ndbg.infinite.erosion`): hand-worked
+"""The in-plane part of the erosion of near triangles (:mod:`ndbg_cli.ndbg.infinite.erosion`):
+hand-worked
 insets on a cube, none on a cylinder's smooth edges nor along a concave edge."""
 
 from __future__ import annotations

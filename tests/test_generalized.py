@@ -30,10 +30,10 @@ from scipy.linalg import expm
 
 import ndbg_cli
 from ndbg_cli.ndbg.dbg import DBG, mask_of
-from ndbg_cli.ndbg.model import NDBG, Region
 from ndbg_cli.ndbg.generalized import build as ge
 from ndbg_cli.ndbg.generalized import motion_lp as lp
 from ndbg_cli.ndbg.generalized import twist as tw
+from ndbg_cli.ndbg.model import NDBG, Region
 
 from conftest import ASSEMBLIES
 

@@ -10,9 +10,9 @@ import math
 import numpy as np
 
 import ndbg_cli
+from ndbg_cli.core.options import Options
 from ndbg_cli.ndbg.dbg import condensation
 from ndbg_cli.ndbg.infinitesimal.build import build_ndbg_2d, build_ndbg_3d, locate_region
-from ndbg_cli.core.options import Options
 from ndbg_cli.pipeline.analysis import analyze
 from ndbg_cli.planning.classes import label, verdict
 from ndbg_cli.planning.grasp import grasp

@@ -1,5 +1,6 @@
 """The NDBG for infinite translations (paper 5.3): answers worked out by hand, and the region
-lookup checked against the independent per-direction sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`)."""
+lookup checked against the independent per-direction sweep test
+(:mod:`ndbg_cli.ndbg.infinite.sweep`)."""
 
 from __future__ import annotations
 
@@ -12,12 +13,12 @@ import ndbg_cli
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.io.validate import make_part
 from ndbg_cli.ndbg.dbg import free_subsets
+from ndbg_cli.ndbg.infinite import chart_union as cu
 from ndbg_cli.ndbg.infinite.build import boundary_distance, build_infinite, free_directions, lookup
-from ndbg_cli.report.infinite import infinite_section, infinite_text
 from ndbg_cli.ndbg.infinite.cubemap import random_directions
 from ndbg_cli.ndbg.infinite.sweep import SweepChecker, dbg_at
 from ndbg_cli.ndbg.model import partitionings
-from ndbg_cli.ndbg.infinite import chart_union as cu
+from ndbg_cli.report.infinite import infinite_section, infinite_text
 
 from conftest import shared
 
@@ -442,9 +443,9 @@ def test_reversed_pair_is_the_antipodal_image(name):
     random directions."""
     import shapely
 
+    from ndbg_cli.ndbg.infinite import blocking_cones as bc
     from ndbg_cli.ndbg.infinite.blocked_sets import blocked_sets
     from ndbg_cli.ndbg.infinite.chart_union import reverse_entries
-    from ndbg_cli.ndbg.infinite import blocking_cones as bc
 
     asm = ndbg_cli.load(f"assemblies/{name}.yaml")
     tris = bc.part_triangles(asm)
@@ -543,11 +544,11 @@ def test_circle_crossing_inside_a_boundary_chain_is_a_region():
 
 def test_far_pair_keeps_every_blocked_direction():
     """Two L-shaped slabs 1.5 apart in z (a far pair). By hand: 'top' moving along ``d``
-    comes down by 1.5 after t = 4.70, shifted (3.11, 3.19) in x, y: its box x in [0, 3.5],
-    y in [0, 2] then overlaps bottom's box x in [1.5, 3.5], y in [2.5, 4.5] by 0.39 x 1.31,
-    so bottom blocks top along ``d`` (and 0.02 rad round it). GEOS 3.14.1's union_all of the
-    pair's 71 chart pieces on the +y face lost 0.03 chart units^2 round ``d``, and the NDBG
-    had no arc there (:func:`ndbg_cli.ndbg.infinite.chart_union.robust_union` now checks the union)."""
+    comes down by 1.5 after t = 4.70, shifted (3.11, 3.19) in x, y: its box x in [0, 3.5], y in [0,
+    2] then overlaps bottom's box x in [1.5, 3.5], y in [2.5, 4.5] by 0.39 x 1.31, so bottom blocks
+    top along ``d`` (and 0.02 rad round it). GEOS 3.14.1's union_all of the pair's 71 chart pieces
+    on the +y face lost 0.03 chart units^2 round ``d``, and the NDBG had no arc there
+    (:func:`ndbg_cli.ndbg.infinite.chart_union.robust_union` now checks the union)."""
     top = boxes_part("top", [([0, 0, 2], [1.5, 2, 3.5]), ([1.5, 0, 2], [3.5, 2, 3.5]),
                              ([1.5, 2, 2], [3.5, 2.5, 3.5])])
     bottom = boxes_part("bottom", [([1.5, 0, 0], [3.5, 2, 0.5]),
@@ -804,13 +805,13 @@ def test_union_drops_points_along_its_clipping_rectangle():
 
 
 def test_open_hits_is_the_box_filtered_open_membership():
-    """The compiled scan (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`) against the same test written
-    with an STR-tree query and numpy: a direction is hit when some piece's box holds its
+    """The compiled scan (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`) against the same test
+    written with an STR-tree query and numpy: a direction is hit when some piece's box holds its
     chart point (ends included) and the piece's open cone holds the direction."""
     import shapely
 
-    from ndbg_cli.ndbg.infinite.cubemap import direction_of
     from ndbg_cli.ndbg.infinite import _kernels as kernels
+    from ndbg_cli.ndbg.infinite.cubemap import direction_of
 
     rng = np.random.default_rng(7)
     cones = rng.normal(size=(60, 5, 3))

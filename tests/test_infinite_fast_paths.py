@@ -1,7 +1,8 @@
 """Fast paths of the infinite-translation NDBG, each against the general route and against
 answers worked out by hand: one cone for convex parts far apart
 (:func:`ndbg_cli.ndbg.infinite.convex_cones.convex_pair_cone`), the merging of collinear boundary
-segments before the arrangement is noded (:func:`ndbg_cli.ndbg.infinite.arrangement.merged_segments`), the
+segments before the arrangement is noded
+(:func:`ndbg_cli.ndbg.infinite.arrangement.merged_segments`), the
 candidate facets of difference and box cones, and the near-first walk inside a domain."""
 
 from __future__ import annotations
@@ -15,17 +16,24 @@ import ndbg_cli
 from ndbg_cli.contacts.contacts3d import analyze_contacts
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.io.validate import make_part
-from ndbg_cli.ndbg.infinite.cover import RASTER
-from ndbg_cli.ndbg.infinite.cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, compact, cone_normals, face_of, random_directions
-from ndbg_cli.ndbg.infinite._kernels import FACES
-from ndbg_cli.ndbg.infinite.domain import free_domain
-from ndbg_cli.ndbg.infinite.sweep import SweepChecker
-from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
 from ndbg_cli.ndbg.infinite import arrangement, blocked_sets
 from ndbg_cli.ndbg.infinite import blocking_cones as bc
 from ndbg_cli.ndbg.infinite import build as infinite
 from ndbg_cli.ndbg.infinite import chart_union as cu
 from ndbg_cli.ndbg.infinite import convex_cones as cc
+from ndbg_cli.ndbg.infinite._kernels import FACES
+from ndbg_cli.ndbg.infinite.cover import RASTER
+from ndbg_cli.ndbg.infinite.cubemap import (
+    BOX_EDGE_PAIRS,
+    DIFFERENCE_PAIRS,
+    compact,
+    cone_normals,
+    face_of,
+    random_directions,
+)
+from ndbg_cli.ndbg.infinite.domain import free_domain
+from ndbg_cli.ndbg.infinite.sweep import SweepChecker
+from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
 
 
 def _tris(m: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:

@@ -244,8 +244,8 @@ def test_wedge_cone_uses_only_extreme_rays():
 
 
 def test_edge_contact_blocks_only_inside_its_cone():
-    # an "all" contact (edge on a plane, from ndbg_cli.contacts.contacts3d): a -> b iff d.n > 0 for both
-    # normals, i.e. -d_z > |d_y|; b -> a iff d_z > |d_y|.
+    # an "all" contact (edge on a plane, from ndbg_cli.contacts.contacts3d): a -> b iff d.n > 0
+    # for both normals, i.e. -d_z > |d_y|; b -> a iff d_z > |d_y|.
     n = unit(np.array([[0, 1, -1], [0, -1, -1]], float))
     g = build_ndbg_3d(["a", "b"], [(0, 1, n, "all")])
     assert g.stats["circles"] == 2 and g.region_counts() == {"0": 2, "1": 4, "2": 4}
@@ -257,7 +257,7 @@ def test_edge_contact_blocks_only_inside_its_cone():
     assert {r.dimension for r in g.regions if r.dbg.succ == (0, 0)} == {0, 1, 2}
 
 
-# -- real meshes through ndbg_cli.contacts.contacts3d ----------------------------------------------------
+# -- real meshes through ndbg_cli.contacts.contacts3d --------------------------------------
 
 def mesh_part(pid, mesh):
     from ndbg_cli.io.validate import make_part

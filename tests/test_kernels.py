@@ -1,19 +1,26 @@
-"""The compiled kernels (:mod:`ndbg_cli.ndbg.infinite._kernels`, :mod:`ndbg_cli.ndbg.infinite._cover_kernels`) against the
-numpy code they replaced, kept here as the reference: the same counts, flags and bits
-(vertices up to each polygon's count; sign bits of zeros included where the values are
-outputs)."""
+"""The compiled kernels (:mod:`ndbg_cli.ndbg.infinite._kernels`,
+:mod:`ndbg_cli.ndbg.infinite._cover_kernels`) against the numpy code they replaced, kept here as the
+reference: the same counts, flags and bits (vertices up to each polygon's count; sign bits of zeros
+included where the values are outputs)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from ndbg_cli.ndbg.infinite import _cover_kernels as cover_kernels
+from ndbg_cli.ndbg.infinite._kernels import FACES
 from ndbg_cli.ndbg.infinite.arrangement import circle_crossings
 from ndbg_cli.ndbg.infinite.blocking_cones import unique_circles
 from ndbg_cli.ndbg.infinite.cover import Cover, run_offsets
-from ndbg_cli.ndbg.infinite.cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS, SQUARE_MARGIN, clip_halfplanes, compact, cone_normals
-from ndbg_cli.ndbg.infinite._kernels import FACES
-from ndbg_cli.ndbg.infinite import _cover_kernels as cover_kernels
+from ndbg_cli.ndbg.infinite.cubemap import (
+    BOX_EDGE_PAIRS,
+    DIFFERENCE_PAIRS,
+    SQUARE_MARGIN,
+    clip_halfplanes,
+    compact,
+    cone_normals,
+)
 
 
 def _same(a: np.ndarray, b: np.ndarray) -> bool:
@@ -155,8 +162,8 @@ def test_clip_matches_numpy(seed: int) -> None:
 
 @pytest.mark.parametrize("k", [1, 3, 7, 8, 9, 16, 27, 40])
 def test_fused_clip_matches_numpy_products(k: int) -> None:
-    """The cone-by-cone chart half-planes of :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones` (three
-    products and a hypot per row) against the whole-array matmuls of the numpy reference,
+    """The cone-by-cone chart half-planes of :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`
+    (three products and a hypot per row) against the whole-array matmuls of the numpy reference,
     for cones of every width the walk makes: the same clipped polygons, bit for bit."""
     rng = np.random.default_rng(k)
     n = rng.normal(size=(300, k, 3))
@@ -256,11 +263,11 @@ def _ref_terms(ti, ni, tj, nj, ia, jb, eps, near, cover):
 
 @pytest.mark.parametrize("with_cover", [False, True])
 def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
-    """:func:`ndbg_cli.ndbg.infinite._term_kernels.terms` against the batched kernels it replaced: the same
-    cones in the same order, each with the same nonzero rows, bit for bit (touching,
+    """:func:`ndbg_cli.ndbg.infinite._term_kernels.terms` against the batched kernels it replaced:
+    the same cones in the same order, each with the same nonzero rows, bit for bit (touching,
     coplanar and parallel triangles included: flat terms and erosion)."""
-    from ndbg_cli.ndbg.infinite.blocking_cones import FLAT
     from ndbg_cli.ndbg.infinite import _term_kernels as term_kernels
+    from ndbg_cli.ndbg.infinite.blocking_cones import FLAT
 
     rng = np.random.default_rng(11 + with_cover)
     kept = 0
@@ -285,7 +292,8 @@ def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
             cover.add(compact(cone_normals(_gens(rng, 50, False), pairs=DIFFERENCE_PAIRS)))
         want = _ref_terms(ti, ni, tj, nj, ia, jb, 1e-3, near, cover)
         order = np.concatenate([np.nonzero(~near)[0], np.nonzero(near)[0]])
-        # no in-plane insets (ndbg_cli.ndbg.infinite.erosion): the reference moves triangles along normals
+        # no in-plane insets (ndbg_cli.ndbg.infinite.erosion): the reference moves triangles along
+        # normals
         still = (np.zeros_like(ti), np.zeros(len(ti), dtype=bool), np.zeros_like(tj),
                  np.zeros(len(tj), dtype=bool))
         corners, sides = cover.pyramids() if cover is not None else (np.zeros((0, 4, 3)),) * 2
@@ -353,10 +361,10 @@ def test_box_covered_reads_the_block_table() -> None:
 
 
 def test_window_kernels_match_numpy() -> None:
-    """The windows of uncovered cells (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.open_window`) against
-    :func:`~ndbg_cli.ndbg.infinite.cover.cells_window`, and their cones
-    (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.window_pyramid`) against the numpy expressions they
-    replaced, bit for bit."""
+    """The windows of uncovered cells (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.open_window`)
+    against :func:`~ndbg_cli.ndbg.infinite.cover.cells_window`, and their cones
+    (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.window_pyramid`) against the numpy expressions
+    they replaced, bit for bit."""
     from ndbg_cli.ndbg.infinite.cover import cells_window
     rng = np.random.default_rng(6)
     r = 64
@@ -546,8 +554,8 @@ def test_first_crossings_on_a_raster_domain() -> None:
     points in the same order, including crossings exactly on the cells' edges (the axes are
     a corner of four cells: inside where all four are in the domain, outside where one is
     missing), and the chunked path gives them too."""
-    from ndbg_cli.ndbg.infinite.domain import domain_polygons
     from ndbg_cli.ndbg.infinite import arrangement
+    from ndbg_cli.ndbg.infinite.domain import domain_polygons
 
     rng = np.random.default_rng(5)
     axes = np.eye(3)

@@ -294,8 +294,8 @@ def test_text_meshes_in_latin_1(tmp_path):
 def test_scientific_notation_is_a_number(tmp_path):
     """YAML 1.2 floats (``1e-3``, ``1.0e1``: no dot or no exponent sign) in manifests and
     config files; PyYAML's YAML 1.1 rules read them as strings. Other scalars are as before."""
-    from ndbg_cli.io.manifest import read_manifest
     from ndbg_cli.io.config import read_config
+    from ndbg_cli.io.manifest import read_manifest
 
     path = write_two_boxes(tmp_path).parent / "sci.yaml"
     path.write_text(write_two_boxes(tmp_path).read_text()

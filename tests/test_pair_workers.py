@@ -1,5 +1,6 @@
 """Worker processes for one assembly's infinite-translation pairs
-(:mod:`ndbg_cli.ndbg.infinite.pair_workers`): same results as one process, a dead worker's pairs done here,
+(:mod:`ndbg_cli.ndbg.infinite.pair_workers`): same results as one process, a dead worker's pairs
+done here,
 no worker outliving its parent, and no way to ask for nested pools from a config file."""
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ import pytest
 import trimesh
 
 from ndbg_cli.core.errors import InputError
-from ndbg_cli.ndbg.infinite import pair_workers as pw
 from ndbg_cli.io.config import read_config
+from ndbg_cli.ndbg.infinite import pair_workers as pw
 
 from helpers import ROOT
 

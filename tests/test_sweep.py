@@ -1,5 +1,5 @@
-"""The direct per-direction test's polygon kernels (:mod:`ndbg_cli.ndbg.infinite.sweep`), against areas
-worked out by hand, and the test itself on two boxes with known answers."""
+"""The direct per-direction test's polygon kernels (:mod:`ndbg_cli.ndbg.infinite.sweep`), against
+areas worked out by hand, and the test itself on two boxes with known answers."""
 
 import numpy as np
 import pytest

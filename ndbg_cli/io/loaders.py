@@ -46,6 +46,13 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
       transform; ids come from node names (unique within a scene graph), parts ordered by name;
     * a directory holding only mesh files: one part per file, already in the assembly frame,
       id = file stem, files in name order.
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> asm = ndbg_cli.load("assemblies/hover.yaml")
+    >>> asm.ids, asm.units
+    (['base', 'puck', 'bridge'], 'mm')
     """
     p = Path(path)
     if not p.exists():

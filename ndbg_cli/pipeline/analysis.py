@@ -39,7 +39,24 @@ def assembly_section(asm: Assembly) -> dict:
 
 
 def analyze(asm: Assembly, options: Options = Options()) -> dict:
-    """Run every stage selected by ``options`` on ``asm``; return the report dict."""
+    """Run every stage selected by ``options`` on ``asm``; return the report dict.
+
+    Parameters
+    ----------
+    asm : Assembly
+        A loaded assembly (:func:`ndbg_cli.load`).
+    options : Options
+        What to compute; the CLI's defaults.
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> report = ndbg_cli.analyze(ndbg_cli.load("assemblies/hover.yaml"))
+    >>> [(s["moved"], s["direction"]) for s in report["plan"]["sequence"]]
+    [(['puck'], [-1.0, 0.0, 0.0]), (['bridge'], [0.0, -1.0, 0.0])]
+    >>> report["plan"]["verified"]["value"]  # each step leaves by one translation
+    True
+    """
     timings: dict[str, float] = {}
     report: dict = {
         "schema": REPORT_SCHEMA,

@@ -222,7 +222,18 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
             options: Options = Options(), *, timings: dict[str, float] | None = None
             ) -> Measures:
     """The classes and measures of paper section 7 on the usable NDBGs ``ndbgs`` (family ->
-    NDBG): interlocking, grasps, monotonicity, linearity, depth, and the AND/OR graphs."""
+    NDBG): interlocking, grasps, monotonicity, linearity, depth, and the AND/OR graphs.
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> from ndbg_cli.core.constants import INFINITESIMAL
+    >>> asm = ndbg_cli.load("assemblies/hover.yaml")
+    >>> contacts = find_contacts(asm)
+    >>> ndbgs = {INFINITESIMAL: build_ndbg(asm, INFINITESIMAL, contacts).ndbg}
+    >>> measure(asm, contacts, ndbgs).classes[INFINITESIMAL]["min_depth"]["value"]
+    2
+    """
     from ..planning.classes import andor_section, classes_section
 
     clock = Clock(timings)
@@ -261,7 +272,19 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                   timings: dict[str, float] | None = None) -> dict:
     """The report's ``plan`` section: the plan of the first family of :data:`PLAN_ORDER`
     that admits an assembly tree, with its translation steps checked by the direct sweep
-    test (paper Fig. 1, sections 4.4 and 5.3)."""
+    test (paper Fig. 1, sections 4.4 and 5.3).
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> from ndbg_cli.core.constants import INFINITESIMAL
+    >>> asm = ndbg_cli.load("assemblies/hover.yaml")
+    >>> contacts = find_contacts(asm)
+    >>> ndbgs = {INFINITESIMAL: build_ndbg(asm, INFINITESIMAL, contacts).ndbg}
+    >>> plan = plan_assembly(asm, contacts, ndbgs, measure(asm, contacts, ndbgs))
+    >>> plan["depth"], plan["verified"]["value"]  # two parts onto the base, both proven
+    (2, True)
+    """
     from ..planning.plans import plan, plan_section
 
     clock = Clock(timings)
