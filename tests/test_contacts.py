@@ -19,13 +19,7 @@ from scipy.spatial.transform import Rotation
 
 import ndbg_cli
 import ndbg_cli.contacts.contacts3d as contacts_module
-from ndbg_cli.contacts.contacts3d import (
-    DEFAULT_ANGLE_TOLERANCE,
-    _tree_rank,
-    analyze_contacts,
-    contacts_section,
-    contacts_text,
-)
+from ndbg_cli.contacts.contacts3d import DEFAULT_ANGLE_TOLERANCE, _tree_rank, analyze_contacts
 from ndbg_cli.contacts.facets import box_pairs, fcl_model, fcl_object, part_geometry, sat_gap
 from ndbg_cli.contacts.features import _distinct_points, classify_pairs
 from ndbg_cli.contacts.interference import check_interference_policy
@@ -33,6 +27,7 @@ from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.core.errors import InterferenceError
 from ndbg_cli.geometry.normals import cluster_normals, one_cluster, unique_rows
 from ndbg_cli.io.validate import make_part
+from ndbg_cli.report.contacts import contacts_section, contacts_text
 
 from conftest import shared
 

@@ -69,9 +69,10 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
     Example:
       ndbg contacts ../shared/data/as1/as1-oc-214.stp --format json
     """
-    from ..contacts.contacts3d import analyze_contacts, contacts_section, contacts_text
+    from ..contacts.contacts3d import analyze_contacts
     from ..contacts.interference import check_interference_policy
     from ..io.loaders import load
+    from ..report.contacts import contacts_section, contacts_text
     from ..report.document import CONTACTS_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,

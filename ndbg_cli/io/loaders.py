@@ -20,7 +20,7 @@ import trimesh
 from ..core.assembly import Assembly, Diagnostic, Joint, Part
 from ..core.errors import InputError
 from ..core.units import canonical_unit, scale
-from .manifest import _Located, format_path, placement, read_manifest
+from .manifest import _Located, placement, read_manifest
 from .validate import make_part, make_polygon_part
 
 MANIFEST_SUFFIXES = {".yaml", ".yml"}
@@ -424,4 +424,4 @@ def load_mesh_directory(path: Path, *, units: str | None = None) -> Assembly:
 
 
 __all__ = ["load", "discover", "load_manifest", "load_model", "load_mesh_directory",
-           "step_length_unit", "unique_ids", "format_path"]
+           "step_length_unit", "unique_ids"]

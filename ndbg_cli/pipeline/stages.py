@@ -104,8 +104,9 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
     clock = Clock(timings)
     warnings: list[Diagnostic] = []
     if asm.dimension == 3:
-        from ..contacts.contacts3d import analyze_contacts, contacts_section
+        from ..contacts.contacts3d import analyze_contacts
         from ..contacts.interference import check_interference_policy
+        from ..report.contacts import contacts_section
 
         ca = clock("contacts_s", lambda: analyze_contacts(asm, tolerance=options.tolerance,
                                                           cache=cache))
@@ -119,6 +120,7 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
         touching = ca.pairs()
     else:
         from ..contacts.contacts2d import find_contacts_2d
+        from ..report.contacts import contacts_2d_section
 
         ca = clock("contacts_s", lambda: find_contacts_2d(asm, options.tolerance))
         sections = dict(contacts=contacts_2d_section(asm, ca), interferences=[],
@@ -412,15 +414,6 @@ def _proof_trees(sweep: Any, chosen: Any, classes: dict, reported: str,
         out.append({"strategy": strategy, "depth": q.depth(), "nonlinear_steps": q.nonlinear(),
                     "directions": q.directions()})
     return out
-
-
-def contacts_2d_section(asm: Assembly, found) -> list[dict]:
-    """2D contacts for the report: pair, kinds, normals out of ``a`` and contact points."""
-    return [{"a": asm.ids[c.a], "b": asm.ids[c.b],
-             "kind": "edge" if "edge-edge" in c.kinds else "point",
-             "blocking": "any", "normals": np.asarray(c.normals).tolist(),
-             "points": np.asarray(c.points).tolist(), "length": float(c.length)}
-            for c in found.contacts]
 
 
 def _over_budget(asm: Assembly, options: Any) -> str:

@@ -312,5 +312,5 @@ def free_directions(ndbg: NDBG, moved: int, mask: int | None = None
     return [(r.dimension, r.direction) for r in ndbg.regions if r.dbg.is_free(moved, mask)]
 
 
-__all__ = ["FAMILY", "SNAP_ETA", "TooLarge", "build_infinite", "lookup", "boundary_distance",
+__all__ = ["SNAP_ETA", "TooLarge", "build_infinite", "lookup", "boundary_distance",
            "free_directions"]
