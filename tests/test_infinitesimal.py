@@ -32,11 +32,10 @@ from ndbg_cli.ndbg.infinitesimal.build import (
     candidate_partitionings,
     dbg_at,
     infinitesimal_ndbg,
-    infinitesimal_section,
-    infinitesimal_text,
     iter_regions_2d,
     locate_region,
 )
+from ndbg_cli.report.infinitesimal import infinitesimal_section, infinitesimal_text
 
 ROOT = Path(__file__).resolve().parents[1]
 X, Y, Z = np.eye(3)

@@ -180,7 +180,8 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
 
 def _infinitesimal_family(asm: Assembly, inf: NDBG, contacts: Contacts, options: Options,
                           clock: Clock) -> Family:
-    from ..ndbg.infinitesimal.build import candidate_partitionings, infinitesimal_section
+    from ..ndbg.infinitesimal.build import candidate_partitionings
+    from ..report.infinitesimal import infinitesimal_section
 
     parts, trunc = clock("partitionings_s", lambda: candidate_partitionings(
         inf, max_partitions=options.max_partitions, connected=options.connected,

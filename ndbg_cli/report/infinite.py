@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ..ndbg.infinitesimal.build import partitioning_record
 from ..ndbg.model import NDBG, Partitioning
+from .infinitesimal import partitioning_record
 
 if TYPE_CHECKING:
     from ..core.assembly import Assembly

@@ -116,7 +116,7 @@ def ndbg_lines(report: dict) -> list[str]:
             lines += ["", f"{fam.replace('_', ' ')}: skipped ({sec['why']})"]
             continue
         if fam == "infinitesimal_translation":
-            from ..ndbg.infinitesimal.build import infinitesimal_text
+            from .infinitesimal import infinitesimal_text
 
             parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
             lines += infinitesimal_text({**sec, "partitionings": parts}, limit=6)
