@@ -208,3 +208,21 @@ def test_grasp_budget_counts_tests_and_says_where_it_stopped():
     assert seen == sorted(seen, key=["skipped", "stopped", "complete"].index)
     assert set(seen) == {"skipped", "stopped", "complete"}
     assert grasp(nd, faces, budget=400) == grasp(nd, faces, budget=400)
+
+
+def test_infinite_regions_keep_their_own_cells():
+    """The grasp reads each infinite-translation region's extent from the cell the build made
+    it from (not a re-made arrangement matched by direction: on the hinge, regions snapped
+    onto the pin's axis share one direction, and a match by direction took other chains).
+    Regions are the kept cells in order, each of its cell's dimension; a 2-dimensional
+    region's direction is its cell's own point (only lower-dimensional ones are snapped)."""
+    from ndbg_cli.ndbg.infinite.build import build_infinite
+
+    nd = build_infinite(ndbg_cli.load("assemblies/hinge.yaml"))
+    bs = nd.geometry
+    at = [int(k) for k in bs.region_cells]
+    assert len(at) == len(nd.regions) and at == sorted(set(at))
+    assert all(bs.cells[k].dimension == r.dimension for k, r in zip(at, nd.regions))
+    assert all(tuple(bs.cells[k].direction) == r.direction
+               for k, r in zip(at, nd.regions) if r.dimension == 2)
+    assert len(region_pieces(nd)) == len(nd.regions)

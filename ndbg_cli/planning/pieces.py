@@ -163,53 +163,15 @@ def _sequence_spans(ndbg: NDBG) -> list[tuple[float, float, bool, bool]] | None:
     return out
 
 
-def _match_cells(regions, cells, near: float) -> list[int] | None:
-    """Index of the cell of each region: the regions are the cells in order, less the seam
-    candidates the open-set test dropped, lower-dimensional ones moved by up to ``near``
-    radians (:func:`ndbg_cli.ndbg.infinite.build._snap_to_circles`). A forward search over the
-    possible region counts; ``None`` if the regions are no such subsequence."""
-    dirs = np.array([r.direction for r in regions], dtype=float).reshape(-1, 3)
-    dims = [r.dimension for r in regions]
-    cos_near = math.cos(near) - 1e-12
-    states: dict[int, tuple] = {0: ()}
-    back: list[dict[int, tuple[int, bool]]] = []
-    for c in cells:
-        new: dict[int, tuple[int, bool]] = {}
-        for k in states:
-            if k < len(dims) and dims[k] == c.dimension:
-                dot = float(dirs[k] @ c.direction)
-                if dot >= 1 - 1e-12 or (c.dimension < 2 and dot >= cos_near):
-                    new[k + 1] = (k, True)
-            if c.seam and k not in new:
-                new.setdefault(k, (k, False))
-        if not new:
-            return None
-        back.append(new)
-        states = dict.fromkeys(new, ())
-    if len(dims) not in states:
-        return None
-    out = [0] * len(dims)
-    k = len(dims)
-    for i in range(len(cells) - 1, -1, -1):
-        prev, took = back[i][k]
-        if took:
-            out[prev] = i
-        k = prev
-    return out
-
-
 def _cell_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
-    """Pieces of the infinite 3D NDBG's regions from their recomputed chart cells."""
+    """Pieces of the infinite 3D NDBG's regions from their chart cells, kept by the build."""
     import shapely
 
-    from ..ndbg.infinite.arrangement import arrangement_cells
-    from ..ndbg.infinite.build import SNAP_ETA
     from ..ndbg.infinite.cubemap import direction_of
 
     bs = ndbg.geometry
-    cells = arrangement_cells(bs)
-    at = _match_cells(ndbg.regions, cells, SNAP_ETA * bs.eta)
-    if at is None:
+    cells, at = bs.cells, bs.region_cells
+    if cells is None or at is None or len(at) != len(ndbg.regions):
         return None
     out = []
     for r, i in zip(ndbg.regions, at):
@@ -253,12 +215,11 @@ def region_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
     * infinitesimal 2D: the regions themselves (points and open arcs alternate round S^1);
     * infinite 2D: the runs of :func:`ndbg_cli.ndbg.infinite.equator.equator_extents` (ends
       open or closed);
-    * infinite 3D: the cells of :func:`ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`,
-      recomputed from the NDBG's blocked sets and matched to its regions in order
-      (:func:`_match_cells`); chart polygons are triangulated (open triangles and their
-      inner diagonals), chains cut into segments and inner vertices; a lower-dimensional
-      region's representative (moved onto contact circles, or a thin cell's centroid, which
-      may lie outside it) is a point piece too;
+    * infinite 3D: the cells of :func:`ndbg_cli.ndbg.infinite.arrangement.arrangement_cells`
+      that the build kept with each region (``BlockedSets.cells``); chart polygons are
+      triangulated (open triangles and their inner diagonals), chains cut into segments and
+      inner vertices; a lower-dimensional region's representative (moved onto contact
+      circles, or a thin cell's centroid, which may lie outside it) is a point piece too;
     * otherwise (hand-built NDBGs): ``None``; the grasp then holds the representatives only
       and says ``"coverage": "representatives"``. Generalized suggested motions are single
       motions, not directions: they make no requirement."""

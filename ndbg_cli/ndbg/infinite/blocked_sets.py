@@ -58,6 +58,11 @@ class BlockedSets:
     #: 2D assemblies: each ordered pair's open arcs on the equator (radians,
     #: :func:`ndbg_cli.ndbg.infinite.equator.cone_arcs`), set by :func:`build_infinite`.
     arcs: dict | None = None
+    #: 3D assemblies: the arrangement's cells (``arrangement.arrangement_cells``) and, per
+    #: region of the NDBG, the index of its cell, set by ``build_infinite``: each region's
+    #: whole extent, which the grasp needs (paper section 7.2).
+    cells: list | None = None
+    region_cells: np.ndarray | None = None
     #: Whether the sets on each odd face are the exact antipodal images of those on the
     #: even one (:func:`blocked_sets` stores them so; the arrangement then maps them).
     paired: bool = False

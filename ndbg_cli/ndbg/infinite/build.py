@@ -116,6 +116,7 @@ def _regions_3d(bs: BlockedSets, workers: int = 1) -> tuple[list[Region], int, f
         d = 0.0 - dirs[p] if flip[k] else dirs[p]
         regions.append(Region(dimension=cells[k].dimension, direction=tuple(d.tolist()),
                               dbg=DBG(succ), sliding=int(counts[p])))
+    bs.cells, bs.region_cells = cells, ks
     return regions, int(need[pos].sum()), t_cells
 
 
