@@ -192,7 +192,8 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
       ndbg remove assemblies/bell.yaml gong_post
     """
     from ..io.loaders import load
-    from ..ndbg.infinite.build import build_infinite, triangle_pairs
+    from ..ndbg.infinite.blocked_sets import triangle_pairs
+    from ..ndbg.infinite.build import build_infinite
     from ..ndbg.infinite.sweep import SweepChecker
     from ..ndbg.infinitesimal.build import infinitesimal_ndbg
     from ..planning.andor import Budget

@@ -283,7 +283,7 @@ def contacts_2d_section(asm: Assembly, found) -> list[dict]:
 
 
 def _over_budget(asm: Assembly, options: Any) -> str:
-    from ..ndbg.infinite.build import triangle_pairs
+    from ..ndbg.infinite.blocked_sets import triangle_pairs
 
     return (f"{triangle_pairs(asm)} facing triangle pairs exceed the budget of "
             f"{options.infinite_budget}")
@@ -307,7 +307,8 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     gives the same partitionings of the whole assembly and nothing else (``None`` again when
     that is every direction)."""
     from ..ndbg.generalized.build import block_threads
-    from ..ndbg.infinite.build import build_infinite, triangle_pairs
+    from ..ndbg.infinite.blocked_sets import triangle_pairs
+    from ..ndbg.infinite.build import build_infinite
     from ..ndbg.infinite.domain import free_domain
     from ..ndbg.infinitesimal.build import DEFAULT_ANGLE_TOL, contact_pairs
     from ..ndbg.model import partitionings
