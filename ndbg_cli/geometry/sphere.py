@@ -45,17 +45,12 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
+from .vectors import plane_basis, unit
+
 #: Default angular tolerance, radians (see the module docstring).
 DEFAULT_ANGLE_TOL = 1e-6
 
 TWO_PI = 2.0 * np.pi
-
-
-def unit(v: np.ndarray) -> np.ndarray:
-    """Rows of ``v`` scaled to unit length (zero rows stay zero)."""
-    v = np.asarray(v, dtype=float)
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
 
 
 def _clusters(points: np.ndarray, radius: float) -> np.ndarray:
@@ -129,9 +124,16 @@ def signs(directions: np.ndarray, normals: np.ndarray, tol: float = DEFAULT_ANGL
     return out
 
 
-def plane_basis(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def circle_frames(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal ``(e1, e2)`` rows spanning the planes orthogonal to the rows of ``m``, with
-    ``e1 x e2 = m`` (so angles measured with them turn counter-clockwise about ``m``)."""
+    ``e1 x e2 = m``: the frames :func:`arrangement_s2` measures angles about its circles and
+    vertices in, and the gap cones' projections and the grasp pieces' orthants start from.
+
+    Not :func:`ndbg_cli.geometry.vectors.plane_basis` (whose helper axis is along ``m``'s
+    smallest component): here ``e1`` is ``m x x`` unless ``|m_x| >= 0.9`` (then ``m x y``).
+    The two agree for axis-aligned ``m`` only, and this one's choice reaches the reports (a
+    lone circle's edge representative is ``e1``; arc midpoints, cone rays and piece directions
+    are computed in this frame, and the regions' order follows), so these callers keep it."""
     m = np.atleast_2d(m)
     helper = np.where((np.abs(m[:, 0]) < 0.9)[:, None], [[1.0, 0, 0]], [[0, 1.0, 0]])
     e1 = unit(np.cross(m, helper))
@@ -228,12 +230,12 @@ def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arran
         return Arrangement(circles, tol, np.zeros((0, 3)), [], empty_i, empty_i, empty_i,
                            np.zeros((0, 3)), [()], np.array([[0.0, 0.0, 1.0]]))
     if k == 1:  # two hemispheres and the circle itself, a closed loop
-        e1, _ = plane_basis(circles)
+        e1, _ = circle_frames(circles)
         return Arrangement(circles, tol, np.zeros((0, 3)), [], np.array([0]), np.array([-1]),
                            np.array([-1]), e1.copy(), [(), ()],
                            np.vstack([circles[0], -circles[0]]))
     verts, vcirc = _vertices(circles, tol)
-    e1, e2 = plane_basis(circles)
+    e1, e2 = circle_frames(circles)
     # Incidences (circle, vertex) sorted by circle then angle about the circle's normal.
     inc_c = np.array([c for vc in vcirc for c in vc], dtype=np.int64)
     inc_v = np.array([v for v, vc in enumerate(vcirc) for _ in vc], dtype=np.int64)
@@ -264,7 +266,7 @@ def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arran
     tangent = np.empty((2 * ne, 3))
     tangent[0::2] = np.cross(m, verts[edge_start])
     tangent[1::2] = -np.cross(m, verts[edge_end])
-    va, vb = plane_basis(verts)  # tangent basis at each vertex, vb = v x va
+    va, vb = circle_frames(verts)  # tangent basis at each vertex, vb = v x va
     tang_ang = np.arctan2(np.einsum("ij,ij->i", tangent, vb[origin]),
                           np.einsum("ij,ij->i", tangent, va[origin]))
     around = np.lexsort((tang_ang, origin))  # outgoing half-edges, CCW about each vertex
@@ -452,7 +454,7 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
     m = ne[0]
     e1, e2 = plane_basis(m)
     rest = np.flatnonzero(~implicit)
-    xy = np.column_stack([normals[rest] @ e1[0], normals[rest] @ e2[0]])
+    xy = np.column_stack([normals[rest] @ e1, normals[rest] @ e2])
     big = np.linalg.norm(xy, axis=1) > tol
     rest, xy = rest[big], unit(xy[big])
     if len(rest) == 0:
@@ -477,7 +479,7 @@ def _extreme_circles(normals: np.ndarray, circle: np.ndarray, u: np.ndarray,
     h = normals @ u
     e1, e2 = plane_basis(u)
     p = normals / h[:, None]
-    xy = np.column_stack([p @ e1[0], p @ e2[0]])
+    xy = np.column_stack([p @ e1, p @ e2])
     try:
         ring = [int(i) for i in ConvexHull(xy).vertices]  # counter-clockwise
     except QhullError:  # nearly collinear projections: keep every circle (still exact)
@@ -519,7 +521,7 @@ def _snap_lineality_plane(normals: np.ndarray, tol: float) -> np.ndarray:
     # Rotate the plane's normal to +z and zero the members' z exactly: the LP solver drops
     # matrix entries below 1e-9, which would undo a projection done in the original frame.
     e1, e2 = plane_basis(m[best])
-    frame = np.vstack([e1, e2, m[best][None]])
+    frame = np.vstack([e1, e2, m[best]])
     out = normals @ frame.T
     out[members, 2] = 0.0
     return unit(out)

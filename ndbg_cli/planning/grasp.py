@@ -56,9 +56,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..geometry.vectors import unit
 from ..ndbg.dbg import bit_rows, bits, condensation
 from ..ndbg.model import NDBG
-from .pieces import region_pieces, split_piece, unit
+from .pieces import region_pieces, split_piece
 
 Face = tuple[int, Sequence[float], Sequence[float] | None]
 

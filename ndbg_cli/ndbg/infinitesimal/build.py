@@ -55,8 +55,8 @@ from ...geometry.sphere import (
     merge_directions,
     signs,
     snap_normals,
-    unit,
 )
+from ...geometry.vectors import unit
 from ..dbg import DBG, bits
 from ..model import NDBG, ConnectivityTest, Partitioning, Region, partitionings
 
