@@ -29,10 +29,11 @@ from ndbg_cli.contacts.contacts3d import (
     fcl_model,
 )
 from ndbg_cli.contacts.facets import box_pairs, fcl_object, part_geometry, sat_gap
-from ndbg_cli.contacts.features import _distinct_points, _unique_rows, classify_pairs
+from ndbg_cli.contacts.features import _distinct_points, classify_pairs
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.core.errors import InterferenceError
-from ndbg_cli.geometry.normals import _one_cluster, cluster_normals
+from ndbg_cli.geometry.normals import cluster_normals, one_cluster
+from ndbg_cli.geometry.vectors import unique_rows
 from ndbg_cli.io.validate import make_part
 
 from conftest import shared
@@ -541,7 +542,7 @@ def test_cluster_normals_equals_the_greedy_reference():
         got = cluster_normals(n, ang, w)
         assert got.shape == want.shape
         assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
-        assert _one_cluster(n, ang) == (len(want) == 1)
+        assert one_cluster(n, ang) == (len(want) == 1)
 
 
 def test_unique_rows_equals_numpy_unique():
@@ -550,7 +551,7 @@ def test_unique_rows_equals_numpy_unique():
         x = np.round(rng.normal(size=(int(rng.integers(1, 300)), 3)), 1)
         x[rng.random(x.shape) < 0.2] = rng.choice([0.0, -0.0])
         _, first, inv = np.unique(x, axis=0, return_index=True, return_inverse=True)
-        got_first, got_inv = _unique_rows(x)
+        got_first, got_inv = unique_rows(x)
         assert np.array_equal(got_first, first) and np.array_equal(got_inv, inv.ravel())
         groups = [np.sort(rng.choice(len(x), size=int(rng.integers(1, len(x) + 1)),
                                      replace=False)) for _ in range(3)]

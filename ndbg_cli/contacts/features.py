@@ -52,8 +52,8 @@ import numpy as np
 import shapely
 from scipy.optimize import nnls
 
-from ..geometry.normals import _one_cluster, _unique_rows, cluster_normals
-from ..geometry.vectors import plane_basis
+from ..geometry.normals import cluster_normals, one_cluster
+from ..geometry.vectors import plane_basis, unique_rows
 from .facets import (
     PartGeometry,
     _components,
@@ -228,8 +228,8 @@ def curved_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.nda
         weights = np.concatenate([ga.areas[ta], gb.areas[tb]])
         centroids = np.concatenate([ga.triangles[ta].mean(axis=1), gb.triangles[tb].mean(axis=1)])
         verts = np.concatenate([ga.triangles[ta].reshape(-1, 3), gb.triangles[tb].reshape(-1, 3)])
-        flat_a = _one_cluster(ga.normals[ta], ang)
-        flat_b = _one_cluster(gb.normals[tb], ang)
+        flat_a = one_cluster(ga.normals[ta], ang)
+        flat_b = one_cluster(gb.normals[tb], ang)
         if flat_a != flat_b:
             out.append(_flat_on_curved(ga, gb, ta, tb, flat_a, ang, tol))
             continue
@@ -345,7 +345,7 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
     pts, pair = _touch_points(ga, gb, i, j, gap)
     # touch points repeat (each vertex is shared by many pairs): test each distinct one once
     q = max(float(gap.min()) / 4.0, 1e-300)
-    first, inv = _unique_rows(np.round(pts / q))
+    first, inv = unique_rows(np.round(pts / q))
     gmax = np.zeros(len(first))
     np.maximum.at(gmax, inv, gap[pair])
     keep = ~_near_patches(pts[first], gmax, patches, ga, gb)[inv]
@@ -451,7 +451,7 @@ def _pair_by_pair(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
     wide = [None if len(kept) > MAX_GAP_CONES else widen(c, ang) for c in kept]
     rows = np.array([c.normal for c, w in zip(kept, wide) if w is None]).reshape(-1, 3)
     if len(rows):
-        normals = rows[np.sort(_unique_rows(rows)[0])]
+        normals = rows[np.sort(unique_rows(rows)[0])]
         out.append(_line_contact(kind, normals, points, "any"))
     return out + [dict(kind="point", normals=w, points=c.point[None, :],
                        point_normals=c.normal[None, :], area=0.0, blocking="all")
@@ -479,7 +479,7 @@ def _distinct_points(pts: np.ndarray, groups: list[np.ndarray]) -> list[np.ndarr
     for the sign of a zero is not defined by the values, so those go to ``np.unique``."""
     if np.any(np.signbit(pts) & (pts == 0)):
         return [np.unique(pts[g], axis=0) for g in groups]
-    first, inv = _unique_rows(pts)
+    first, inv = unique_rows(pts)
     rows = pts[first]
     return [rows[np.unique(inv[g])] for g in groups]
 

@@ -43,9 +43,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
-from .vectors import plane_basis, unit
+from .vectors import close_pairs, plane_basis, unique_rows, unit
 
 #: Default angular tolerance, radians (see the module docstring).
 DEFAULT_ANGLE_TOL = 1e-6
@@ -54,16 +53,19 @@ TWO_PI = 2.0 * np.pi
 
 
 def _clusters(points: np.ndarray, radius: float) -> np.ndarray:
-    """Single-linkage cluster label of each row of ``points`` (Euclidean ``radius``)."""
+    """Single-linkage cluster label of each row of ``points`` (Euclidean ``radius``), in order
+    of first appearance: the connected components of the graph of the pairs within
+    ``radius`` (the neighbour search and the deduplication are those of
+    :func:`ndbg_cli.geometry.normals.cluster_normals`, whose clusters are greedy instead)."""
     if len(points) == 0:
         return np.zeros(0, dtype=np.int64)
     # Repeated points (shared CAD normals) first collapse exactly: query_pairs would list
     # every pair of copies.
-    uniq, inv = np.unique(np.round(points, 12), axis=0, return_inverse=True)
-    inv = np.asarray(inv).reshape(-1)
-    m = len(uniq)
-    pairs = cKDTree(uniq).query_pairs(radius, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    r = np.round(points, 12)
+    first, inv = unique_rows(r)
+    m = len(first)
+    p, q = close_pairs(r[first], radius)
+    graph = coo_matrix((np.ones(len(p)), (p, q)), shape=(m, m))
     _, labels = connected_components(graph, directed=False)
     labels = labels[inv]
     # Relabel in order of first appearance, for determinism.
@@ -86,6 +88,14 @@ def merge_directions(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL, *,
     Returns ``(dirs, index, sign)``: the merged unit directions ``(k, dim)`` in order of first
     appearance, and for each input row the index of its direction and the sign ``s`` (+1 or
     -1; always +1 without ``antipodal``) with ``normals[i] ~= s * dirs[index[i]]``.
+
+    Why single linkage and not the greedy clusters of
+    :func:`ndbg_cli.geometry.normals.cluster_normals`: the arrangement needs its circles
+    pairwise more than ``tol`` apart (else two nearly equal circles cut sliver regions), and
+    only single linkage guarantees that of its output (greedy clusters can leave two means
+    within ``tol`` of each other); ``tol`` is rounding noise (1e-6 rad), so chaining across
+    it is harmless. It also joins ``n`` with ``-n`` (one circle) and maps every input row to
+    its direction, which the NDBG builder needs.
     """
     n = unit(np.asarray(normals, dtype=float).reshape(len(normals), -1))
     m = len(n)

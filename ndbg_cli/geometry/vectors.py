@@ -1,12 +1,14 @@
-"""Small vector helpers shared by every stage: unit vectors and a plane's orthonormal basis.
+"""Small vector helpers shared by every stage: unit vectors, a plane's orthonormal basis, the
+distinct rows of an array and the pairs of points within a distance.
 
-Lowest of the geometry modules (numpy only): contacts, the NDBG builders and planning import
-these instead of writing their own.
+Lowest of the geometry modules (numpy and scipy only): the clusterings of normals, contacts,
+the NDBG builders and planning import these instead of writing their own.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 
 def unit(v: np.ndarray) -> np.ndarray:
@@ -36,3 +38,27 @@ def plane_basis(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     helper = np.eye(3)[np.argmin(np.abs(m), axis=-1)]
     e1 = unit(np.cross(m, helper))
     return e1, np.cross(m, e1)
+
+
+def unique_rows(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(first, inverse)`` of the distinct rows of ``x`` ``(n, k)`` (finite), exactly as
+    ``np.unique(x, axis=0, return_index=True, return_inverse=True)`` gives them: rows in
+    lexicographic order, equal meaning equal values (-0.0 == 0.0), ``first`` the lowest index
+    of each. One stable lexicographic sort, several times faster than ``np.unique`` on rows."""
+    order = np.lexsort(x.T[::-1])
+    xs = x[order]
+    new = np.ones(len(x), dtype=bool)
+    new[1:] = xs[1:, 0] != xs[:-1, 0]
+    for d in range(1, x.shape[1]):
+        new[1:] |= xs[1:, d] != xs[:-1, d]
+    inv = np.empty(len(x), dtype=np.int64)
+    inv[order] = np.cumsum(new) - 1
+    return order[new], inv
+
+
+def close_pairs(points: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(p, q)`` int64 ``(m,)``: the index pairs ``p < q`` of rows of ``points`` at Euclidean
+    distance at most ``radius`` (a k-d tree's ``query_pairs``, in its order)."""
+    pq = cKDTree(points).query_pairs(radius, output_type="ndarray")
+    pq = pq.astype(np.int64).reshape(-1, 2)
+    return pq[:, 0], pq[:, 1]
