@@ -134,16 +134,24 @@ def ndbg_lines(report: dict) -> list[str]:
     return lines
 
 
+def depth_note(exact: bool, connected: bool, strategy: str) -> str:
+    """What the tree's depth line adds: unproven, or proven among connected trees."""
+    if not exact:
+        return " (not proven optimal)"
+    if connected and strategy == "shortest":
+        return " (minimum for contact-connected subassemblies)"
+    return ""
+
+
 def plan_lines(report: dict) -> list[str]:
-    """The chosen assembly sequence as numbered steps."""
+    """The chosen assembly sequence (the report's ``plan`` section) as numbered steps: the
+    one renderer of a plan, ``insert {moved} into {onto} along (d)``."""
     p = report.get("plan")
     if p is None:
         return []
     if not p.get("found"):
         return ["", "assembly sequence: none found - " + "; ".join(p.get("notes", []))]
     fam = (p.get("family") or "").replace("_", " ")
-    from ..planning.plans import depth_note
-
     exact = depth_note(p.get("exact", True), p.get("connected", False), p.get("strategy", ""))
     lines = ["", f"assembly sequence ({p['strategy']}, {fam}): {len(p['sequence'])} steps, "
              f"tree depth {p['depth']}{exact}"]
