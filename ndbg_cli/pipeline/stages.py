@@ -27,11 +27,8 @@ import numpy as np
 import shapely
 
 from ..core.assembly import Assembly, Diagnostic
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
 from ..ndbg.model import NDBG, ConnectivityTest
-
-INFINITESIMAL = "infinitesimal_translation"
-INFINITE = "infinite_translation"
-GENERALIZED = "generalized"
 
 FAMILIES_OF = {
     "all": (INFINITESIMAL, INFINITE, GENERALIZED),

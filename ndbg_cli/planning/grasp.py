@@ -146,9 +146,9 @@ _BLOCK = 4_000_000
 
 def tolerance(ndbg: NDBG) -> float:
     """The angular tolerance of ``ndbg``'s sign tests (see the module docstring)."""
+    from ..core.constants import INFINITE
     from ..geometry.sphere import DEFAULT_ANGLE_TOL
     from ..ndbg.infinite.blocked_sets import OPEN_TOL
-    from ..ndbg.infinite.build import FAMILY as INFINITE
 
     if ndbg.family == INFINITE:
         return OPEN_TOL

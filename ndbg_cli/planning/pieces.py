@@ -257,8 +257,7 @@ def region_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
     """Every region's extent as convex pieces (see the module docstring): per region a list
     of ``(g, dim)`` arrays of unit generators; ``None`` when the NDBG keeps no geometry its
     regions can be matched to (then only their representatives are known)."""
-    from ..ndbg.infinite.build import FAMILY as INFINITE
-    from ..ndbg.infinitesimal.build import FAMILY as INFINITESIMAL
+    from ..core.constants import INFINITE, INFINITESIMAL
 
     if not ndbg.regions or any(r.direction is None for r in ndbg.regions):
         return None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+
 
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
@@ -115,19 +117,19 @@ def ndbg_lines(report: dict) -> list[str]:
         if sec.get("skipped"):
             lines += ["", f"{fam.replace('_', ' ')}: skipped ({sec['why']})"]
             continue
-        if fam == "infinitesimal_translation":
+        if fam == INFINITESIMAL:
             from ..ndbg.infinitesimal.build import infinitesimal_text
 
             parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
             lines += infinitesimal_text({**sec, "partitionings": parts}, limit=6)
-        elif fam == "infinite_translation":
+        elif fam == INFINITE:
             from .infinite import infinite_text
 
             parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
             lines += [""] + infinite_text({**sec, "partitionings": parts[:6]})[:8]
             if len(parts) > 6:
                 lines[-1:] = [lines[-1], f"  ... {len(parts)} in all (see the JSON report)"]
-        elif fam == "generalized":
+        elif fam == GENERALIZED:
             from ..ndbg.generalized.build import generalized_text
 
             lines += [""] + generalized_text(sec)[:14]

@@ -44,6 +44,7 @@ from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
+from ...core.constants import INFINITESIMAL
 from ...geometry.sphere import (
     DEFAULT_ANGLE_TOL,
     TWO_PI,
@@ -60,7 +61,6 @@ from ...geometry.vectors import unit
 from ..dbg import DBG, bits
 from ..model import NDBG, ConnectivityTest, Partitioning, Region, partitionings
 
-FAMILY = "infinitesimal_translation"
 #: At most this many directions are listed per partitioning in the report.
 MAX_DIRECTIONS = 32
 
@@ -159,7 +159,7 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     ends = sorted({(g[0], g[1]) for g in groups})
     if not groups:
         region = Region(2, (0.0, 0.0, 1.0), DBG.empty(n))
-        return NDBG(FAMILY, tuple(ids), (region,), 3,
+        return NDBG(INFINITESIMAL, tuple(ids), (region,), 3,
                     _stats([region], circles=0, normals=0, pairs=0, angle_tolerance=tol,
                            refined=refine), geometry=arrangement_s2(np.zeros((0, 3)), tol))
     pair_index = {e: k for k, e in enumerate(ends)}
@@ -223,7 +223,7 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     stats = _stats(regions, circles=int(len(keep)), circles_total=int(len(circles)),
                    normals=int(len(all_n)), pairs=len(ends), angle_tolerance=tol,
                    refined=refine, arrangement_circles=arr.circles.tolist())
-    return NDBG(FAMILY, tuple(ids), regions, 3, stats, geometry=arr)
+    return NDBG(INFINITESIMAL, tuple(ids), regions, 3, stats, geometry=arr)
 
 
 def _region_signs(arr, reps: np.ndarray) -> np.ndarray:
@@ -379,7 +379,7 @@ def build_ndbg_2d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     stats = _stats(regions, diameters=diameters, arrangement_circles=lines[:diameters],
                    normals=int(sum(len(p[2]) for p in prs)), pairs=len(prs),
                    angle_tolerance=tol, refined=True)
-    return NDBG(FAMILY, tuple(ids), regions, 2, stats)
+    return NDBG(INFINITESIMAL, tuple(ids), regions, 2, stats)
 
 
 # -- assemblies --------------------------------------------------------------------------------
@@ -497,7 +497,7 @@ def infinitesimal_section(asm, ndbg: NDBG, parts: Sequence[Partitioning],
     counts = {str(d): 0 for d in range(ndbg.space_dimension)}
     counts.update(ndbg.region_counts())
     section = {
-        "family": FAMILY,
+        "family": INFINITESIMAL,
         "space_dimension": ndbg.space_dimension,
         "angle_tolerance": stats.get("angle_tolerance", DEFAULT_ANGLE_TOL),
         "regions_by_dimension": counts,
