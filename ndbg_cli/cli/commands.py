@@ -131,7 +131,8 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
     doc: dict = {"schema": QUERY_SCHEMA, "assembly": asm.name, "direction": d.tolist(),
                  "dbgs": {}}
     if motion in ("all", "translation"):
-        from ..ndbg.infinitesimal.build import DEFAULT_ANGLE_TOL, contact_pairs, dbg_at
+        from ..core.constants import ANGLE_TOL_RAD
+        from ..ndbg.infinitesimal.build import contact_pairs, dbg_at
 
         if asm.dimension == 3:
             from ..contacts.contacts3d import analyze_contacts
@@ -139,7 +140,7 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
             ca = analyze_contacts(asm, tolerance=tolerance)
             g = dbg_at(len(asm), contact_pairs(asm, ca), d, ca.angle_tolerance)
         else:
-            g = dbg_at(len(asm), contact_pairs(asm), d, DEFAULT_ANGLE_TOL)
+            g = dbg_at(len(asm), contact_pairs(asm), d, ANGLE_TOL_RAD)
         doc["dbgs"][INFINITESIMAL] = _dbg_record(asm, g)
     if motion in ("all", "infinite"):
         from ..ndbg.infinite.sweep import dbg_at as sweep_dbg

@@ -18,7 +18,7 @@ Tolerance model (all lengths in the assembly unit):
   their separation is at most ``tol + sag_i + sag_j``, and an overlap counts as an
   interference only when its mean thickness exceeds ``tol + min(sag_A, sag_B)``
   (:mod:`ndbg_cli.contacts.interference`).
-* ``angle_tolerance`` (radians, default :data:`DEFAULT_ANGLE_TOLERANCE` = 1 degree): normals
+* ``angle_tolerance`` (radians, default :data:`CONTACT_ANGLE_TOL_RAD` = 1 degree): normals
   closer than this are one normal; faces whose normals are opposite within it can be coplanar.
   Curved contacts keep the facet normals themselves (clustered within this angle): for a
   facetted shaft in a hole they are the blocking cone.
@@ -49,6 +49,7 @@ import numpy as np
 
 from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
+from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
 from .facets import (
     PartGeometry,
@@ -65,10 +66,7 @@ from .features import classify_pairs, curved_contacts, edge_point_contacts, plan
 from .interference import Interference, check_interference_policy, interference, meshes_intersect
 
 __all__ = ["Contact", "Interference", "ContactAnalysis", "analyze_contacts", "contacts_section",
-           "contacts_text", "check_interference_policy", "fcl_model", "DEFAULT_ANGLE_TOLERANCE"]
-
-#: Default angular tolerance (radians): 1 degree.
-DEFAULT_ANGLE_TOLERANCE = float(np.radians(1.0))
+           "contacts_text", "check_interference_policy", "fcl_model"]
 
 #: Triangle pairs processed per numpy batch (bounds memory to ~100 MB).
 _CHUNK = 200_000
@@ -145,7 +143,7 @@ class ContactAnalysis:
 
 
 def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
-                     angle_tolerance: float = DEFAULT_ANGLE_TOLERANCE,
+                     angle_tolerance: float = CONTACT_ANGLE_TOL_RAD,
                      cache: PairCache | None = None) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 

@@ -3,8 +3,8 @@
 Angular tolerance
 -----------------
 Every comparison of directions uses one explicit angular tolerance ``tol`` in radians
-(:data:`DEFAULT_ANGLE_TOL` = 1e-6 rad, about 0.2 arc-seconds): CAD contacts share normals that
-differ only by rounding, so
+(:data:`ndbg_cli.core.constants.ANGLE_TOL_RAD` = 1e-6 rad, about 0.2 arc-seconds): CAD
+contacts share normals that differ only by rounding, so
 
 * two normals at an angle <= ``tol`` (or <= ``tol`` from antipodal, for great circles, since
   ``n`` and ``-n`` give the same circle) are merged into one, single-linkage (a chain of
@@ -44,10 +44,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from ..core.constants import ANGLE_TOL_RAD
 from .vectors import close_pairs, plane_basis, unique_rows, unit
-
-#: Default angular tolerance, radians (see the module docstring).
-DEFAULT_ANGLE_TOL = 1e-6
 
 TWO_PI = 2.0 * np.pi
 
@@ -81,7 +79,7 @@ def chord(angle: float) -> float:
     return 2.0 * np.sin(min(angle, np.pi) / 2.0)
 
 
-def merge_directions(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL, *,
+def merge_directions(normals: np.ndarray, tol: float = ANGLE_TOL_RAD, *,
                      antipodal: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Merge unit vectors within ``tol`` radians (and, with ``antipodal``, ``n`` with ``-n``).
 
@@ -124,7 +122,7 @@ def merge_directions(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL, *,
     return unit(dirs), index.astype(np.int64), sign.astype(np.int64)
 
 
-def signs(directions: np.ndarray, normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL
+def signs(directions: np.ndarray, normals: np.ndarray, tol: float = ANGLE_TOL_RAD
           ) -> np.ndarray:
     """Sign matrix ``(len(directions), len(normals))`` of ``d . n`` with ``|d . n| <= tol``
     counted as zero (int8: -1, 0, +1)."""
@@ -230,7 +228,7 @@ def _vertices(circles: np.ndarray, tol: float) -> tuple[np.ndarray, list[tuple[i
     return verts, [tuple(sorted(s)) for s in vc]
 
 
-def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arrangement:
+def arrangement_s2(circles: np.ndarray, tol: float = ANGLE_TOL_RAD) -> Arrangement:
     """The arrangement of the great circles with unit normals ``circles`` (rows, assumed
     already merged: pairwise more than ``tol`` apart, also from antipodal)."""
     circles = unit(np.asarray(circles, dtype=float).reshape(-1, 3))
@@ -320,7 +318,7 @@ def angle_of(v: np.ndarray) -> np.ndarray:
     return np.mod(np.arctan2(v[:, 1], v[:, 0]), TWO_PI)
 
 
-def cluster_angles(angles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL
+def cluster_angles(angles: np.ndarray, tol: float = ANGLE_TOL_RAD
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Merge angles on the circle within ``tol`` (single linkage, across ``2 pi`` too).
 
@@ -361,7 +359,7 @@ class Cone2D:
     boundary: tuple[int, ...]
 
 
-def free_cone_2d(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Cone2D:
+def free_cone_2d(normals: np.ndarray, tol: float = ANGLE_TOL_RAD) -> Cone2D:
     """The free cone of ``normals`` (2D unit rows, pairwise more than ``tol`` apart).
 
     With the normal angles sorted, the largest cyclic gap ``g`` decides: one normal gives a

@@ -146,13 +146,12 @@ _BLOCK = 4_000_000
 
 def tolerance(ndbg: NDBG) -> float:
     """The angular tolerance of ``ndbg``'s sign tests (see the module docstring)."""
-    from ..core.constants import INFINITE
-    from ..geometry.sphere import DEFAULT_ANGLE_TOL
+    from ..core.constants import ANGLE_TOL_RAD, INFINITE
     from ..ndbg.infinite.blocked_sets import OPEN_TOL
 
     if ndbg.family == INFINITE:
         return OPEN_TOL
-    return float(ndbg.stats.get("angle_tolerance", DEFAULT_ANGLE_TOL))
+    return float(ndbg.stats.get("angle_tolerance", ANGLE_TOL_RAD))
 
 
 def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
