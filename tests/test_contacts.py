@@ -19,13 +19,15 @@ from scipy.spatial.transform import Rotation
 
 import ndbg_cli
 import ndbg_cli.contacts.contacts3d as contacts_module
-from ndbg_cli.contacts.contacts3d import DEFAULT_ANGLE_TOLERANCE, _tree_rank, analyze_contacts
+from ndbg_cli.contacts.contacts3d import _tree_rank, analyze_contacts
 from ndbg_cli.contacts.facets import box_pairs, fcl_model, fcl_object, part_geometry, sat_gap
 from ndbg_cli.contacts.features import _distinct_points, classify_pairs
 from ndbg_cli.contacts.interference import check_interference_policy
 from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.core.constants import CONTACT_ANGLE_TOL_RAD
 from ndbg_cli.core.errors import InterferenceError
-from ndbg_cli.geometry.normals import cluster_normals, one_cluster, unique_rows
+from ndbg_cli.geometry.normals import cluster_normals, one_cluster
+from ndbg_cli.geometry.vectors import unique_rows
 from ndbg_cli.io.validate import make_part
 from ndbg_cli.report.contacts import contacts_section, contacts_text
 
@@ -401,7 +403,7 @@ def test_bvh_model_is_built_once_per_part():
     asm = assemble(box((2, 2, 2), (0, 0, 0)))
     part = asm.parts[0]
     assert fcl_model(part) is fcl_model(part)
-    assert DEFAULT_ANGLE_TOLERANCE == pytest.approx(np.radians(1.0))
+    assert CONTACT_ANGLE_TOL_RAD == pytest.approx(np.radians(1.0))
 
 
 # -- external data ----------------------------------------------------------------------------
@@ -454,7 +456,7 @@ def test_as1_under_a_random_rigid_motion():
         got = moved_res.normals_by_pair()[pair]
         # every rotated normal has a twin within the angular tolerance
         dots = (normals @ rot.T) @ got.T
-        assert dots.max(axis=1).min() > np.cos(2 * DEFAULT_ANGLE_TOLERANCE)
+        assert dots.max(axis=1).min() > np.cos(2 * CONTACT_ANGLE_TOL_RAD)
 
 
 @pytest.mark.external
@@ -572,7 +574,7 @@ def shaft_block_geometry():
     shaft, block = shaft_and_block(9.99)
     asm = assemble(shaft, block)
     tol = asm.length_tolerance
-    return asm, tol, [part_geometry(p, tol, DEFAULT_ANGLE_TOLERANCE) for p in asm.parts]
+    return asm, tol, [part_geometry(p, tol, CONTACT_ANGLE_TOL_RAD) for p in asm.parts]
 
 
 def test_r_tree_queries_list_hits_in_tree_rank_order():
@@ -626,8 +628,8 @@ def test_sat_gap_and_plane_offsets_equal_the_reference():
     assert np.array_equal(sat_gap(ra, rb), _sat_gap_reference(ra, rb))
     fi, fj, offsets = contacts_module._plane_filter(ga, gb, i, j, tol)
     assert len(fi) > 100
-    with_offsets = classify_pairs(ga, gb, fi, fj, tol, DEFAULT_ANGLE_TOLERANCE, offsets)
-    without = classify_pairs(ga, gb, fi, fj, tol, DEFAULT_ANGLE_TOLERANCE)
+    with_offsets = classify_pairs(ga, gb, fi, fj, tol, CONTACT_ANGLE_TOL_RAD, offsets)
+    without = classify_pairs(ga, gb, fi, fj, tol, CONTACT_ANGLE_TOL_RAD)
     assert all(np.array_equal(a, b) for a, b in zip(with_offsets, without))
 
 
@@ -638,7 +640,7 @@ def test_apart_is_a_proof_of_distance():
         shift = rng.uniform(-3, 3, 3)
         asm = assemble(box((2, 2, 2), (0, 0, 0)), box((1, 1, 1), shift))
         tol = asm.length_tolerance
-        ga, gb = (part_geometry(p, tol, DEFAULT_ANGLE_TOLERANCE) for p in asm.parts)
+        ga, gb = (part_geometry(p, tol, CONTACT_ANGLE_TOL_RAD) for p in asm.parts)
         gap = 0.3
         d = fcl.distance(fcl_object(asm.parts[0]), fcl_object(asm.parts[1]),
                          fcl.DistanceRequest(), fcl.DistanceResult())

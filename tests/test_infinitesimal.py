@@ -22,8 +22,8 @@ from ndbg_cli.geometry.sphere import (
     cluster_angles,
     free_cone_2d,
     merge_directions,
-    unit,
 )
+from ndbg_cli.geometry.vectors import unit
 from ndbg_cli.io.validate import make_polygon_part
 from ndbg_cli.ndbg.dbg import DBG, free_subsets
 from ndbg_cli.ndbg.infinitesimal.build import (

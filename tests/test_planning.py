@@ -19,8 +19,9 @@ from ndbg_cli.planning.classes import andor_section, classes_section, classes_te
 from ndbg_cli.planning.decompose import min_depth_search, min_directions, sink_decompose
 from ndbg_cli.planning.grasp import grasp
 from ndbg_cli.planning.interlock import interlock
-from ndbg_cli.planning.plans import STRATEGIES, plan, plan_section, plan_text
+from ndbg_cli.planning.plans import STRATEGIES, plan, plan_section
 from ndbg_cli.planning.removal import remove
+from ndbg_cli.report.text import plan_lines
 
 UP, DOWN = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
 PX, NX, PY, NY = (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0)
@@ -419,6 +420,11 @@ def test_base_part_never_moved(seed):
             assert (1 << n) - 1 in covered
 
 
+def plan_header(p) -> str:
+    """The text report's first line of the plan ``p`` (as the pipeline builds its section)."""
+    return plan_lines({"plan": {"family": p.ndbg.family, **plan_section(p)}})[1]
+
+
 def test_plan_shortest_is_optimal_and_sequence_order():
     nd = sandwich(4)
     p = plan(nd, "shortest")
@@ -433,7 +439,7 @@ def test_plan_shortest_is_optimal_and_sequence_order():
         assert frozenset(s["moved"]) in made and frozenset(s["onto"]) in made
         made.add(frozenset(s["produces"]))
     assert sec["tree"]["depth"] == 4
-    assert plan_text(p)[0].startswith("Assembly sequence (shortest")
+    assert plan_header(p).startswith("assembly sequence (shortest")
 
 
 # ------------------------------------------------------------------------------- remove
@@ -707,10 +713,10 @@ def test_plan_says_when_its_depth_is_the_minimum_for_connected_subassemblies():
     p = plan(nd, "shortest", connected=conn)
     sec = plan_section(p)
     assert sec["connected"] is True and sec["exact"] and sec["depth"] == 2
-    assert "minimum for contact-connected subassemblies" in plan_text(p)[0]
+    assert "minimum for contact-connected subassemblies" in plan_header(p)
     free = plan(nd, "shortest")
     assert plan_section(free)["connected"] is False
-    assert plan_text(free)[0].endswith("tree depth 2")
+    assert plan_header(free).endswith("tree depth 2")
 
 
 def test_insertion_direction_is_opposite_of_removal():

@@ -12,6 +12,7 @@ from pathlib import Path
 import click
 
 from .._version import __version__
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
 from ..core.errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION
 from ._app import (
     CONTEXT,
@@ -132,7 +133,7 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
     doc: dict = {"schema": QUERY_SCHEMA, "assembly": asm.name, "direction": d.tolist(),
                  "dbgs": {}}
     if motion in ("all", "translation"):
-        from ..geometry.sphere import DEFAULT_ANGLE_TOL
+        from ..core.constants import ANGLE_TOL_RAD
         from ..ndbg.infinitesimal.build import contact_pairs, dbg_at
 
         if asm.dimension == 3:
@@ -141,12 +142,12 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
             ca = analyze_contacts(asm, tolerance=tolerance)
             g = dbg_at(len(asm), contact_pairs(asm, ca), d, ca.angle_tolerance)
         else:
-            g = dbg_at(len(asm), contact_pairs(asm), d, DEFAULT_ANGLE_TOL)
-        doc["dbgs"]["infinitesimal_translation"] = _dbg_record(asm, g)
+            g = dbg_at(len(asm), contact_pairs(asm), d, ANGLE_TOL_RAD)
+        doc["dbgs"][INFINITESIMAL] = _dbg_record(asm, g)
     if motion in ("all", "infinite"):
         from ..ndbg.infinite.sweep import dbg_at as sweep_dbg
 
-        doc["dbgs"]["infinite_translation"] = _dbg_record(asm, sweep_dbg(asm, d))
+        doc["dbgs"][INFINITE] = _dbg_record(asm, sweep_dbg(asm, d))
     if fmt == "json":
         click.echo(dumps(doc), nl=False)
         return
@@ -217,7 +218,7 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
     base = asm.index(asm.base) if asm.base is not None and asm.base not in parts else None
     res = remove_parts(nd, target, base=base, budget=Budget(max_nodes=max_nodes))
     # steps the direct sweep test frees along a nearby coordinate axis state that axis
-    sweep = SweepChecker(asm) if nd.family != "generalized" else None
+    sweep = SweepChecker(asm) if nd.family != GENERALIZED else None
     sec = {"schema": REMOVE_SCHEMA, "assembly": asm.name, "family": nd.family,
            **res.section(nd, None if sweep is None else sweep.frees)}
     if fmt == "json":

@@ -15,6 +15,8 @@ import numpy as np
 import shapely
 from shapely.geometry.polygon import orient
 
+from ..geometry.vectors import unit
+
 #: Sine of the angle below which two edges count as parallel / a vertex as flat.
 PARALLEL_SINE = 1e-9
 
@@ -68,21 +70,16 @@ def polygon_edges(poly, tol: float = 0.0) -> _Edges:
         keep = np.linalg.norm(pts - np.roll(pts, 1, axis=0), axis=1) > max(tol, 0.0)
         pts = pts[keep] if keep.sum() >= 3 else pts
         prev, nxt = np.roll(pts, 1, axis=0), np.roll(pts, -1, axis=0)
-        u, v = unit2(pts - prev), unit2(nxt - pts)
+        u, v = unit(pts - prev), unit(nxt - pts)
         convex = (u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]) > PARALLEL_SINE
         ps.append(pts)
         qs.append(nxt)
         conv_p.append(convex)
         conv_q.append(np.roll(convex, -1))
     p, q = np.vstack(ps), np.vstack(qs)
-    d = unit2(q - p)
+    d = unit(q - p)
     return _Edges(p, q, np.column_stack([d[:, 1], -d[:, 0]]), np.concatenate(conv_p),
                   np.concatenate(conv_q))
-
-
-def unit2(v: np.ndarray) -> np.ndarray:
-    n = np.linalg.norm(v, axis=1, keepdims=True)
-    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
 
 
 def _edge_edge(ea: _Edges, eb: _Edges, tol: float) -> tuple[np.ndarray, np.ndarray,

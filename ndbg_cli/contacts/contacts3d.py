@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
+from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
 from .facets import (
     PartGeometry,
@@ -35,10 +36,7 @@ from .facets import (
 from .features import classify_pairs, curved_contacts, edge_point_contacts, planar_contacts
 from .interference import Interference, interference, meshes_intersect
 
-__all__ = ["Contact", "ContactAnalysis", "analyze_contacts", "DEFAULT_ANGLE_TOLERANCE"]
-
-#: Default angular tolerance (radians): 1 degree.
-DEFAULT_ANGLE_TOLERANCE = float(np.radians(1.0))
+__all__ = ["Contact", "ContactAnalysis", "analyze_contacts"]
 
 #: Triangle pairs processed per numpy batch (bounds memory to ~100 MB).
 _CHUNK = 200_000
@@ -115,7 +113,7 @@ class ContactAnalysis:
 
 
 def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
-                     angle_tolerance: float = DEFAULT_ANGLE_TOLERANCE,
+                     angle_tolerance: float = CONTACT_ANGLE_TOL_RAD,
                      cache: PairCache | None = None) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 

@@ -18,7 +18,8 @@ import numpy as np
 import shapely
 from scipy.optimize import nnls
 
-from ..geometry.normals import cluster_normals, one_cluster, unique_rows
+from ..geometry.normals import cluster_normals, one_cluster
+from ..geometry.vectors import plane_basis, unique_rows
 from .facets import (
     PartGeometry,
     _components,
@@ -87,10 +88,7 @@ def facing_overlap(ta: np.ndarray, tb: np.ndarray, m: np.ndarray) -> np.ndarray:
     triangles (2D separating-axis test); ``<= 0`` when the projections are disjoint or meet
     along a segment only."""
     m = m / np.maximum(np.linalg.norm(m, axis=1), 1e-300)[:, None]
-    helper = np.eye(3)[np.argmin(np.abs(m), axis=1)]
-    u = np.cross(m, helper)
-    u /= np.linalg.norm(u, axis=1)[:, None]
-    v = np.cross(m, u)
+    u, v = plane_basis(m)
     # projected vertices (u, v coordinates, each (p, 3)), the six edges (A's, then B's) and
     # their unit normals in the plane (each (p, 6))
     au, av = np.einsum("pvd,pd->pv", ta, u), np.einsum("pvd,pd->pv", ta, v)
@@ -145,7 +143,7 @@ def planar_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.nda
         k += 1
     for g, (n0, d0) in enumerate(seeds):
         sel = group == g
-        u, v = _plane_basis(n0)
+        u, v = plane_basis(n0)
         pa = _union_2d(ga.triangles[np.unique(i[sel])], u, v)
         pb = _union_2d(gb.triangles[np.unique(j[sel])], u, v)
         inter = shapely.intersection(pa, pb)
@@ -159,14 +157,6 @@ def planar_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.nda
                         _plane=(n0, d0, u, v, inter)))
         used |= sel
     return out, used
-
-
-def _plane_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors ``u, v`` with ``(u, v, n)`` right-handed and orthonormal."""
-    helper = np.eye(3)[int(np.argmin(np.abs(n)))]
-    u = np.cross(n, helper)
-    u /= np.linalg.norm(u)
-    return u, np.cross(n, u)
 
 
 def _union_2d(tri: np.ndarray, u: np.ndarray, v: np.ndarray):
@@ -296,7 +286,7 @@ def fit_surface(normals: np.ndarray, weights: np.ndarray, centroids: np.ndarray,
     if lam[0] < s2:
         axis = vec[:, 0]
         axis = axis * (1 if axis[np.argmax(np.abs(axis))] > 0 else -1)
-        u, v = _plane_basis(axis)
+        u, v = plane_basis(axis)
         # normal lines meet the axis: in the plane across the axis each passes through it
         p2 = np.stack([centroids @ u, centroids @ v], axis=1)
         n2 = np.stack([normals @ u, normals @ v], axis=1)

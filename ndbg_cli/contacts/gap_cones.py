@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import linprog
 from scipy.spatial import ConvexHull, QhullError
 
-from ..geometry.sphere import plane_basis
+from ..geometry.sphere import circle_frames
 
 #: Pairs farther apart than this fraction of the length tolerance are near misses with a
 #: gap direction; closer ones are touching.
@@ -91,7 +91,7 @@ def _cone(w: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     is flat: the convex hull of their central projection on ``n . x = 1``."""
     if len(w) < 3:
         return None
-    u, e = (b[0] for b in plane_basis(n))
+    u, e = (b[0] for b in circle_frames(n))
     xy = np.stack([w @ u, w @ e], axis=1) / (w @ n)[:, None]
     try:
         hull = ConvexHull(xy)
@@ -239,7 +239,7 @@ def widen(cone: GapCone, tol: float) -> np.ndarray | None:
 def _octagons(rays: np.ndarray, rho: float) -> np.ndarray:
     """``(8 k, 3)`` unit directions at the angle ``rho`` round each unit ray ``(k, 3)``, at
     8 even bearings."""
-    u, v = plane_basis(rays)
+    u, v = circle_frames(rays)
     a = np.arange(8) * (np.pi / 4)
     side = np.cos(a)[None, :, None] * u[:, None] + np.sin(a)[None, :, None] * v[:, None]
     return (np.cos(rho) * rays[:, None] + np.sin(rho) * side).reshape(-1, 3)

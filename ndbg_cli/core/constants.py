@@ -1,10 +1,13 @@
-"""Names and tolerances shared by every stage: the motion families' report keys.
+"""Names and tolerances shared by every stage: the motion families' report keys and the
+angular tolerances (each name says its unit).
 
 One table, so that a family is spelled the same in the NDBGs, the plans, the classes and the
 report (paper sections 5.1-5.3 and 6 define the three families).
 """
 
 from __future__ import annotations
+
+import math
 
 #: Infinitesimal translations (paper sections 4.2-4.5, 5.1).
 INFINITESIMAL = "infinitesimal_translation"
@@ -22,4 +25,13 @@ FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
 #: 115-part engine so that a search there stops within a couple of seconds (benchmarks/NOTES.md).
 WORK_LIMIT = 5_000_000
 
-__all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES", "WORK_LIMIT"]
+
+#: Angle (radians, 1e-6 rad ~ 0.2 arc-seconds) below which two directions of the arrangements
+#: are one (merged normals, vertices) and a direction lies on a great circle (sign tests).
+ANGLE_TOL_RAD = 1e-6
+#: Angle (radians, the value is 1 degree) within which triangle normals form one contact
+#: normal and two faces count as facing (the contact finder's ``angle_tolerance`` default).
+CONTACT_ANGLE_TOL_RAD = math.radians(1.0)
+
+__all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES", "ANGLE_TOL_RAD",
+           "CONTACT_ANGLE_TOL_RAD", "WORK_LIMIT"]

@@ -10,7 +10,8 @@ walks neighbour lists; the result is deterministic and independent of the input 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
+
+from .vectors import close_pairs, unique_rows
 
 #: Up to this many vectors, :func:`_greedy_clusters` compares all pairs and runs its greedy
 #: pass directly (cheaper than a k-d tree and a component analysis at that size).
@@ -29,6 +30,12 @@ def cluster_normals(normals: np.ndarray, angle_tol: float,
     The neighbours are found all at once and the pass walks lists of them
     (:func:`_greedy_clusters`): the clusters and numbers of the one-seed-at-a-time loop, which
     also never ended on a zero normal (a degenerate triangle's); that is a cluster of its own.
+
+    Why greedy and not single linkage (:func:`ndbg_cli.geometry.sphere.merge_directions`):
+    the contact tolerance is large (1 degree), and every member here lies within it of its
+    seed, so one cluster spans at most twice the tolerance. Single linkage chains: the facet
+    normals of a finely tessellated cylinder, each within the tolerance of the next, would
+    become one normal and the contact would lose its curvature (and its constraints).
     """
     n = np.asarray(normals, dtype=float).reshape(-1, 3)
     if len(n) == 0:
@@ -102,9 +109,7 @@ def _greedy_clusters(n: np.ndarray, cos: float) -> tuple[np.ndarray, np.ndarray]
         dot = (n @ n.T)[p, q]
     else:
         big = float(np.max(np.einsum("ij,ij->i", n, n)))
-        pq = cKDTree(n).query_pairs(float(np.sqrt(max(2.0 * big - 2.0 * cos, 0.0) + 1e-8)),
-                                    output_type="ndarray").astype(np.int64).reshape(-1, 2)
-        p, q = pq[:, 0], pq[:, 1]
+        p, q = close_pairs(n, float(np.sqrt(max(2.0 * big - 2.0 * cos, 0.0) + 1e-8)))
         dot = np.einsum("ij,ij->i", n[p], n[q])
     fwd = dot >= cos  # q is within reach of seed p
     bwd = fwd.copy()  # p is within reach of seed q
@@ -133,19 +138,3 @@ def _greedy_clusters(n: np.ndarray, cos: float) -> tuple[np.ndarray, np.ndarray]
     seed_of = np.array(seed_of)
     is_seed = seed_of == np.arange(k)
     return np.flatnonzero(is_seed), (np.cumsum(is_seed) - 1)[seed_of]
-
-
-def unique_rows(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(first, inverse)`` of the distinct rows of ``x`` ``(n, k)`` (finite), exactly as
-    ``np.unique(x, axis=0, return_index=True, return_inverse=True)`` gives them: rows in
-    lexicographic order, equal meaning equal values (-0.0 == 0.0), ``first`` the lowest index
-    of each. One stable lexicographic sort, several times faster than ``np.unique`` on rows."""
-    order = np.lexsort(x.T[::-1])
-    xs = x[order]
-    new = np.ones(len(x), dtype=bool)
-    new[1:] = xs[1:, 0] != xs[:-1, 0]
-    for d in range(1, x.shape[1]):
-        new[1:] |= xs[1:, d] != xs[:-1, d]
-    inv = np.empty(len(x), dtype=np.int64)
-    inv[order] = np.cumsum(new) - 1
-    return order[new], inv

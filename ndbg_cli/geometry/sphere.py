@@ -2,11 +2,11 @@
 :func:`arrangement_s2`, and for 2D :func:`cluster_angles` and :func:`free_cone_2d`.
 
 Every comparison of directions uses one explicit angular tolerance ``tol`` in radians
-(:data:`DEFAULT_ANGLE_TOL` = 1e-6 rad, about 0.2 arc-seconds), since CAD contacts share normals
-that differ only by rounding: normals within ``tol`` (or of antipodal, for great circles) are
-merged, single-linkage, into their normalised mean (:func:`merge_directions`); arrangement
-vertices within ``tol`` are one vertex (no sliver triangles); ``d`` is on the circle of ``m``
-when ``|d . m| <= tol`` (:func:`signs`).
+(:data:`ndbg_cli.core.constants.ANGLE_TOL_RAD` = 1e-6 rad, about 0.2 arc-seconds), since CAD
+contacts share normals that differ only by rounding: normals within ``tol`` (or of antipodal,
+for great circles) are merged, single-linkage, into their normalised mean
+(:func:`merge_directions`); arrangement vertices within ``tol`` are one vertex (no sliver
+triangles); ``d`` is on the circle of ``m`` when ``|d . m| <= tol`` (:func:`signs`).
 """
 
 from __future__ import annotations
@@ -16,32 +16,27 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
-#: Default angular tolerance, radians (see the module docstring).
-DEFAULT_ANGLE_TOL = 1e-6
+from ..core.constants import ANGLE_TOL_RAD
+from .vectors import close_pairs, plane_basis, unique_rows, unit
 
 TWO_PI = 2.0 * np.pi
 
 
-def unit(v: np.ndarray) -> np.ndarray:
-    """Rows of ``v`` scaled to unit length (zero rows stay zero)."""
-    v = np.asarray(v, dtype=float)
-    n = np.linalg.norm(v, axis=-1, keepdims=True)
-    return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
-
-
 def _clusters(points: np.ndarray, radius: float) -> np.ndarray:
-    """Single-linkage cluster label of each row of ``points`` (Euclidean ``radius``)."""
+    """Single-linkage cluster label of each row of ``points`` (Euclidean ``radius``), in order
+    of first appearance: the connected components of the graph of the pairs within
+    ``radius`` (the neighbour search and the deduplication are those of
+    :func:`ndbg_cli.geometry.normals.cluster_normals`, whose clusters are greedy instead)."""
     if len(points) == 0:
         return np.zeros(0, dtype=np.int64)
     # Repeated points (shared CAD normals) first collapse exactly: query_pairs would list
     # every pair of copies.
-    uniq, inv = np.unique(np.round(points, 12), axis=0, return_inverse=True)
-    inv = np.asarray(inv).reshape(-1)
-    m = len(uniq)
-    pairs = cKDTree(uniq).query_pairs(radius, output_type="ndarray")
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(m, m))
+    r = np.round(points, 12)
+    first, inv = unique_rows(r)
+    m = len(first)
+    p, q = close_pairs(r[first], radius)
+    graph = coo_matrix((np.ones(len(p)), (p, q)), shape=(m, m))
     _, labels = connected_components(graph, directed=False)
     labels = labels[inv]
     # Relabel in order of first appearance, for determinism.
@@ -57,13 +52,21 @@ def chord(angle: float) -> float:
     return 2.0 * np.sin(min(angle, np.pi) / 2.0)
 
 
-def merge_directions(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL, *,
+def merge_directions(normals: np.ndarray, tol: float = ANGLE_TOL_RAD, *,
                      antipodal: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Merge unit vectors within ``tol`` radians (and, with ``antipodal``, ``n`` with ``-n``).
 
     Returns ``(dirs, index, sign)``: the merged unit directions ``(k, dim)`` in order of first
     appearance, and for each input row the index of its direction and the sign ``s`` (+1 or
     -1; always +1 without ``antipodal``) with ``normals[i] ~= s * dirs[index[i]]``.
+
+    Why single linkage and not the greedy clusters of
+    :func:`ndbg_cli.geometry.normals.cluster_normals`: the arrangement needs its circles
+    pairwise more than ``tol`` apart (else two nearly equal circles cut sliver regions), and
+    only single linkage guarantees that of its output (greedy clusters can leave two means
+    within ``tol`` of each other); ``tol`` is rounding noise (1e-6 rad), so chaining across
+    it is harmless. It also joins ``n`` with ``-n`` (one circle) and maps every input row to
+    its direction, which the NDBG builder needs.
     """
     n = unit(np.asarray(normals, dtype=float).reshape(len(normals), -1))
     m = len(n)
@@ -92,7 +95,7 @@ def merge_directions(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL, *,
     return unit(dirs), index.astype(np.int64), sign.astype(np.int64)
 
 
-def signs(directions: np.ndarray, normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL
+def signs(directions: np.ndarray, normals: np.ndarray, tol: float = ANGLE_TOL_RAD
           ) -> np.ndarray:
     """Sign matrix ``(len(directions), len(normals))`` of ``d . n`` with ``|d . n| <= tol``
     counted as zero (int8: -1, 0, +1)."""
@@ -102,9 +105,16 @@ def signs(directions: np.ndarray, normals: np.ndarray, tol: float = DEFAULT_ANGL
     return out
 
 
-def plane_basis(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def circle_frames(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal ``(e1, e2)`` rows spanning the planes orthogonal to the rows of ``m``, with
-    ``e1 x e2 = m`` (so angles measured with them turn counter-clockwise about ``m``)."""
+    ``e1 x e2 = m``: the frames :func:`arrangement_s2` measures angles about its circles and
+    vertices in, and the gap cones' projections and the grasp pieces' orthants start from.
+
+    Not :func:`ndbg_cli.geometry.vectors.plane_basis` (whose helper axis is along ``m``'s
+    smallest component): here ``e1`` is ``m x x`` unless ``|m_x| >= 0.9`` (then ``m x y``).
+    The two agree for axis-aligned ``m`` only, and this one's choice reaches the reports (a
+    lone circle's edge representative is ``e1``; arc midpoints, cone rays and piece directions
+    are computed in this frame, and the regions' order follows), so these callers keep it."""
     m = np.atleast_2d(m)
     helper = np.where((np.abs(m[:, 0]) < 0.9)[:, None], [[1.0, 0, 0]], [[0, 1.0, 0]])
     e1 = unit(np.cross(m, helper))
@@ -191,7 +201,7 @@ def _vertices(circles: np.ndarray, tol: float) -> tuple[np.ndarray, list[tuple[i
     return verts, [tuple(sorted(s)) for s in vc]
 
 
-def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arrangement:
+def arrangement_s2(circles: np.ndarray, tol: float = ANGLE_TOL_RAD) -> Arrangement:
     """The arrangement of the great circles with unit normals ``circles`` (rows, assumed
     already merged: pairwise more than ``tol`` apart, also from antipodal).
 
@@ -210,12 +220,12 @@ def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arran
         return Arrangement(circles, tol, np.zeros((0, 3)), [], empty_i, empty_i, empty_i,
                            np.zeros((0, 3)), [()], np.array([[0.0, 0.0, 1.0]]))
     if k == 1:  # two hemispheres and the circle itself, a closed loop
-        e1, _ = plane_basis(circles)
+        e1, _ = circle_frames(circles)
         return Arrangement(circles, tol, np.zeros((0, 3)), [], np.array([0]), np.array([-1]),
                            np.array([-1]), e1.copy(), [(), ()],
                            np.vstack([circles[0], -circles[0]]))
     verts, vcirc = _vertices(circles, tol)
-    e1, e2 = plane_basis(circles)
+    e1, e2 = circle_frames(circles)
     # Incidences (circle, vertex) sorted by circle then angle about the circle's normal.
     inc_c = np.array([c for vc in vcirc for c in vc], dtype=np.int64)
     inc_v = np.array([v for v, vc in enumerate(vcirc) for _ in vc], dtype=np.int64)
@@ -246,7 +256,7 @@ def arrangement_s2(circles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Arran
     tangent = np.empty((2 * ne, 3))
     tangent[0::2] = np.cross(m, verts[edge_start])
     tangent[1::2] = -np.cross(m, verts[edge_end])
-    va, vb = plane_basis(verts)  # tangent basis at each vertex, vb = v x va
+    va, vb = circle_frames(verts)  # tangent basis at each vertex, vb = v x va
     tang_ang = np.arctan2(np.einsum("ij,ij->i", tangent, vb[origin]),
                           np.einsum("ij,ij->i", tangent, va[origin]))
     around = np.lexsort((tang_ang, origin))  # outgoing half-edges, CCW about each vertex
@@ -290,7 +300,7 @@ def angle_of(v: np.ndarray) -> np.ndarray:
     return np.mod(np.arctan2(v[:, 1], v[:, 0]), TWO_PI)
 
 
-def cluster_angles(angles: np.ndarray, tol: float = DEFAULT_ANGLE_TOL
+def cluster_angles(angles: np.ndarray, tol: float = ANGLE_TOL_RAD
                    ) -> tuple[np.ndarray, np.ndarray]:
     """Merge angles on the circle within ``tol`` (single linkage, across ``2 pi`` too).
 
@@ -331,7 +341,7 @@ class Cone2D:
     boundary: tuple[int, ...]
 
 
-def free_cone_2d(normals: np.ndarray, tol: float = DEFAULT_ANGLE_TOL) -> Cone2D:
+def free_cone_2d(normals: np.ndarray, tol: float = ANGLE_TOL_RAD) -> Cone2D:
     """The free cone of ``normals`` (2D unit rows, pairwise more than ``tol`` apart).
 
     With the normal angles sorted, the largest cyclic gap ``g`` decides: one normal gives a
@@ -435,7 +445,7 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
     m = ne[0]
     e1, e2 = plane_basis(m)
     rest = np.flatnonzero(~implicit)
-    xy = np.column_stack([normals[rest] @ e1[0], normals[rest] @ e2[0]])
+    xy = np.column_stack([normals[rest] @ e1, normals[rest] @ e2])
     big = np.linalg.norm(xy, axis=1) > tol
     rest, xy = rest[big], unit(xy[big])
     if len(rest) == 0:
@@ -460,7 +470,7 @@ def _extreme_circles(normals: np.ndarray, circle: np.ndarray, u: np.ndarray,
     h = normals @ u
     e1, e2 = plane_basis(u)
     p = normals / h[:, None]
-    xy = np.column_stack([p @ e1[0], p @ e2[0]])
+    xy = np.column_stack([p @ e1, p @ e2])
     try:
         ring = [int(i) for i in ConvexHull(xy).vertices]  # counter-clockwise
     except QhullError:  # nearly collinear projections: keep every circle (still exact)
@@ -502,7 +512,7 @@ def _snap_lineality_plane(normals: np.ndarray, tol: float) -> np.ndarray:
     # Rotate the plane's normal to +z and zero the members' z exactly: the LP solver drops
     # matrix entries below 1e-9, which would undo a projection done in the original frame.
     e1, e2 = plane_basis(m[best])
-    frame = np.vstack([e1, e2, m[best][None]])
+    frame = np.vstack([e1, e2, m[best]])
     out = normals @ frame.T
     out[members, 2] = 0.0
     return unit(out)

@@ -1,14 +1,15 @@
 """Strong components and free sets of a DBG given as successor bitmasks (``succ[i]``: the
 parts that part ``i`` runs into), induced on a part bitmask: the hot loops of the AND/OR graph
-(:mod:`ndbg_cli.planning.andor`) and of the classes. Plain ints as bitsets, no graph objects; the
-:class:`~ndbg_cli.ndbg.dbg.DBG` methods of :mod:`ndbg_cli.ndbg.dbg` are the general versions (their
-components in reverse topological order, which these need not keep)."""
+(:mod:`ndbg_cli.planning.andor`) and of the classes. Plain ints as bitsets, no graph objects.
+Tarjan itself is :func:`ndbg_cli.ndbg.dbg.tarjan` (also behind the :class:`~ndbg_cli.ndbg.dbg.DBG`
+functions); :func:`condense` adds a reachability path for dense DBGs, whose components need not
+come in topological order."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 
-from .dbg import bits, reach
+from .dbg import bits, component_successors, reach, tarjan
 
 
 def strongly_connected(succ: Sequence[int], mask: int) -> bool:
@@ -35,70 +36,14 @@ def _reached_from(x: int, succ: Sequence[int], within: int) -> int:
 
 def condense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
     """Strong components of the DBG ``succ`` induced on ``mask`` (bitmasks, any order) and, for
-    each, the bitmask over component indices of the components it has arcs to. Iterative
-    Tarjan on bitsets with list-indexed state (the hot loop of the AND/OR graph)."""
+    each, the bitmask over component indices of the components it has arcs to: Tarjan
+    (:func:`ndbg_cli.ndbg.dbg.tarjan`, reverse topological order) on sparse DBGs, forward-
+    backward reachability (:func:`_condense_dense`, by lowest part) on dense ones."""
     arcs = sum((succ[i] & mask).bit_count() for i in bits(mask))
     if arcs > 4 * mask.bit_count():
         return _condense_dense(succ, mask)
-    n = len(succ)
-    index = [-1] * n
-    low = [0] * n
-    comp_of = [-1] * n
-    onstack = 0
-    stack: list[int] = []
-    comps: list[int] = []
-    counter = 0
-    for root in bits(mask):
-        if index[root] >= 0:
-            continue
-        index[root] = low[root] = counter
-        counter += 1
-        stack.append(root)
-        onstack |= 1 << root
-        work = [[root, succ[root] & mask]]
-        while work:
-            top = work[-1]
-            v, rem = top
-            if rem:
-                b = rem & -rem
-                top[1] = rem ^ b
-                w = b.bit_length() - 1
-                if index[w] < 0:
-                    index[w] = low[w] = counter
-                    counter += 1
-                    stack.append(w)
-                    onstack |= b
-                    work.append([w, succ[w] & mask])
-                elif onstack & b and index[w] < low[v]:
-                    low[v] = index[w]
-                continue
-            work.pop()
-            if work:
-                u = work[-1][0]
-                if low[v] < low[u]:
-                    low[u] = low[v]
-            if low[v] == index[v]:
-                comp = 0
-                k = len(comps)
-                while True:
-                    w = stack.pop()
-                    b = 1 << w
-                    onstack ^= b
-                    comp |= b
-                    comp_of[w] = k
-                    if w == v:
-                        break
-                comps.append(comp)
-    comp_succ = []
-    for c in comps:
-        reach = 0
-        for i in bits(c):
-            reach |= succ[i]
-        out = 0
-        for j in bits(reach & mask & ~c):
-            out |= 1 << comp_of[j]
-        comp_succ.append(out)
-    return comps, comp_succ
+    comps, comp_of = tarjan(succ, mask)
+    return comps, component_successors(succ, mask, comps, comp_of)
 
 
 def _condense_dense(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:

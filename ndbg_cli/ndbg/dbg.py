@@ -150,55 +150,83 @@ class DBG:
 
 def strong_components(g: DBG, mask: int | None = None) -> list[int]:
     """Strong components of the subgraph induced by ``mask``, as bitmasks, in reverse
-    topological order (a component's successors come before it: sinks first).
+    topological order (a component's successors come before it: sinks first)."""
+    return tarjan(g.succ, g.full if mask is None else mask)[0]
 
-    Iterative Tarjan, ``O(n + arcs)`` on the induced subgraph.
-    """
-    m = g.full if mask is None else mask
-    index: dict[int, int] = {}
-    low: dict[int, int] = {}
-    on_stack: set[int] = set()
+
+def tarjan(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
+    """Strong components of the DBG ``succ`` (successor bitmasks) induced on ``mask``, in
+    reverse topological order (sinks first), and each part's component index (``-1`` outside
+    ``mask``). Iterative Tarjan, ``O(n + arcs)``, on bitsets with list-indexed state: the one
+    implementation behind :func:`strong_components`, :func:`condensation` and
+    :func:`ndbg_cli.ndbg.components.condense` (the hot loop of the AND/OR graph)."""
+    n = len(succ)
+    index = [-1] * n
+    low = [0] * n
+    comp_of = [-1] * n
+    onstack = 0
     stack: list[int] = []
     comps: list[int] = []
     counter = 0
-    for root in bits(m):
-        if root in index:
+    for root in bits(mask):
+        if index[root] >= 0:
             continue
-        work = [(root, iter(list(bits(g.succ[root] & m))))]
         index[root] = low[root] = counter
         counter += 1
         stack.append(root)
-        on_stack.add(root)
+        onstack |= 1 << root
+        work = [[root, succ[root] & mask]]
         while work:
-            v, it = work[-1]
-            advanced = False
-            for w in it:
-                if w not in index:
+            top = work[-1]
+            v, rem = top
+            if rem:  # next successor of v, lowest first
+                b = rem & -rem
+                top[1] = rem ^ b
+                w = b.bit_length() - 1
+                if index[w] < 0:
                     index[w] = low[w] = counter
                     counter += 1
                     stack.append(w)
-                    on_stack.add(w)
-                    work.append((w, iter(list(bits(g.succ[w] & m)))))
-                    advanced = True
-                    break
-                if w in on_stack:
-                    low[v] = min(low[v], index[w])
-            if advanced:
+                    onstack |= b
+                    work.append([w, succ[w] & mask])
+                elif onstack & b and index[w] < low[v]:
+                    low[v] = index[w]
                 continue
             work.pop()
             if work:
                 u = work[-1][0]
-                low[u] = min(low[u], low[v])
-            if low[v] == index[v]:
+                if low[v] < low[u]:
+                    low[u] = low[v]
+            if low[v] == index[v]:  # v roots a component: pop it
                 comp = 0
+                k = len(comps)
                 while True:
                     w = stack.pop()
-                    on_stack.discard(w)
-                    comp |= 1 << w
+                    b = 1 << w
+                    onstack ^= b
+                    comp |= b
+                    comp_of[w] = k
                     if w == v:
                         break
                 comps.append(comp)
-    return comps
+    return comps, comp_of
+
+
+def component_successors(succ: Sequence[int], mask: int, comps: Sequence[int],
+                         comp_of: Sequence[int]) -> list[int]:
+    """For each component of ``comps`` (part bitmasks inside ``mask``; ``comp_of[i]`` the
+    index of part ``i``'s), the bitmask over component indices of the components it has arcs
+    to in the DBG ``succ`` induced on ``mask``."""
+    out = []
+    for c in comps:
+        r = 0
+        for i in bits(c):
+            r |= succ[i]
+        s = 0
+        for j in bits(r & mask & ~c):
+            s |= 1 << comp_of[j]
+        out.append(s)
+    return out
 
 
 def condensation(g: DBG, mask: int | None = None) -> tuple[list[int], list[int]]:
@@ -209,21 +237,8 @@ def condensation(g: DBG, mask: int | None = None) -> tuple[list[int], list[int]]
     successor index is smaller than its predecessor's.
     """
     m = g.full if mask is None else mask
-    comps = strong_components(g, m)
-    where = {}
-    for k, c in enumerate(comps):
-        for i in bits(c):
-            where[i] = k
-    comp_succ = []
-    for c in comps:
-        out = 0
-        reach = 0
-        for i in bits(c):
-            reach |= g.succ[i]
-        for j in bits(reach & m & ~c):
-            out |= 1 << where[j]
-        comp_succ.append(out)
-    return comps, comp_succ
+    comps, comp_of = tarjan(g.succ, m)
+    return comps, component_successors(g.succ, m, comps, comp_of)
 
 
 def free_subsets(g: DBG, mask: int | None = None, *, limit: int | None = None,

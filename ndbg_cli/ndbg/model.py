@@ -16,8 +16,6 @@ from dataclasses import dataclass, field
 
 from .dbg import DBG, bits, free_subsets, mask_of, reach
 
-FAMILIES = ("infinitesimal_translation", "infinite_translation", "generalized")
-
 
 @dataclass(frozen=True)
 class Region:

@@ -441,7 +441,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`), which gives
     the same partitionings of the whole assembly and nothing else (``None`` again when that is every
     direction)."""
-    from ..geometry.sphere import DEFAULT_ANGLE_TOL
+    from ..core.constants import ANGLE_TOL_RAD
     from ..ndbg.generalized.build import block_threads
     from ..ndbg.infinite.blocked_sets import triangle_pairs
     from ..ndbg.infinite.build import build_infinite
@@ -455,7 +455,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
         if options.motion != "infinite":  # asked for explicitly only: it takes minutes
             return None
         domain = free_domain(len(asm.parts), contact_pairs(asm, ca),
-                             float(getattr(ca, "angle_tolerance", DEFAULT_ANGLE_TOL)))
+                             float(getattr(ca, "angle_tolerance", ANGLE_TOL_RAD)))
         if domain is None:
             return None
     nd = block_threads(build_infinite(asm, cache, domain, workers=options.workers,

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
 from ..ndbg.components import condense
 from ..ndbg.model import NDBG
 from .andor import AndOrGraph, Budget, contains, greedy_tree, lower_bound_depth
@@ -29,10 +30,6 @@ from .decompose import (
 
 #: AND/OR graph budget when none is given (the CLI's --max-nodes / --time-limit defaults).
 DEFAULT_BUDGET = Budget(max_nodes=2_000)
-
-INFINITESIMAL = "infinitesimal_translation"
-INFINITE = "infinite_translation"
-GENERALIZED = "generalized"
 
 #: The motions a family's verdicts are about (every measure's ``holds_for``): one translation
 #: to infinity per moved set (paper 5.3), any translations (4-5.1: a candidate of the
@@ -220,15 +217,15 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
                f"{len(dominant_regions(ndbg, stuck))} non-dominated distinct DBGs induced on it "
                "admits no proper free subset" + (" avoiding the base" if base is not None
                                                   else " (all strongly connected)"))
-    if fam == "infinitesimal_translation":
+    if fam == INFINITESIMAL:
         why += ("" if not ohm else " (necessary condition only: infinitesimal translations)")
     out["one_handed_monotone"] = {"value": ohm, "why": why}
 
-    if fam == "infinite_translation":
+    if fam == INFINITE:
         out["prismatic"] = {"value": ohm, "why": ("guaranteed 1-handed monotone 1-prismatic: "
                                                   if ohm else "no 1-prismatic algorithm: ")
                             + why}
-    elif fam == "infinitesimal_translation":
+    elif fam == INFINITESIMAL:
         out["prismatic"] = {"value": False if not ohm else None,
                             "why": ("not 1-handed monotone prismatic: " + why) if not ohm else
                             "undecided by infinitesimal translations (candidates exist); see "

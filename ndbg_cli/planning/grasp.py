@@ -17,9 +17,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..geometry.vectors import unit
 from ..ndbg.dbg import bit_rows, bits, condensation
 from ..ndbg.model import NDBG
-from .pieces import region_pieces, split_piece, unit
+from .pieces import region_pieces, split_piece
 
 Face = tuple[int, Sequence[float], Sequence[float] | None]
 
@@ -127,13 +128,12 @@ def tolerance(ndbg: NDBG) -> float:
     have ``g . n > tol`` and others ``g . n < -tol``. The directions of a covered piece that the
     finger does not block lie within ``tol / cos(rho)`` of its circle (``rho``: the angular
     radius of a cap holding the piece); everything else is exact for polyhedral parts."""
-    from ..core.constants import INFINITE
-    from ..geometry.sphere import DEFAULT_ANGLE_TOL
+    from ..core.constants import ANGLE_TOL_RAD, INFINITE
     from ..ndbg.infinite.blocked_sets import OPEN_TOL
 
     if ndbg.family == INFINITE:
         return OPEN_TOL
-    return float(ndbg.stats.get("angle_tolerance", DEFAULT_ANGLE_TOL))
+    return float(ndbg.stats.get("angle_tolerance", ANGLE_TOL_RAD))
 
 
 def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,

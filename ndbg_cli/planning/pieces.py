@@ -14,16 +14,13 @@ import math
 
 import numpy as np
 
+from ..geometry.sphere import circle_frames
+from ..geometry.vectors import unit
 from ..ndbg.model import NDBG
 
 #: Arcs and polygon edges longer than this (radians) are cut (arcs) or given inner vertices
 #: (polygons), so that no generator is near the antipode of its neighbour.
 LONG = 2.0 * math.pi / 3.0
-
-
-def unit(v: np.ndarray) -> np.ndarray:
-    """``v`` (rows) scaled to unit length."""
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def _turn(a: np.ndarray, axis: np.ndarray | None) -> np.ndarray:
@@ -78,9 +75,7 @@ def _orthants(fixed: list[np.ndarray], free: list[np.ndarray]) -> list[np.ndarra
 
 def _axes(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two unit vectors completing the unit ``m`` to a right-handed orthonormal basis."""
-    from ..geometry.sphere import plane_basis
-
-    e1, e2 = plane_basis(m)
+    e1, e2 = circle_frames(m)
     return e1[0], e2[0]
 
 

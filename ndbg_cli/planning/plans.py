@@ -503,24 +503,6 @@ def plan_section(p: Plan) -> dict:
     }
 
 
-def _fmt_dir(d: dict) -> str:
-    if d.get("direction") is not None:
-        return "along (" + ", ".join(f"{x:+.3g}" for x in d["direction"]) + ")"
-    if d.get("motion") is not None:
-        mo = d["motion"]
-        return f"by {mo.get('type', 'motion')} (reverse of removal motion {mo})"
-    return f"via region {d['region']}"
-
-
-def depth_note(exact: bool, connected: bool, strategy: str) -> str:
-    """What the tree's depth line adds: unproven, or proven among connected trees."""
-    if not exact:
-        return " (not proven optimal)"
-    if connected and strategy == "shortest":
-        return " (minimum for contact-connected subassemblies)"
-    return ""
-
-
 def plan_proves(p: dict) -> dict | None:
     """What a plan section (:func:`plan_section`, with its ``verified`` and ``proofs``)
     proves when the direct sweep test verified it (a real 1-handed monotone 1-prismatic
@@ -546,15 +528,3 @@ def plan_proves(p: dict) -> dict | None:
             "why": f"{p.get('family')} plan, {v.get('why')}"
                    + (f" (also {', '.join(t['strategy'] for t in trees[1:])} trees)"
                       if len(trees) > 1 else "")}
-
-
-def plan_text(p: Plan) -> list[str]:
-    """Designer-readable assembly sequence as numbered steps."""
-    if not p.found:
-        return [f"No candidate assembly sequence ({p.ndbg.family}): " + "; ".join(p.notes)]
-    lines = [f"Assembly sequence ({p.strategy}, {p.ndbg.family}): {len(p.steps)} steps, "
-             f"tree depth {p.depth()}{depth_note(p.exact, p.connected, p.strategy)}"]
-    for d in sequence_json(p):
-        lines.append(f"  {d['step']}. insert {{{', '.join(d['moved'])}}} onto "
-                     f"{{{', '.join(d['onto'])}}} {_fmt_dir(d)}")
-    return lines

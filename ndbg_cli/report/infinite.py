@@ -5,13 +5,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from ..core.constants import INFINITE
 from ..ndbg.model import NDBG, Partitioning
 from .infinitesimal import partitioning_record
 
 if TYPE_CHECKING:
     from ..core.assembly import Assembly
 
-FAMILY = "infinite_translation"
 
 
 # --------------------------------------------------------------------------------------------
@@ -38,7 +38,7 @@ def infinite_section(asm: Assembly, ndbg: NDBG, partitionings: list[Partitioning
         if stats.get("exact_cells_skipped") else {}
     return {
         **extra,
-        "family": FAMILY,
+        "family": INFINITE,
         "regions_by_dimension": stats.get("regions_by_dimension", ndbg.region_counts()),
         "regions": len(ndbg.regions), "distinct_dbgs": len(distinct),
         "length_tolerance": asm.length_tolerance,

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ..core.constants import INFINITESIMAL as FAMILY
-from ..geometry.sphere import DEFAULT_ANGLE_TOL
+from ..core.constants import ANGLE_TOL_RAD, INFINITESIMAL
 from ..ndbg.dbg import DBG, bits
 from ..ndbg.model import NDBG, Partitioning
 
@@ -30,9 +29,9 @@ def infinitesimal_section(asm, ndbg: NDBG, parts: Sequence[Partitioning],
     counts = {str(d): 0 for d in range(ndbg.space_dimension)}
     counts.update(ndbg.region_counts())
     section = {
-        "family": FAMILY,
+        "family": INFINITESIMAL,
         "space_dimension": ndbg.space_dimension,
-        "angle_tolerance": stats.get("angle_tolerance", DEFAULT_ANGLE_TOL),
+        "angle_tolerance": stats.get("angle_tolerance", ANGLE_TOL_RAD),
         "regions_by_dimension": counts,
         "regions": len(ndbg.regions),
         "distinct_dbgs": len(distinct),

@@ -14,12 +14,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..core.constants import FAMILIES, GENERALIZED, INFINITE, INFINITESIMAL
 from ..core.errors import InputError
-from ..planning.classes import GENERALIZED, INFINITE, INFINITESIMAL, label, verdict
+from ..planning.classes import label, verdict
 from ..planning.plans import plan_proves
 from .document import identity
 
-FAMILIES = ("auto", INFINITESIMAL, INFINITE, GENERALIZED)
+RULE_FAMILIES = ("auto", *FAMILIES)
 
 #: Rule name -> (kind, description). ``bool`` rules compare a class value; ``max`` rules bound
 #: a measure from above.
@@ -161,8 +162,8 @@ def load_rules(path: str | Path) -> RuleSet:
         raise InputError(f"unknown key '{unknown[0]}' (known: {', '.join(sorted(known))})",
                          file=file, line=doc.line((unknown[0],)))
     family = data.get("family", "auto")
-    if family not in FAMILIES:
-        raise InputError(f"family must be one of {', '.join(FAMILIES)}", file=file,
+    if family not in RULE_FAMILIES:
+        raise InputError(f"family must be one of {', '.join(RULE_FAMILIES)}", file=file,
                          line=doc.line(("family",)))
     undecided = data.get("undecided", "fail")
     if undecided not in ("fail", "pass"):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+
 
 def _fmt(x: float) -> str:
     return f"{x:.6g}"
@@ -115,35 +117,43 @@ def ndbg_lines(report: dict) -> list[str]:
         if sec.get("skipped"):
             lines += ["", f"{fam.replace('_', ' ')}: skipped ({sec['why']})"]
             continue
-        if fam == "infinitesimal_translation":
+        if fam == INFINITESIMAL:
             from .infinitesimal import infinitesimal_text
 
             parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
             lines += infinitesimal_text({**sec, "partitionings": parts}, limit=6)
-        elif fam == "infinite_translation":
+        elif fam == INFINITE:
             from .infinite import infinite_text
 
             parts = [p for p in report.get("partitionings", []) if p["family"] == fam]
             lines += [""] + infinite_text({**sec, "partitionings": parts[:6]})[:8]
             if len(parts) > 6:
                 lines[-1:] = [lines[-1], f"  ... {len(parts)} in all (see the JSON report)"]
-        elif fam == "generalized":
+        elif fam == GENERALIZED:
             from ..ndbg.generalized.build import generalized_text
 
             lines += [""] + generalized_text(sec)[:14]
     return lines
 
 
+def depth_note(exact: bool, connected: bool, strategy: str) -> str:
+    """What the tree's depth line adds: unproven, or proven among connected trees."""
+    if not exact:
+        return " (not proven optimal)"
+    if connected and strategy == "shortest":
+        return " (minimum for contact-connected subassemblies)"
+    return ""
+
+
 def plan_lines(report: dict) -> list[str]:
-    """The chosen assembly sequence as numbered steps."""
+    """The chosen assembly sequence (the report's ``plan`` section) as numbered steps: the
+    one renderer of a plan, ``insert {moved} into {onto} along (d)``."""
     p = report.get("plan")
     if p is None:
         return []
     if not p.get("found"):
         return ["", "assembly sequence: none found - " + "; ".join(p.get("notes", []))]
     fam = (p.get("family") or "").replace("_", " ")
-    from ..planning.plans import depth_note
-
     exact = depth_note(p.get("exact", True), p.get("connected", False), p.get("strategy", ""))
     lines = ["", f"assembly sequence ({p['strategy']}, {fam}): {len(p['sequence'])} steps, "
              f"tree depth {p['depth']}{exact}"]

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ...core.assembly import Assembly
+from ...core.constants import GENERALIZED
 from ..candidates import DEFAULT_CANDIDATE_LIMIT, connected_partitionings
 from ..dbg import DBG
 from ..model import NDBG, Partitioning, Region, partitionings
@@ -281,7 +282,7 @@ def generalized_ndbg(asm: Assembly, contacts: Sequence[Any] | None = None, *,
              "contact_points": int(len(rows.a)),
              "threaded_pairs": sorted([list(p) for p in threaded_pairs(asm,
                                                                        threads_as_cylinders)])}
-    return NDBG(family="generalized", ids=tuple(asm.ids), regions=tuple(regions),
+    return NDBG(family=GENERALIZED, ids=tuple(asm.ids), regions=tuple(regions),
                 space_dimension=asm.dimension, stats=stats)
 
 
@@ -292,7 +293,7 @@ def hybrid(translational: NDBG, suggested: NDBG) -> NDBG:
         raise ValueError("the two NDBGs are over different parts")
     stats = {"translational_regions": len(translational.regions),
              "suggested_regions": len(suggested.regions)}
-    return NDBG(family="generalized", ids=suggested.ids,
+    return NDBG(family=GENERALIZED, ids=suggested.ids,
                 regions=translational.regions + suggested.regions,
                 space_dimension=suggested.space_dimension, stats=stats)
 

@@ -22,6 +22,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from ...core.assembly import Assembly
+from ...geometry.vectors import plane_basis, unit
 
 # Scaling. With L the bounding-box diagonal and c its centre, the LP works with the scaled,
 # centred twist x = (v + w x c, L w): both halves are speeds in assembly units (the rotational
@@ -57,11 +58,6 @@ REVOLUTION_ANGLE = float(np.radians(20.0))
 PITCH_FACTOR = 10.0
 #: Two twists are the same motion when their normalised scaled twists differ by at most this.
 TWIST_TOL = 1e-6
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    n = float(np.linalg.norm(v))
-    return v / n if n > 0 else v
 
 
 @dataclass(frozen=True)
@@ -126,11 +122,11 @@ def _raw_rows(c: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
     """The first step of :func:`contact_points`: points ``(m, 3)``, point normals ``(m, 3)``
     and the contact's normals ``(g, 3)`` (2D embedded at z = 0), and whether the point
     normals are final (one unit planar normal per point); else they are still to be made
-    unit and signed (:func:`_unit_rows`, :func:`_signed`)."""
+    unit and signed (:func:`~ndbg_cli.geometry.vectors.unit`, :func:`_signed`)."""
     pts = _pad3(np.asarray(c.points, dtype=float)).reshape(-1, 3)
     if getattr(c, "kind", None) == "planar" and np.size(c.normals) in (2, 3):  # one normal
         n0 = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)[0]
-        return pts, np.repeat(_unit(n0)[None, :], len(pts), axis=0), np.zeros((0, 3)), True
+        return pts, np.repeat(unit(n0)[None, :], len(pts), axis=0), np.zeros((0, 3)), True
     pn = getattr(c, "point_normals", None)
     gens = _pad3(np.asarray(c.normals, dtype=float)).reshape(-1, 3)
     if pn is None and len(gens) == len(pts) and not hasattr(c, "kind"):
@@ -139,11 +135,6 @@ def _raw_rows(c: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
     if pn is None or len(pn) != len(pts):
         pn = np.repeat(gens[:1], len(pts), axis=0)
     return pts, pn, gens, False
-
-
-def _unit_rows(v: np.ndarray) -> np.ndarray:
-    """Each row of ``v`` ``(m, 3)`` divided by its norm (zero rows stay zero)."""
-    return v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
 
 
 def _signed(pn: np.ndarray, gens: np.ndarray) -> np.ndarray:
@@ -163,7 +154,7 @@ def _lines(c: Any, joint_axes: Sequence[tuple[np.ndarray, np.ndarray]]
     contact, the ``joint_axes`` (checked for a surface of revolution)."""
     axis, center = getattr(c, "axis", None), getattr(c, "center", None)
     if getattr(c, "surface", None) == "cylinder" and axis is not None and center is not None:
-        return [(_unit(np.asarray(axis, dtype=float)), np.asarray(center, dtype=float), False)]
+        return [(unit(np.asarray(axis, dtype=float)), np.asarray(center, dtype=float), False)]
     if getattr(c, "kind", None) == "curved":
         return [(np.asarray(ax, float), np.asarray(q, float), True) for ax, q in joint_axes]
     return []
@@ -190,7 +181,7 @@ def contact_points(c: Any, length_tol: float,
     pts, pn, gens, final = _raw_rows(c)
     if final:
         return pts, pn
-    pn = _signed(_unit_rows(pn), gens)
+    pn = _signed(unit(pn), gens)
     if len(pts) == 0:
         return pts, pn
     start = np.zeros(1, dtype=np.int64)
@@ -319,9 +310,7 @@ def _across(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 @lru_cache(maxsize=4096)
 def _across_of(key: bytes) -> tuple[np.ndarray, np.ndarray]:
     n = np.frombuffer(key, dtype=float)
-    t = np.eye(3)[int(np.argmin(np.abs(n)))]
-    e1 = _unit(np.cross(n, t))
-    e2 = np.cross(n, e1)
+    e1, e2 = plane_basis(n)
     e1.flags.writeable = e2.flags.writeable = False
     return e1, e2
 
@@ -373,7 +362,7 @@ def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
     joints: dict[frozenset, list[tuple[np.ndarray, np.ndarray]]] = {}
     for j in getattr(asm, "joints", ()):
         key = frozenset(asm.index(p) for p in j.parts)
-        joints.setdefault(key, []).append((_unit(np.asarray(j.axis, float)),
+        joints.setdefault(key, []).append((unit(np.asarray(j.axis, float)),
                                            np.asarray(j.point, float)))
     info, pts_l, nrm_l, todo, lines, every, curved = [], [], [], [], {}, {}, []
     for k, c in enumerate(contacts):  # per contact: the rows before any turn or reduction
@@ -404,10 +393,10 @@ def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
         e = np.zeros(0, dtype=int)
         return ContactRows(z, z, e, e, e, len(asm), (lo + hi) / 2, scale, tol, e, planar)
     if todo:  # unit point normals, signed per contact
-        unit = _unit_rows(np.concatenate([nrm_l[i] for i, _ in todo]))
+        normed = unit(np.concatenate([nrm_l[i] for i, _ in todo]))
         at = np.cumsum([0] + [len(nrm_l[i]) for i, _ in todo]).tolist()
         for (i, gens), s, e in zip(todo, at[:-1], at[1:]):
-            nrm_l[i] = _signed(unit[s:e], gens)
+            nrm_l[i] = _signed(normed[s:e], gens)
     counts = np.array([len(p) for p in pts_l])
     starts = np.r_[0, np.cumsum(counts)[:-1]]
     P, N = np.concatenate(pts_l), np.concatenate(nrm_l)
@@ -433,7 +422,7 @@ def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
         at = np.searchsorted(seg, np.arange(len(info) + 1)).tolist()
         parts = [(P[s:e], N[s:e], new[s:e]) for s, e in zip(at[:-1], at[1:])]
         for i, gens in every.items():
-            pts, gens = parts[i][0], _unit_rows(gens)
+            pts, gens = parts[i][0], unit(gens)
             parts[i] = (np.repeat(pts, len(gens), axis=0), np.tile(gens, (len(pts), 1)),
                         np.arange(len(pts) * len(gens)) % len(gens) == 0)
         P, N, new = (np.concatenate(x) for x in zip(*parts))
@@ -466,7 +455,7 @@ def twist(kind: str, axis: Sequence[float], point: Sequence[float] = (0.0, 0.0, 
     ``v = -w x point``. ``screw``: the rotation plus an advance of ``pitch`` (assembly units
     per turn; positive = right-hand) along ``w``: ``v = -w x point + pitch / (2 pi) * w``.
     """
-    ax = _unit(np.asarray(axis, dtype=float)) * float(sense)
+    ax = unit(np.asarray(axis, dtype=float)) * float(sense)
     if kind == "translation":
         return np.concatenate([ax, np.zeros(3)])
     q = np.asarray(point, dtype=float)
@@ -572,7 +561,7 @@ def classify(xi: np.ndarray, *, length_tol: float, scale: float,
     rot = scale * float(np.linalg.norm(w))
     lin = float(np.linalg.norm(v + np.cross(w, c)))
     if rot <= TRANSLATION_FRACTION * max(rot, lin) or rot == 0.0:
-        d = _unit(v)
+        d = unit(v)
         return Motion("translation", tuple(np.concatenate([d, np.zeros(3)]).tolist()),
                       tuple(d.tolist()), None, None, broken, margin)
     k = float(np.linalg.norm(w))

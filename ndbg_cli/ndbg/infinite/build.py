@@ -20,7 +20,7 @@ import shapely
 
 from ...core.assembly import Assembly
 from ...core.cache import PairCache
-from ...core.constants import INFINITE as FAMILY
+from ...core.constants import INFINITE
 from ...core.errors import NdbgError
 from ...core.gc_pause import gc_paused
 from ..dbg import DBG
@@ -247,7 +247,7 @@ def _build(asm: Assembly, cache: PairCache | None, domain: np.ndarray | None, wo
     else:
         regions, skipped, t2 = _regions_3d(bs, workers)
     t3 = time.perf_counter()
-    ndbg = NDBG(family=FAMILY, ids=tuple(asm.ids), regions=tuple(regions),
+    ndbg = NDBG(family=INFINITE, ids=tuple(asm.ids), regions=tuple(regions),
                 space_dimension=asm.dimension, stats={}, geometry=bs)
     counts = ndbg.region_counts()
     ndbg.stats.update({

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...core.assembly import Assembly
+from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
@@ -23,12 +24,9 @@ FACING_TOL = 1e-9
 
 def _frame(d: np.ndarray) -> np.ndarray:
     """Orthonormal rows ``(u, v, d)`` for a unit ``d``."""
-    d = np.asarray(d, dtype=float)
-    d = d / np.linalg.norm(d)
-    a = np.eye(3)[np.argmin(np.abs(d))]
-    u = np.cross(d, a)
-    u /= np.linalg.norm(u)
-    return np.array([u, np.cross(d, u), d])
+    d = unit(d)
+    u, v = plane_basis(d)
+    return np.array([u, v, d])
 
 
 class _View:

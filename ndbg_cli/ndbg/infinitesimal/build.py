@@ -3,7 +3,7 @@
 Input: for every pair of parts in contact, the set ``N_ab`` of contact normals out of ``a``
 into ``b``. Part ``b`` blocks ``a`` moving along ``d`` (arc ``a -> b``) iff
 ``max_{n in N_ab} d . n > 0``, and ``a`` blocks ``b`` iff ``min_n d . n < 0``, with the angular
-tolerance ``tol`` (:data:`DEFAULT_ANGLE_TOL`): ``d . n > tol`` is positive, ``|d . n| <= tol``
+tolerance ``tol`` (:data:`ANGLE_TOL_RAD`): ``d . n > tol`` is positive, ``|d . n| <= tol``
 zero. ``a`` is locally free relative to ``b`` exactly in the closed convex cone
 ``F_ab = {d : d . n <= 0 for all n}``. 3D: regions of an arrangement of great circles
 (:func:`build_ndbg_3d`); 2D: points and arcs of S^1 visited with the crossing rule
@@ -16,8 +16,8 @@ from collections.abc import Iterable, Iterator, Sequence
 
 import numpy as np
 
+from ...core.constants import ANGLE_TOL_RAD, INFINITESIMAL
 from ...geometry.sphere import (
-    DEFAULT_ANGLE_TOL,
     TWO_PI,
     angle_of,
     arrangement_s2,
@@ -27,12 +27,10 @@ from ...geometry.sphere import (
     merge_directions,
     signs,
     snap_normals,
-    unit,
 )
+from ...geometry.vectors import unit
 from ..dbg import DBG
 from ..model import NDBG, ConnectivityTest, Partitioning, Region, partitionings
-
-FAMILY = "infinitesimal_translation"
 
 #: A contact constraint ``(a, b, normals (k, dim))`` or ``(a, b, normals, "any" | "all")``.
 PairNormals = tuple
@@ -71,7 +69,7 @@ def normalise_pairs(pairs: Iterable[PairNormals], dim: int,
 
 
 def dbg_at(n: int, pairs: Sequence[PairNormals], d: np.ndarray,
-           tol: float = DEFAULT_ANGLE_TOL) -> DBG:
+           tol: float = ANGLE_TOL_RAD) -> DBG:
     """The DBG for direction ``d`` computed from scratch from the contact normals (entries
     ``(a, b, normals[, mode])`` as in :func:`normalise_pairs`)."""
     d = np.asarray(d, dtype=float)
@@ -117,7 +115,7 @@ def _stats(regions: Sequence[Region], **extra) -> dict:
 # -- 3D --------------------------------------------------------------------------------------
 
 def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
-                  tol: float = DEFAULT_ANGLE_TOL, refine: bool = True) -> NDBG:
+                  tol: float = ANGLE_TOL_RAD, refine: bool = True) -> NDBG:
     """The 3D NDBG for infinitesimal translations from per-pair contact normals.
 
     ``ids`` are the part ids (node order); ``pairs`` yields ``(a, b, normals)`` with part
@@ -146,7 +144,7 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     ends = sorted({(g[0], g[1]) for g in groups})
     if not groups:
         region = Region(2, (0.0, 0.0, 1.0), DBG.empty(n))
-        return NDBG(FAMILY, tuple(ids), (region,), 3,
+        return NDBG(INFINITESIMAL, tuple(ids), (region,), 3,
                     _stats([region], circles=0, normals=0, pairs=0, angle_tolerance=tol,
                            refined=refine), geometry=arrangement_s2(np.zeros((0, 3)), tol))
     pair_index = {e: k for k, e in enumerate(ends)}
@@ -210,7 +208,7 @@ def build_ndbg_3d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     stats = _stats(regions, circles=int(len(keep)), circles_total=int(len(circles)),
                    normals=int(len(all_n)), pairs=len(ends), angle_tolerance=tol,
                    refined=refine, arrangement_circles=arr.circles.tolist())
-    return NDBG(FAMILY, tuple(ids), regions, 3, stats, geometry=arr)
+    return NDBG(INFINITESIMAL, tuple(ids), regions, 3, stats, geometry=arr)
 
 
 def _region_signs(arr, reps: np.ndarray) -> np.ndarray:
@@ -273,7 +271,7 @@ def _pairs_2d(pairs: Iterable[PairNormals], tol: float) -> list[PairNormals]:
 
 
 def iter_regions_2d(n: int, pairs: Iterable[PairNormals], *,
-                    tol: float = DEFAULT_ANGLE_TOL) -> Iterator[Region]:
+                    tol: float = ANGLE_TOL_RAD) -> Iterator[Region]:
     """The regular regions of S^1 in counter-clockwise order with their DBGs, computed one
     after the other with the crossing rule (paper section 4.5).
 
@@ -357,7 +355,7 @@ def iter_regions_2d(n: int, pairs: Iterable[PairNormals], *,
 
 
 def build_ndbg_2d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
-                  tol: float = DEFAULT_ANGLE_TOL) -> NDBG:
+                  tol: float = ANGLE_TOL_RAD) -> NDBG:
     """The 2D NDBG for infinitesimal translations: every region of :func:`iter_regions_2d`."""
     prs = _pairs_2d(pairs, tol)
     regions = tuple(iter_regions_2d(len(ids), prs, tol=tol))
@@ -367,7 +365,7 @@ def build_ndbg_2d(ids: Sequence[str], pairs: Iterable[PairNormals], *,
     stats = _stats(regions, diameters=diameters, arrangement_circles=lines[:diameters],
                    normals=int(sum(len(p[2]) for p in prs)), pairs=len(prs),
                    angle_tolerance=tol, refined=True)
-    return NDBG(FAMILY, tuple(ids), regions, 2, stats)
+    return NDBG(INFINITESIMAL, tuple(ids), regions, 2, stats)
 
 
 # -- assemblies --------------------------------------------------------------------------------
@@ -403,17 +401,17 @@ def infinitesimal_ndbg(asm, contacts=None, *, tol: float | None = None,
     ``tol`` (radians) defaults, in 3D, to the contact analysis' own ``angle_tolerance`` (its
     normals are already clustered at that tolerance and carry tessellation noise of that
     order: AS1's cylinder normals lean up to 0.09 degrees off their axis' plane), and in 2D
-    (exact polygon edges) to :data:`DEFAULT_ANGLE_TOL`.
+    (exact polygon edges) to :data:`ANGLE_TOL_RAD`.
     """
     if asm.dimension == 2:
         pairs = contact_pairs(asm, contacts)
-        return build_ndbg_2d(asm.ids, pairs, tol=DEFAULT_ANGLE_TOL if tol is None else tol)
+        return build_ndbg_2d(asm.ids, pairs, tol=ANGLE_TOL_RAD if tol is None else tol)
     if contacts is None:
         from ...contacts.contacts3d import analyze_contacts
 
         contacts = analyze_contacts(asm)
     if tol is None:
-        tol = float(getattr(contacts, "angle_tolerance", DEFAULT_ANGLE_TOL))
+        tol = float(getattr(contacts, "angle_tolerance", ANGLE_TOL_RAD))
     pairs = contact_pairs(asm, contacts)
     return build_ndbg_3d(asm.ids, pairs, tol=tol, refine=refine)
 
@@ -423,7 +421,7 @@ def locate_region(ndbg: NDBG, d: Sequence[float]) -> int:
     sign vector over the drawn great circles (3D) or diameters (2D), ``stats
     ["arrangement_circles"]`` (their unit normals), using the NDBG's angular tolerance.
     ``-1`` if there is none (``d`` within the tolerance of a circle but off every region)."""
-    tol = ndbg.stats.get("angle_tolerance", DEFAULT_ANGLE_TOL)
+    tol = ndbg.stats.get("angle_tolerance", ANGLE_TOL_RAD)
     circles = np.asarray(ndbg.stats.get("arrangement_circles", []), dtype=float)
     if len(circles) == 0:
         return 0 if len(ndbg.regions) == 1 else -1
