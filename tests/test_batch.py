@@ -133,7 +133,7 @@ def test_sigterm_inside_write_atomic_leaves_no_temporary_file(tmp_path, monkeypa
     created. The report is completed (or not started), the signal still stops the caller."""
     import tempfile
 
-    from ndbg_cli.report import document as report
+    from ndbg_cli.core import files
 
     real_mkstemp = tempfile.mkstemp
 
@@ -150,7 +150,7 @@ def test_sigterm_inside_write_atomic_leaves_no_temporary_file(tmp_path, monkeypa
     monkeypatch.setattr(tempfile, "mkstemp", mkstemp_then_sigterm)
     try:
         with pytest.raises(_Stop):
-            report.write_atomic(tmp_path / "r.json", '{"a": 1}\n')
+            files.write_atomic(tmp_path / "r.json", '{"a": 1}\n')
     finally:
         signal.signal(signal.SIGTERM, previous)
     assert signal.getsignal(signal.SIGTERM) is previous

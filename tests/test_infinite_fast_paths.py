@@ -224,8 +224,8 @@ def test_budget_counts_a_far_convex_pair_as_one_cone():
     # 8 boxes of 12 triangles: 96^2 - 8 * 12^2 = 8,064 ordered triangle pairs; apart, each of
     # the 56 ordered pairs of parts is one cone, counted as CONVEX_PAIR_COST
     # plus 8 x 8 difference vectors per pair, one triangle pair per 128 of them
-    assert infinite.triangle_pairs(grid(2)) == 56 * (blocked_sets.CONVEX_PAIR_COST + 64 / 128)
-    assert infinite.triangle_pairs(grid(2, pitch=1.0)) == 8064  # touching: the terms
+    assert blocked_sets.triangle_pairs(grid(2)) == 56 * (blocked_sets.CONVEX_PAIR_COST + 64 / 128)
+    assert blocked_sets.triangle_pairs(grid(2, pitch=1.0)) == 8064  # touching: the terms
 
 
 def test_open_mesh_is_not_taken_for_convex():

@@ -55,7 +55,7 @@ SCRIPT = """
 import os, sys
 sys.path.insert(0, {root!r})
 import numpy as np, trimesh
-from ndbg_cli import pair_workers as pw
+from ndbg_cli.ndbg.infinite import pair_workers as pw
 pw.MIN_PARALLEL_PAIRS = 0
 tris = []
 for k in range(6):
