@@ -22,8 +22,8 @@ from pathlib import Path
 from ndbg_cli.ndbg.dbg import DBG
 from ndbg_cli.ndbg.model import NDBG, Region
 from ndbg_cli.planning.andor import AndOrGraph, Budget
-from ndbg_cli.planning.classes import andor_section
 from ndbg_cli.planning.decompose import min_depth_search
+from ndbg_cli.report.classes import andor_section
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -15,12 +15,14 @@ import pytest
 from ndbg_cli.ndbg.dbg import DBG, bits, mask_of
 from ndbg_cli.ndbg.model import NDBG, ConnectivityTest, Region
 from ndbg_cli.planning.andor import AndOrGraph, Budget, node_splits
-from ndbg_cli.planning.classes import andor_section, classes_section, classes_text, classify
+from ndbg_cli.planning.classes import classes_section, classify
 from ndbg_cli.planning.decompose import min_depth_search, min_directions, sink_decompose
 from ndbg_cli.planning.grasp import grasp
 from ndbg_cli.planning.interlock import interlock
-from ndbg_cli.planning.plans import STRATEGIES, plan, plan_section
+from ndbg_cli.planning.plans import STRATEGIES, plan
 from ndbg_cli.planning.removal import remove
+from ndbg_cli.report.classes import andor_section, classes_text
+from ndbg_cli.report.plans import plan_section
 from ndbg_cli.report.text import plan_lines
 
 UP, DOWN = (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)
@@ -762,7 +764,8 @@ def test_cut_partitioning_lists_never_claim_an_exact_depth():
     from ndbg_cli.ndbg.dbg import DBG
     from ndbg_cli.ndbg.model import NDBG, Region
     from ndbg_cli.planning.andor import AndOrGraph, Budget
-    from ndbg_cli.planning.classes import andor_section, classify
+    from ndbg_cli.planning.classes import classify
+    from ndbg_cli.report.classes import andor_section
 
     n = 8
     nd = NDBG("infinitesimal_translation", tuple(f"p{i}" for i in range(n)),

@@ -13,8 +13,9 @@ import pytest
 
 from ndbg_cli.ndbg.dbg import DBG
 from ndbg_cli.ndbg.model import NDBG, Region
-from ndbg_cli.planning.classes import classes_section, classes_text, interlock_hands, stack_product
+from ndbg_cli.planning.classes import classes_section, interlock_hands, stack_product
 from ndbg_cli.planning.decompose import min_directions
+from ndbg_cli.report.classes import classes_text
 from ndbg_cli.report.rules import RuleSet, evaluate
 
 from helpers import run_cli

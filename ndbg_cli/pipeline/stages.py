@@ -237,7 +237,8 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     >>> measure(asm, contacts, ndbgs).classes[INFINITESIMAL]["min_depth"]["value"]
     2
     """
-    from ..planning.classes import andor_section, classes_section
+    from ..planning.classes import classes_section
+    from ..report.classes import andor_section
 
     clock = Clock(timings)
     budget = _budget(options)
@@ -288,7 +289,8 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     >>> plan["depth"], plan["verified"]["value"]  # two parts onto the base, both proven
     (2, True)
     """
-    from ..planning.plans import plan, plan_section
+    from ..planning.plans import plan
+    from ..report.plans import plan_section
 
     clock = Clock(timings)
     budget = _budget(options)

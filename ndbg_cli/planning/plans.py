@@ -23,7 +23,6 @@ from .andor import (
     Hyperarc,
     Meter,
     greedy_tree,
-    lower_bound_depth,
     node_splits,
     prefer_balanced,
     prefer_linear,
@@ -482,25 +481,6 @@ def sequence_json(p: Plan) -> list[dict]:
         d.update(step_motion(p.ndbg, s))
         out.append(d)
     return out
-
-
-def plan_section(p: Plan) -> dict:
-    """The report's ``plan`` section."""
-    return {
-        "strategy": p.strategy,
-        "found": p.found,
-        "exact": p.exact,
-        "depth": p.depth() if p.found else None,
-        "depth_lower_bound": lower_bound_depth(p.root) if p.depth_lower is None
-        else p.depth_lower,
-        "connected": p.connected,
-        "nonlinear_steps": p.nonlinear() if p.found else None,
-        "regions_used": p.regions_used(),
-        "stuck": None if p.stuck is None else p.ndbg.names(p.stuck),
-        "notes": list(p.notes),
-        "tree": tree_json(p) if p.found else None,
-        "sequence": sequence_json(p),
-    }
 
 
 def plan_proves(p: dict) -> dict | None:

@@ -69,8 +69,8 @@ def classes_lines(report: dict) -> list[str]:
     """The complexity classes, one block per motion family."""
     if "classes" not in report:
         return []
-    from ..planning.classes import classes_text
     from ..planning.plans import plan_proves
+    from .classes import classes_text
 
     lines = ["", "classes (paper section 7)"] + ["  " + x for x in classes_text(report["classes"])]
     proof = plan_proves(report.get("plan") or {})
@@ -130,7 +130,7 @@ def ndbg_lines(report: dict) -> list[str]:
             if len(parts) > 6:
                 lines[-1:] = [lines[-1], f"  ... {len(parts)} in all (see the JSON report)"]
         elif fam == GENERALIZED:
-            from ..ndbg.generalized.build import generalized_text
+            from .generalized import generalized_text
 
             lines += [""] + generalized_text(sec)[:14]
     return lines
