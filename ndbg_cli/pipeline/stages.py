@@ -419,14 +419,14 @@ def _proof_trees(sweep: Any, chosen: Any, classes: dict, reported: str,
     return out
 
 
-def _over_budget(asm: Assembly, options: Any) -> str:
+def _over_budget(asm: Assembly, options: Options) -> str:
     from ..ndbg.infinite.blocked_sets import triangle_pairs
 
     return (f"{triangle_pairs(asm)} facing triangle pairs exceed the budget of "
             f"{options.infinite_budget}")
 
 
-def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
+def _infinite_skip_reason(asm: Assembly, options: Options) -> str:
     if options.motion == "infinite":  # the restriction was tried: it is every direction
         return (f"{_over_budget(asm, options)}, and the infinitesimal NDBG frees some "
                 "subassembly in every direction (for one, when parts or groups of parts touch "
@@ -436,7 +436,7 @@ def _infinite_skip_reason(asm: Assembly, options: Any) -> str:
             "infinite computes it where the infinitesimal NDBG frees something)")
 
 
-def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None, ca=None
+def _infinite(asm: Assembly, options: Options, threaded: set, connected, cache=None, ca=None
               ) -> tuple[NDBG, dict, list[dict]] | None:
     """The infinite-translation NDBG, its section and partitionings. Above the budget (3D) it is
     skipped (``None``), unless ``--motion infinite`` asks for it: then it is computed only where the
@@ -477,7 +477,7 @@ def _infinite(asm: Assembly, options: Any, threaded: set, connected, cache=None,
     return nd, sec, parts_out
 
 
-def _generalized(asm: Assembly, ca, inf: NDBG, options: Any) -> tuple[NDBG, dict, list[dict]]:
+def _generalized(asm: Assembly, ca, inf: NDBG, options: Options) -> tuple[NDBG, dict, list[dict]]:
     from ..ndbg.generalized.build import (
         generalized_ndbg,
         generalized_section,
