@@ -292,8 +292,7 @@ def schema(which) -> None:
     Example:
       ndbg schema report > report.schema.json
     """
-    from ..io.manifest import manifest_schema
-    from ..report.document import report_schema
+    from ..core.schemas import manifest_schema, report_schema
 
     doc = report_schema() if which == "report" else manifest_schema()
     click.echo(json.dumps(doc, indent=2, sort_keys=True))

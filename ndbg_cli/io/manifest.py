@@ -7,9 +7,7 @@ duplicate keys are errors.
 
 from __future__ import annotations
 
-import json
 import re
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -17,9 +15,7 @@ import numpy as np
 import yaml
 
 from ..core.errors import InputError
-
-_SCHEMA: dict | None = None
-
+from ..core.schemas import manifest_schema
 
 #: Deepest nesting of lists and mappings a YAML input may have (with its aliases expanded).
 #: Manifests, configs and rules need a handful of levels; past Python's recursion limit
@@ -138,15 +134,6 @@ def yaml_input_error(exc: yaml.YAMLError, file: str) -> InputError:
     if not isinstance(exc, YamlLimitError):
         problem = f"malformed YAML: {problem}"
     return InputError(problem, file=file, line=mark.line + 1 if mark else None)
-
-
-def manifest_schema() -> dict:
-    """The manifest's JSON Schema (a dict), shipped in ``ndbg_cli/schemas``."""
-    global _SCHEMA
-    if _SCHEMA is None:
-        text = resources.files("ndbg_cli").joinpath("schemas/manifest.schema.json").read_text()
-        _SCHEMA = json.loads(text)
-    return _SCHEMA
 
 
 class _Located:

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -33,38 +32,11 @@ FLOAT_DIGITS = 9
 #: vector; far below any length, area or volume tolerance in any supported unit).
 ZERO = 1e-15
 
-_SCHEMA: dict | None = None
-
-#: Stage fragments (``schemas/fragments/NAME.json``) embedded in the report schema.
-FRAGMENTS = ("infinitesimal", "infinite", "generalized", "planning")
-
-
-def _read_schema(name: str) -> dict:
-    return json.loads(resources.files("ndbg_cli").joinpath(f"schemas/{name}").read_text())
-
-
-def report_schema() -> dict:
-    """The report's JSON Schema: ``schemas/report.schema.json`` with the stages' fragments
-    (``schemas/fragments/*.json``) embedded under ``$defs`` as resources with ids
-    ``urn:ndbg:report:1:NAME``, so that ``ndbg schema`` prints one self-contained document."""
-    global _SCHEMA
-    if _SCHEMA is None:
-        doc = _read_schema("report.schema.json")
-        contacts = _read_schema("fragments/contacts.json")
-        for key, sub in contacts.items():
-            doc["$defs"][key] = sub
-        for name in FRAGMENTS:
-            frag = _read_schema(f"fragments/{name}.json")
-            frag.pop("$schema", None)
-            frag["$id"] = f"urn:ndbg:report:1:{name}"
-            doc["$defs"][f"fragment_{name}"] = frag
-        _SCHEMA = doc
-    return _SCHEMA
-
-
 def validate_report(doc: dict) -> None:
     """Raise ``jsonschema.ValidationError`` if ``doc`` is not a valid report or batch."""
     import jsonschema
+
+    from ..core.schemas import report_schema
 
     jsonschema.Draft202012Validator(report_schema()).validate(doc)
 
