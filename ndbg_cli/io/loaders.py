@@ -47,6 +47,22 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     * a directory holding only mesh files: one part per file, already in the assembly frame,
       id = file stem, files in name order.
 
+    Parameters
+    ----------
+    path : str or Path
+        A manifest, a model file or a folder of meshes.
+    units : str, optional
+        The unit of the input's lengths (mm, cm, m, in).
+    tolerance : float, optional
+        The length tolerance, in the assembly's unit (default: 1e-4 x the diagonal).
+    allow_outside_paths : bool
+        Let a manifest name mesh files outside its folder.
+
+    Returns
+    -------
+    Assembly
+        The parts, placed in one frame, with their diagnostics.
+
     Examples
     --------
     >>> import ndbg_cli

@@ -48,6 +48,12 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     options : Options
         What to compute; the CLI's defaults.
 
+    Returns
+    -------
+    dict
+        The report (JSON-ready after :func:`ndbg_cli.report.document.clean`; schema:
+        ``ndbg schema``).
+
     Examples
     --------
     >>> import ndbg_cli

@@ -37,6 +37,10 @@ FAMILIES_OF = {
 PLAN_ORDER = (INFINITE, INFINITESIMAL, GENERALIZED)
 
 
+__all__ = ["Contacts", "Family", "Measures", "find_contacts", "build_ndbg", "measure",
+           "plan_assembly", "run_stages"]
+
+
 class Clock:
     """Adds each stage's wall-clock seconds to ``timings`` under its name."""
 
@@ -93,6 +97,22 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
     sections; the ``--interference`` policy applied (its warnings, or an
     :class:`~ndbg_cli.core.errors.InputError` under ``error``).
 
+    Parameters
+    ----------
+    asm : Assembly
+        A loaded assembly (:func:`ndbg_cli.load`).
+    options : Options
+        What to compute (:class:`~ndbg_cli.core.options.Options`; the CLI's defaults).
+    cache : PairCache, optional
+        The per-part-pair result cache (:func:`ndbg_cli.core.cache.open_cache`), or None.
+    timings : dict, optional
+        Receives the wall-clock seconds of each stage.
+
+    Returns
+    -------
+    Contacts
+        The contact analysis, the contact graph and the report's contact sections.
+
     Examples
     --------
     >>> import ndbg_cli
@@ -142,6 +162,29 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
     """The NDBG of one motion family (:data:`~ndbg_cli.core.constants.FAMILIES`) with its
     report section and partitionings. ``infinitesimal``: that family's NDBG when already
     built (the generalized family extends it; built here when not given).
+
+    Parameters
+    ----------
+    asm : Assembly
+        A loaded assembly (:func:`ndbg_cli.load`).
+    family : str
+        One of :data:`~ndbg_cli.core.constants.FAMILIES`.
+    contacts : Contacts
+        What :func:`find_contacts` found.
+    options : Options
+        What to compute (:class:`~ndbg_cli.core.options.Options`; the CLI's defaults).
+    cache : PairCache, optional
+        The per-part-pair result cache (:func:`ndbg_cli.core.cache.open_cache`), or None.
+    infinitesimal : NDBG, optional
+        The infinitesimal NDBG when already built (the generalized family extends it).
+    timings : dict, optional
+        Receives the wall-clock seconds of each stage.
+
+    Returns
+    -------
+    Family
+        The NDBG (None when skipped), its report section and partitionings, and
+        whether plans and classes may use it.
 
     Examples
     --------
@@ -227,6 +270,24 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     """The classes and measures of paper section 7 on the usable NDBGs ``ndbgs`` (family ->
     NDBG): interlocking, grasps, monotonicity, linearity, depth, and the AND/OR graphs.
 
+    Parameters
+    ----------
+    asm : Assembly
+        A loaded assembly (:func:`ndbg_cli.load`).
+    contacts : Contacts
+        What :func:`find_contacts` found.
+    ndbgs : dict
+        Family name -> NDBG, the usable ones (:attr:`Family.usable`).
+    options : Options
+        What to compute (:class:`~ndbg_cli.core.options.Options`; the CLI's defaults).
+    timings : dict, optional
+        Receives the wall-clock seconds of each stage.
+
+    Returns
+    -------
+    Measures
+        The classes section, the AND/OR graph section and the graphs built.
+
     Examples
     --------
     >>> import ndbg_cli
@@ -277,6 +338,26 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     """The report's ``plan`` section: the plan of the first family of :data:`PLAN_ORDER`
     that admits an assembly tree, with its translation steps checked by the direct sweep
     test (paper Fig. 1, sections 4.4 and 5.3).
+
+    Parameters
+    ----------
+    asm : Assembly
+        A loaded assembly (:func:`ndbg_cli.load`).
+    contacts : Contacts
+        What :func:`find_contacts` found.
+    ndbgs : dict
+        Family name -> NDBG, the usable ones.
+    measures : Measures
+        What :func:`measure` found (its AND/OR graphs are reused).
+    options : Options
+        What to compute (:class:`~ndbg_cli.core.options.Options`; the CLI's defaults).
+    timings : dict, optional
+        Receives the wall-clock seconds of each stage.
+
+    Returns
+    -------
+    dict
+        The report's ``plan`` section (``verified`` and ``proofs`` for translation plans).
 
     Examples
     --------
