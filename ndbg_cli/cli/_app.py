@@ -105,7 +105,26 @@ def common_load_options(f):
                      help="Length tolerance in the assembly unit (default: 1e-4 x diagonal).")(f)
     f = click.option("--allow-outside-paths", is_flag=True,
                      help="Let manifests name mesh files outside their folder.")(f)
+    f = click.option("--mesh-tolerance", type=range_type("mesh_tolerance"),
+                     default=DEFAULTS.mesh_tolerance,
+                     help="STEP/IGES tessellation: largest distance from a facet to the "
+                     "exact surface, in the assembly unit (default: 0.01 mm, or 1e-5 x the "
+                     "model's size above 1 m). Larger: faster, coarser.")(f)
+    f = click.option("--load-timeout", type=range_type("load_timeout"),
+                     default=DEFAULTS.load_timeout, show_default=True,
+                     help="Seconds a native reader (STEP, IGES, glTF, 3DXML, 3MF; run in a "
+                     "child process) may take before the file is given up (exit 2).")(f)
+    f = click.option("--load-memory", type=range_type("load_memory"),
+                     default=DEFAULTS.load_memory, show_default=True,
+                     help="GiB of address space a native reader's process may use.")(f)
     return f
+
+
+def load_settings(mesh_tolerance, load_timeout, load_memory) -> dict:
+    """The :func:`ndbg_cli.io.loaders.load` arguments of the common load options besides
+    units, tolerance and paths (for the commands that load without :class:`Options`)."""
+    return {"mesh_tolerance": mesh_tolerance, "load_timeout": load_timeout,
+            "load_memory": load_memory, "progress": not STATE.quiet}
 
 
 def cannot_write(where: str, exc: OSError) -> InputError:

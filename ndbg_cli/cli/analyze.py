@@ -91,7 +91,8 @@ from ._app import (
 @click.pass_context
 def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
             strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
-            time_limit, infinite_budget, units, tolerance, allow_outside_paths) -> None:
+            time_limit, infinite_budget, units, tolerance, allow_outside_paths, mesh_tolerance,
+            load_timeout, load_memory) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
     A folder holding manifests is a batch (one report each); a folder holding only meshes is
@@ -102,6 +103,10 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
       ndbg analyze assemblies/bell.yaml --format json
       ndbg analyze assemblies/ --format jsonl --scheduler tcp://10.0.0.5:8786
     """
+    from ..io.formats import prestart_reader
+
+    if len(paths) == 1:  # a native reader's start-up overlaps the imports below
+        prestart_reader(paths[0])
     from ..core.progress import progress
     from ..io.loaders import discover
     from ..pipeline.batch import Interrupted, default_jobs, run_batch, run_batch_dask
@@ -113,7 +118,9 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                        timings=timings, strategy=strategy,
                        threads_as_cylinders=threads_as_cylinders, connected=connected,
                        max_partitions=max_partitions, max_nodes=max_nodes, max_work=max_work,
-                       time_limit=time_limit, infinite_budget=infinite_budget)
+                       time_limit=time_limit, infinite_budget=infinite_budget,
+                       mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
+                       load_memory=load_memory)
     options = dataclasses.replace(options, progress=not STATE.quiet)
     targets: list[Path] = []
     for p in paths:
@@ -397,7 +404,7 @@ def _index_entry(r: dict, file: str) -> dict:
 @cache_options
 @click.pass_context
 def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_budget, units,
-          tolerance, allow_outside_paths) -> None:
+          tolerance, allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
     """CI gate: analyse PATHS (or read saved .json reports, or a folder of them) and check
     design rules.
 
@@ -408,6 +415,10 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     Example:
       ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
     """
+    from ..io.formats import prestart_reader
+
+    if len(paths) == 1:  # a native reader's start-up overlaps the imports below
+        prestart_reader(paths[0])
     from ..core.progress import progress
     from ..io.loaders import discover
     from ..pipeline.batch import default_jobs, run_batch
@@ -419,7 +430,8 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     ruleset = load_rules(rules_file)
     options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
                        allow_outside_paths=allow_outside_paths,
-                       infinite_budget=infinite_budget)
+                       infinite_budget=infinite_budget, mesh_tolerance=mesh_tolerance,
+                       load_timeout=load_timeout, load_memory=load_memory)
     saved, targets = [], []
     for p in paths:
         if not Path(p).exists():

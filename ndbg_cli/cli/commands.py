@@ -23,6 +23,7 @@ from ._app import (
     common_load_options,
     fail,
     global_options,
+    load_settings,
 )
 
 
@@ -31,20 +32,25 @@ from ._app import (
 @click.option("--out", required=True, type=click.Path(), help="Folder to write into.")
 @click.option("--force", is_flag=True, help="Overwrite an existing manifest.")
 @common_load_options
-def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
+def convert(model, out, force, units, tolerance, allow_outside_paths, mesh_tolerance,
+            load_timeout, load_memory) -> None:
     """Write a model's parts as meshes plus a manifest (an editable project).
 
     \b
     Example:
       ndbg convert ../shared/data/as1/as1-oc-214.stp --out as1/
     """
+    from ..io.formats import prestart_reader
+
+    prestart_reader(model)  # its start-up overlaps the imports below
     from ..io.convert import convert_assembly
     from ..io.loaders import load
 
     # as analyze --out: a folder that cannot be written is an input error (exit 2) naming
     # it, found before the model is read (a STEP file can take minutes)
     check_writable(out, Path(out))
-    asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths)
+    asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths,
+               **load_settings(mesh_tolerance, load_timeout, load_memory))
     try:
         manifest = convert_assembly(asm, Path(out), force=force)
     except OSError as exc:  # e.g. out/meshes is a file, or the disk is full
@@ -61,7 +67,8 @@ def convert(model, out, force, units, tolerance, allow_outside_paths) -> None:
 @click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
               show_default=True, help="What interpenetrating parts are.")
 @common_load_options
-def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths) -> None:
+def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths, mesh_tolerance,
+             load_timeout, load_memory) -> None:
     """Print the contact table: touching pairs, kind, area, normals, and interferences.
 
     Normals point out of part A into part B, in the assembly frame and unit.
@@ -70,6 +77,9 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
     Example:
       ndbg contacts ../shared/data/as1/as1-oc-214.stp --format json
     """
+    from ..io.formats import prestart_reader
+
+    prestart_reader(assembly)  # its start-up overlaps the imports below
     from ..contacts.contacts3d import analyze_contacts
     from ..contacts.interference import check_interference_policy
     from ..io.loaders import load
@@ -77,7 +87,8 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
     from ..report.document import CONTACTS_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,
-               allow_outside_paths=allow_outside_paths)
+               allow_outside_paths=allow_outside_paths,
+               **load_settings(mesh_tolerance, load_timeout, load_memory))
     if asm.dimension != 3:
         fail(f"{assembly}: contacts of 2D assemblies are listed by `ndbg analyze`", EXIT_INPUT)
     result = analyze_contacts(asm, tolerance=tolerance)
@@ -105,7 +116,8 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths)
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
               show_default=True)
 @common_load_options
-def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_paths) -> None:
+def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_paths,
+          mesh_tolerance, load_timeout, load_memory) -> None:
     """Print the DBG for one translation direction, computed directly from the geometry.
 
     translation: from the contacts (local blocking); infinite: a sweep test of every part
@@ -115,13 +127,17 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
     Example:
       ndbg query assemblies/hover.yaml --direction 0,0,1
     """
+    from ..io.formats import prestart_reader
+
+    prestart_reader(assembly)  # its start-up overlaps the imports below
     import numpy as np
 
     from ..io.loaders import load
     from ..report.document import QUERY_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,
-               allow_outside_paths=allow_outside_paths)
+               allow_outside_paths=allow_outside_paths,
+               **load_settings(mesh_tolerance, load_timeout, load_memory))
     try:
         d = np.array([float(x) for x in direction.split(",")])
     except ValueError:
@@ -185,7 +201,7 @@ def _dbg_record(asm, g) -> dict:
               show_default=True)
 @common_load_options
 def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tolerance,
-           allow_outside_paths) -> None:
+           allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
     """Which parts must be withdrawn, and in what order, before PARTS can be removed.
 
     Exact (fewest parts withdrawn; steps merged greedily) when the search fits --max-nodes;
@@ -195,6 +211,9 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
     Example:
       ndbg remove assemblies/bell.yaml gong_post
     """
+    from ..io.formats import prestart_reader
+
+    prestart_reader(assembly)  # its start-up overlaps the imports below
     from ..io.loaders import load
     from ..ndbg.infinite.blocked_sets import triangle_pairs
     from ..ndbg.infinite.build import build_infinite
@@ -205,7 +224,8 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
     from ..report.document import REMOVE_SCHEMA, dumps
 
     asm = load(assembly, units=units, tolerance=tolerance,
-               allow_outside_paths=allow_outside_paths)
+               allow_outside_paths=allow_outside_paths,
+               **load_settings(mesh_tolerance, load_timeout, load_memory))
     unknown = [p for p in parts if p not in asm.ids]
     if unknown:
         fail(f"{assembly}: no part '{unknown[0]}' (parts: {', '.join(asm.ids[:12])}"

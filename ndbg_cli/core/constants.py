@@ -33,5 +33,28 @@ ANGLE_TOL_RAD = 1e-6
 #: normal and two faces count as facing (the contact finder's ``angle_tolerance`` default).
 CONTACT_ANGLE_TOL_RAD = math.radians(1.0)
 
-__all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES", "ANGLE_TOL_RAD",
-           "CONTACT_ANGLE_TOL_RAD", "WORK_LIMIT"]
+
+#: Seconds a model file's reader may take by default (``--load-timeout``): a STEP product of a
+#: few hundred parts tessellates in well under a minute at the default deflection; the limit
+#: is there to end a reader that hangs on a damaged file, not to cut real products short.
+LOAD_TIMEOUT_S = 120.0
+#: Address space (GiB) a native reader's process may use by default (``--load-memory``):
+#: OpenCASCADE needs a few GiB for a large product; a damaged file that makes it allocate
+#: without end fails at this limit instead of driving the machine into swap.
+LOAD_MEMORY_GIB = 16.0
+#: Linear deflection (mm, OpenCASCADE's working unit) of STEP/IGES tessellation by default:
+#: the largest distance between a facet and the exact surface. Kept since the first release
+#: (reports of STEP files depend on it).
+STEP_DEFLECTION_MM = 0.01
+#: For a model larger than 1 m the default deflection grows with its size: this fraction of
+#: its bounding-box diagonal (ten times below the default length tolerance, 1e-4 x diagonal,
+#: so faceting never looks like a gap or an overlap to the contact stage). Below 1 m the
+#: fixed :data:`STEP_DEFLECTION_MM` wins, which keeps every smaller model's tessellation.
+DEFLECTION_RELATIVE = 1e-5
+#: Angular deflection (radians) of STEP/IGES tessellation.
+STEP_ANGULAR_DEFLECTION_RAD = 0.5
+
+__all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES", "WORK_LIMIT", "ANGLE_TOL_RAD",
+           "CONTACT_ANGLE_TOL_RAD",
+           "LOAD_TIMEOUT_S", "LOAD_MEMORY_GIB", "STEP_DEFLECTION_MM", "DEFLECTION_RELATIVE",
+           "STEP_ANGULAR_DEFLECTION_RAD"]

@@ -10,7 +10,7 @@ import yaml
 from ..core.assembly import Assembly
 from ..core.errors import InputError
 from ..core.files import write_atomic
-from .loaders import MODEL_SUFFIXES
+from .formats import MODEL_SUFFIXES
 
 
 def safe_name(part_id: str) -> str:

@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import contextlib
 import io
+import logging
 import math
 import os
 import re
 import sys
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,26 +22,64 @@ import numpy as np
 import trimesh
 
 from ..core.assembly import Assembly, Diagnostic, Joint, Part
+from ..core.constants import (
+    DEFLECTION_RELATIVE,
+    LOAD_MEMORY_GIB,
+    LOAD_TIMEOUT_S,
+    STEP_ANGULAR_DEFLECTION_RAD,
+    STEP_DEFLECTION_MM,
+)
 from ..core.errors import InputError
+from ..core.progress import StatusLine
 from ..core.units import canonical_unit, scale
+from .formats import (
+    CAD_SUFFIXES,
+    MANIFEST_SUFFIXES,
+    MESH_SUFFIXES,
+    MODEL_SUFFIXES,
+    NATIVE_SUFFIXES,
+    READ_MODEL,
+    reader_name,
+    reader_preload,
+)
+from .isolated import in_child, run_isolated
 from .manifest import _Located, placement, read_manifest
 from .validate import make_part, make_polygon_part
 
-MANIFEST_SUFFIXES = {".yaml", ".yml"}
-CAD_SUFFIXES = {".step", ".stp", ".iges", ".igs"}
-SCENE_SUFFIXES = {".glb", ".gltf", ".3dxml", ".3mf", ".obj"}
-MESH_SUFFIXES = {".stl", ".ply", ".off", ".obj", ".glb"}
-MODEL_SUFFIXES = CAD_SUFFIXES | SCENE_SUFFIXES | MESH_SUFFIXES
+
+@dataclass(frozen=True)
+class Reading:
+    """How model files are read (:func:`load`'s arguments of the same names): the
+    tessellation's deflection, the limits of a native reader's child process, whether it is
+    used (``None``: for :data:`NATIVE_SUFFIXES`) and whether it shows a status line."""
+
+    units: str | None = None
+    mesh_tolerance: float | None = None
+    load_timeout: float | None = LOAD_TIMEOUT_S
+    load_memory: float | None = LOAD_MEMORY_GIB
+    isolate: bool | None = None
+    progress: bool = False
 
 
 def load(path: str | Path, *, units: str | None = None, tolerance: float | None = None,
-         allow_outside_paths: bool = False) -> Assembly:
+         allow_outside_paths: bool = False, mesh_tolerance: float | None = None,
+         load_timeout: float | None = LOAD_TIMEOUT_S,
+         load_memory: float | None = LOAD_MEMORY_GIB, isolate: bool | None = None,
+         progress: bool = False) -> Assembly:
     """Load one assembly from a manifest, a model file, or a directory of mesh files.
 
     ``units`` overrides the unit the input's lengths are in (for files whose unit is not
     recorded, e.g. STL); ``tolerance`` overrides the length tolerance (in the assembly unit).
     ``allow_outside_paths`` lets a manifest name mesh files outside its own folder.
     Raises :class:`InputError` with a one-line message for any bad input.
+
+    A model file whose reader is native code (:data:`NATIVE_SUFFIXES`; ``isolate`` forces it
+    on or off for any model file) is read in a child process: a crash of the reader, more
+    than ``load_timeout`` seconds or more than ``load_memory`` GiB there (``None``: no limit)
+    is an :class:`InputError` too. ``mesh_tolerance`` is the tessellation's deflection for
+    STEP/IGES files, in the assembly unit (default: 0.01 mm, more for a model larger than
+    1 m, see :data:`ndbg_cli.core.constants.DEFLECTION_RELATIVE`). ``progress``: a status line
+    on stderr while a child reads (see :class:`ndbg_cli.core.progress.StatusLine`).
 
     * a YAML manifest (``.yaml``/``.yml``): parts are mesh files or 2D polygons;
     * one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
@@ -73,25 +115,37 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     p = Path(path)
     if not p.exists():
         raise InputError("no such file or directory", file=str(path))
-    if tolerance is not None and not 0 < tolerance < math.inf:  # NaN fails both
-        raise InputError(f"tolerance must be positive and finite, got {tolerance}",
-                         file=str(path))
+    for name, value in (("tolerance", tolerance), ("mesh tolerance", mesh_tolerance),
+                        ("load timeout", load_timeout), ("load memory", load_memory)):
+        if value is not None and not 0 < value < math.inf:  # NaN fails both
+            raise InputError(f"{name} must be positive and finite, got {value}",
+                             file=str(path))
+    reading = Reading(units=units, mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
+                      load_memory=load_memory, isolate=isolate, progress=progress)
+    with _quiet_numerics():
+        asm = _load(p, str(path), reading, allow_outside_paths)
+    if tolerance is not None:
+        asm = asm.replace(tolerance=float(tolerance))
+    _check_tolerance(asm, str(path))
+    return asm
+
+
+def _load(p: Path, path: str, reading: Reading, allow_outside_paths: bool) -> Assembly:
+    units = reading.units
     if p.is_dir():
         manifests = sorted(q for q in p.iterdir() if q.suffix.lower() in MANIFEST_SUFFIXES)
         if manifests:
             raise InputError("directory holds manifests: it is a batch, analyse it as such "
                              "(ndbg analyze DIR) or name one manifest", file=str(path))
-        asm = load_mesh_directory(p, units=units)
+        asm = load_mesh_directory(p, units=units, reading=reading)
     elif p.suffix.lower() in MANIFEST_SUFFIXES:
-        asm = load_manifest(p, units=units, allow_outside_paths=allow_outside_paths)
+        asm = load_manifest(p, units=units, allow_outside_paths=allow_outside_paths,
+                            reading=reading)
     elif p.suffix.lower() in MODEL_SUFFIXES:
-        asm = load_model(p, units=units)
+        asm = load_model(p, reading=reading)
     else:
         known = " ".join(sorted(MANIFEST_SUFFIXES | MODEL_SUFFIXES))
         raise InputError(f"unknown file type '{p.suffix}' (known: {known})", file=str(path))
-    if tolerance is not None:
-        asm = asm.replace(tolerance=float(tolerance))
-    _check_tolerance(asm, str(path))
     return asm
 
 
@@ -120,14 +174,17 @@ def discover(path: str | Path) -> list[Path]:
 # -- manifests ----------------------------------------------------------------------------
 
 def load_manifest(path: Path, *, units: str | None = None,
-                  allow_outside_paths: bool = False) -> Assembly:
-    """Load a YAML manifest (3D meshes or 2D polygons)."""
+                  allow_outside_paths: bool = False, reading: Reading | None = None
+                  ) -> Assembly:
+    """Load a YAML manifest (3D meshes or 2D polygons); ``reading``: how its mesh files are
+    read (their deflection in the assembly unit)."""
     doc = read_manifest(path)
     data = doc.data
     file = str(path)
     # The manifest records its unit, so a --units override converts rather than relabels.
     doc_units = _unit(data.get("units", "mm"), doc, ("units",))
     asm_units = canonical_unit(units, file=file) if units else doc_units
+    reading = replace(reading or Reading(), units=asm_units)
     dimension = int(data.get("dimension", 3))
     folder = path.parent.resolve()
     parts: list[Part] = []
@@ -155,7 +212,7 @@ def load_manifest(path: Path, *, units: str | None = None,
                                 part=pid)
             mesh_path = _resolve(entry["mesh"], folder, doc, where + ("mesh",), pid,
                                  allow_outside_paths)
-            v, f = _read_single_mesh(mesh_path, part=pid)
+            v, f = _read_single_mesh(mesh_path, part=pid, reading=reading)
             part, d = make_part(pid, v, f, transform=T, scale=s, source=str(mesh_path),
                                 fixed=fixed)
         parts.append(part)
@@ -218,10 +275,10 @@ def _joint(entry: dict, doc: _Located, path: tuple, ids: set, s: float) -> Joint
 
 # -- meshes and scenes --------------------------------------------------------------------
 
-def _read_single_mesh(path: Path, *, part: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _read_single_mesh(path: Path, *, part: str | None = None, reading: Reading | None = None
+                      ) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and faces of a mesh file, all bodies of a scene file merged into one."""
-    scene = _read_scene(path, part=part)
-    meshes = _scene_instances(scene)
+    meshes, _ = _read_instances(path, reading or Reading(), part=part)
     if not meshes:
         raise InputError("file holds no triangle mesh", file=str(path), part=part)
     if len(meshes) == 1:
@@ -233,11 +290,36 @@ def _read_single_mesh(path: Path, *, part: str | None = None) -> tuple[np.ndarra
     return v, f
 
 
-def _read_scene(path: Path, *, part: str | None = None) -> trimesh.Scene:
+@contextlib.contextmanager
+def _quiet_numerics():
+    """No numpy floating-point warnings, no library warnings (numpy's ``invalid value
+    encountered in cast``...) and no log records of trimesh's on stderr (it logs tracebacks
+    of what it fails to parse, which Python's last-resort handler prints when the program
+    configured no logging) while a file is read and its parts are made: what they are about
+    (NaN or huge coordinates, bad indices, a damaged file) is checked for, and reported, by
+    the loader and :func:`ndbg_cli.io.validate.make_part`. Local: the caller's warning
+    filters and numpy settings are as they were afterwards, and a program that configured
+    logging still gets trimesh's records."""
+    logger = logging.getLogger("trimesh")
+    handler = logging.NullHandler()  # a handler found: the last-resort one stays silent
+    logger.addHandler(handler)
+    try:
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        logger.removeHandler(handler)
+
+
+def _read_scene(path: Path, *, part: str | None = None, units: str | None = None,
+                mesh_tolerance: float | None = None,
+                stage: Callable[[str], None] | None = None) -> trimesh.Scene:
     suffix = path.suffix.lower()
     try:
         if suffix in CAD_SUFFIXES:
-            return _read_cad(path)
+            return _read_cad(path, units=units, mesh_tolerance=mesh_tolerance, stage=stage)
+        if stage is not None:
+            stage(f"reading the {suffix[1:].upper()} file")
         kwargs: dict[str, Any] = {}
         if suffix == ".obj":
             kwargs = {"split_objects": True, "split_groups": True, "group_material": False}
@@ -255,12 +337,50 @@ def _read_scene(path: Path, *, part: str | None = None) -> trimesh.Scene:
                                     resolver=trimesh.resolvers.FilePathResolver(name),
                                     **kwargs)
         loaded = trimesh.load(name, force="scene", process=False, **kwargs)
-    except InputError:
+    except (InputError, MemoryError):
         raise
     except Exception as exc:  # trimesh raises many kinds for unreadable files
         raise InputError(f"cannot read {suffix[1:].upper()} file: {_short(exc)}",
                          file=str(path), part=part) from None
     return loaded
+
+
+def read_model(path: str | Path, units: str | None = None, mesh_tolerance: float | None = None,
+               *, part: str | None = None, stage: Callable[[str], None] | None = None
+               ) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], dict]:
+    """A model file's mesh instances (:func:`_scene_instances`: node name, world-frame
+    vertices, faces: plain numpy arrays, cheap to send from a child process) and what the
+    reader recorded (``ndbg_units``, ``ndbg_scene_units``, ``ndbg_deflection_mm``).
+
+    Run in a child process for native readers (:func:`load_model`). Every failure of the
+    reader is an :class:`InputError`; ``stage(text)`` is told what it is doing."""
+    path = Path(path)
+    with _quiet_numerics():
+        scene = _read_scene(path, part=part, units=units, mesh_tolerance=mesh_tolerance,
+                            stage=stage)
+        if stage is not None:
+            stage("collecting the meshes")
+        inst = _instances_of(scene, path, part)
+    keys = ("ndbg_units", "ndbg_scene_units", "ndbg_deflection_mm")
+    return inst, {k: scene.metadata[k] for k in keys if k in scene.metadata}
+
+
+def _instances_of(scene: trimesh.Scene, path: Path, part: str | None = None
+                  ) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """:func:`_scene_instances`, a malformed scene (meshes or transforms of the wrong shape,
+    a broken scene graph) being an input error."""
+    try:
+        return _scene_instances(scene)
+    except InputError as exc:
+        if exc.file is not None:
+            raise
+        raise InputError(f"cannot read {path.suffix[1:].upper()} file: {exc.problem}",
+                         file=str(path), part=part) from None
+    except MemoryError:
+        raise
+    except Exception as exc:
+        raise InputError(f"cannot read {path.suffix[1:].upper()} file: {_short(exc)}",
+                         file=str(path), part=part) from None
 
 
 def _short(exc: BaseException) -> str:
@@ -285,29 +405,69 @@ def step_length_unit(text: str) -> str:
     return "mm"
 
 
-def _read_cad(path: Path) -> trimesh.Scene:
+def _read_cad(path: Path, *, units: str | None = None, mesh_tolerance: float | None = None,
+              stage: Callable[[str], None] | None = None) -> trimesh.Scene:
     """Tessellate a STEP or IGES file with OpenCASCADE (cascadio) into a scene.
 
     cascadio writes STEP shapes in metres whatever the file's unit, and IGES shapes in
     OpenCASCADE's internal millimetres; the scene is tagged with that unit and the caller
     converts it to the file's declared unit. OpenCASCADE prints progress on the process's
     standard output, which would corrupt a JSON report piped from stdout: it is silenced.
+
+    The linear deflection is ``mesh_tolerance`` (in ``units``, else the file's unit) when
+    given, else :func:`default_deflection_mm`; it is recorded as ``ndbg_deflection_mm``.
     """
     import cascadio
 
     data = path.read_bytes()
     kind = "iges" if path.suffix.lower() in {".iges", ".igs"} else "step"
+    text = data[:200000].decode("latin-1") if kind == "step" else ""
+    file_units = step_length_unit(text) if kind == "step" else "mm"
+    if mesh_tolerance is not None:
+        chosen = canonical_unit(units, file=str(path)) if units else file_units
+        deflection = mesh_tolerance * scale(chosen, "mm")
+    else:
+        deflection = default_deflection_mm(data, file_units) if kind == "step" \
+            else STEP_DEFLECTION_MM
+    if stage is not None:
+        stage(f"reading and tessellating the {kind.upper()} file with OpenCASCADE "
+              f"(deflection {deflection:.3g} mm)")
     with _quiet_native_output():
-        glb = cascadio.load(data, file_type=kind, tol_linear=0.01, tol_angular=0.5,
-                            use_parallel=False)
+        glb = cascadio.load(data, file_type=kind, tol_linear=deflection,
+                            tol_angular=STEP_ANGULAR_DEFLECTION_RAD, use_parallel=False)
     if not glb:
         raise InputError(f"cannot read {kind.upper()} file: OpenCASCADE found no shape in it",
                          file=str(path))
+    if stage is not None:
+        stage("building the meshes")
     scene = trimesh.load(io.BytesIO(glb), file_type="glb", force="scene", process=False)
-    text = data[:200000].decode("latin-1") if kind == "step" else ""
-    scene.metadata["ndbg_units"] = step_length_unit(text) if kind == "step" else "mm"
+    scene.metadata["ndbg_units"] = file_units
     scene.metadata["ndbg_scene_units"] = "m" if kind == "step" else "mm"
+    scene.metadata["ndbg_deflection_mm"] = deflection
     return scene
+
+
+_STEP_POINT = re.compile(rb"CARTESIAN_POINT\s*\(\s*'[^']*'\s*,\s*\(([^()]*)\)", re.I)
+
+
+def default_deflection_mm(data: bytes, file_units: str) -> float:
+    """The default linear deflection (mm) of a STEP file's tessellation:
+    :data:`STEP_DEFLECTION_MM`, or :data:`DEFLECTION_RELATIVE` times the model's size where
+    that is larger (a model larger than 1 m). The size is the bounding-box diagonal of the
+    file's points (``CARTESIAN_POINT``: vertices, control points, placements), found before
+    OpenCASCADE tessellates anything; an estimate, which is all a deflection needs."""
+    rows = [g for g in _STEP_POINT.findall(data) if g.count(b",") == 2]
+    if not rows:
+        return STEP_DEFLECTION_MM
+    try:
+        pts = np.array(b",".join(rows).split(b","), dtype="S").astype(float).reshape(-1, 3)
+    except ValueError:  # a number STEP allows and numpy does not read: keep the default
+        return STEP_DEFLECTION_MM
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if not len(pts):
+        return STEP_DEFLECTION_MM
+    diagonal = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) * scale(file_units, "mm")
+    return max(STEP_DEFLECTION_MM, DEFLECTION_RELATIVE * diagonal)
 
 
 @contextlib.contextmanager
@@ -315,7 +475,7 @@ def _quiet_native_output():
     """Silence C-level stdout and stderr for the duration: OpenCASCADE prints progress and
     parse errors there, around the one-line error ndbg gives. ``NDBG_DEBUG_NATIVE=1`` keeps
     them."""
-    if os.environ.get("NDBG_DEBUG_NATIVE"):
+    if os.environ.get("NDBG_DEBUG_NATIVE") or in_child():  # a child's output is its log
         yield
         return
     sys.stdout.flush()
@@ -368,7 +528,14 @@ def _scene_instances(scene: trimesh.Scene) -> list[tuple[str, np.ndarray, np.nda
     for (name, T, geom_name, geom), stem in zip(rows, stems):
         if stem is not None and count[stem] > 1:
             name = stem
-        v = np.asarray(geom.vertices, dtype=float) @ T[:3, :3].T + T[:3, 3]
+        v = np.asarray(geom.vertices, dtype=float)
+        if v.ndim != 2 or v.shape[1] != 3:  # e.g. an OBJ whose vertex lines lost numbers
+            raise InputError(f"mesh '{geom_name}' has vertices of shape {v.shape}, not "
+                             "(n, 3)")
+        T = np.asarray(T, dtype=float)
+        if T.shape != (4, 4):
+            raise InputError(f"node '{name}' has a transform of shape {T.shape}, not 4 x 4")
+        v = v @ T[:3, :3].T + T[:3, 3]
         key = (natural_key(name), name, geom_name, tuple(np.round(T[:3, :], 9).ravel()))
         out.append((key, name, v, np.asarray(geom.faces)))
     out.sort(key=lambda r: r[0])
@@ -389,16 +556,42 @@ def unique_ids(names: list[str]) -> list[str]:
     return out
 
 
-def load_model(path: Path, *, units: str | None = None) -> Assembly:
-    """Load a single model file: one part per scene-graph mesh instance."""
-    scene = _read_scene(path)
-    inst = _scene_instances(scene)
+def _read_instances(path: Path, reading: Reading, *, part: str | None = None
+                    ) -> tuple[list[tuple[str, np.ndarray, np.ndarray]], dict]:
+    """:func:`read_model` of ``path``, in a child process for a native reader (see
+    :func:`load`)."""
+    suffix = path.suffix.lower()
+    isolate = reading.isolate if reading.isolate is not None else suffix in NATIVE_SUFFIXES
+    args = (path, reading.units, reading.mesh_tolerance)
+    if not isolate:
+        return read_model(*args, part=part)
+    hint = "a coarser --mesh-tolerance tessellates faster" if suffix in CAD_SUFFIXES else ""
+    status = StatusLine(f"loading {path.name}", quiet=not reading.progress)
+    try:
+        return run_isolated(READ_MODEL, args, file=str(path), reader=reader_name(suffix),
+                            timeout=reading.load_timeout, memory_gib=reading.load_memory,
+                            preload=reader_preload(suffix), timeout_hint=hint,
+                            progress=status.update, part=part)
+    finally:
+        status.close()
+
+
+def load_model(path: Path, *, units: str | None = None, reading: Reading | None = None
+               ) -> Assembly:
+    """Load a single model file: one part per scene-graph mesh instance. Native readers
+    (:data:`NATIVE_SUFFIXES`, or any when ``reading.isolate``) run in a child process (see
+    :func:`load`); ``units`` overrides ``reading.units``."""
+    reading = reading or Reading()
+    if units is not None:
+        reading = replace(reading, units=units)
+    units, mesh_tolerance = reading.units, reading.mesh_tolerance
+    inst, meta = _read_instances(path, reading)
     if not inst:
         raise InputError("file holds no triangle mesh", file=str(path))
-    file_units = scene.metadata.get("ndbg_units")
+    file_units = meta.get("ndbg_units")
     if file_units is not None:  # STEP/IGES record their unit: convert cascadio's metres to it
         asm_units = canonical_unit(units, file=str(path)) if units else file_units
-        s = scale(scene.metadata["ndbg_scene_units"], asm_units)
+        s = scale(meta["ndbg_scene_units"], asm_units)
     elif units is not None:  # the file records no reliable unit: the option declares it
         asm_units, s = canonical_unit(units, file=str(path)), 1.0
     elif path.suffix.lower() in {".glb", ".gltf"}:
@@ -411,11 +604,19 @@ def load_model(path: Path, *, units: str | None = None) -> Assembly:
         part, d = make_part(pid, v, f, scale=s, source=f"{path}#{node}")
         parts.append(part)
         diags.extend(d)
+    deflection = meta.get("ndbg_deflection_mm")
+    if mesh_tolerance is None and deflection is not None and deflection > STEP_DEFLECTION_MM:
+        diags.append(Diagnostic(
+            "warning", "coarse-tessellation",
+            f"tessellated with a deflection of {deflection:.3g} mm, {DEFLECTION_RELATIVE:g} x "
+            f"the model's size (the default for a model larger than 1 m; "
+            f"--mesh-tolerance chooses it)", file=str(path)))
     return Assembly(name=path.stem, parts=tuple(parts), units=asm_units, source=str(path),
                     diagnostics=tuple(diags))
 
 
-def load_mesh_directory(path: Path, *, units: str | None = None) -> Assembly:
+def load_mesh_directory(path: Path, *, units: str | None = None,
+                        reading: Reading | None = None) -> Assembly:
     """Load a directory of mesh files, one part per file, already in the assembly frame."""
     files = sorted(q for q in path.iterdir() if q.is_file() and q.suffix.lower() in MESH_SUFFIXES)
     if not files:
@@ -431,7 +632,8 @@ def load_mesh_directory(path: Path, *, units: str | None = None) -> Assembly:
     asm_units = canonical_unit(units, file=str(path)) if units else "mm"
     parts, diags = [], []
     for q in files:
-        v, f = _read_single_mesh(q, part=q.stem)
+        v, f = _read_single_mesh(q, part=q.stem, reading=replace(reading or Reading(),
+                                                                  units=asm_units))
         part, d = make_part(q.stem, v, f, source=str(q))
         parts.append(part)
         diags.extend(d)
@@ -440,4 +642,4 @@ def load_mesh_directory(path: Path, *, units: str | None = None) -> Assembly:
 
 
 __all__ = ["load", "discover", "load_manifest", "load_model", "load_mesh_directory",
-           "step_length_unit", "unique_ids"]
+           "read_model", "default_deflection_mm", "step_length_unit", "unique_ids"]

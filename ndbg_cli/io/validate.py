@@ -5,6 +5,8 @@ repairs what can be repaired without changing the shape, and checks it;
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import shapely
 import trimesh
@@ -16,6 +18,10 @@ from ..core.errors import InputError
 
 #: Relative size below which a face's edge counts as degenerate (times the part's diagonal).
 DEGENERATE_RELATIVE = 1e-9
+#: Largest coordinate (in the assembly unit, after scaling and placement) a part may have:
+#: volumes multiply three coordinates, so beyond about 1e102 they overflow to infinity. No
+#: real model comes near; a damaged number (``1e300``) does.
+MAX_COORDINATE = 1e100
 
 
 def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
@@ -52,6 +58,10 @@ def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
     source_hash = content_hash(v, f, np.array([scale]), T)
     v = v * scale
     v = v @ T[:3, :3].T + T[:3, 3]
+    big = float(np.max(np.abs(v))) if np.all(np.isfinite(v)) else math.inf
+    if big > MAX_COORDINATE:
+        raise InputError(f"coordinates reach {big:.3g} once scaled and placed, beyond "
+                         f"{MAX_COORDINATE:g}: a damaged number or a wrong unit", **where)
 
     mesh = trimesh.Trimesh(vertices=v, faces=f, process=False, validate=False)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)

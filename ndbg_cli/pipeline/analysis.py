@@ -89,7 +89,9 @@ def analyze_path(path: str | Path, options: Options = Options()) -> dict:
     t0 = time.perf_counter()
     try:
         asm = load(path, units=options.units, tolerance=options.tolerance,
-                   allow_outside_paths=options.allow_outside_paths)
+                   allow_outside_paths=options.allow_outside_paths,
+                   mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
+                   load_memory=options.load_memory, progress=options.progress)
     except NdbgError as exc:
         return error_record(path, exc)
     t_load = time.perf_counter() - t0

@@ -91,7 +91,7 @@ def holds_reports(folder: str | Path) -> bool:
     """Whether a directory is a folder of reports rather than of assemblies: it has an
     ``--out-dir`` run's ``index.json``, or it holds ``*.json`` files and nothing an analysis
     would read (no manifest anywhere below it, no mesh file in it)."""
-    from ..io.loaders import MANIFEST_SUFFIXES, MESH_SUFFIXES
+    from ..io.formats import MANIFEST_SUFFIXES, MESH_SUFFIXES
 
     p = Path(folder)
     if not p.is_dir():
