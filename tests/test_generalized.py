@@ -34,6 +34,7 @@ from ndbg_cli.ndbg.generalized import build as ge
 from ndbg_cli.ndbg.generalized import motion_lp as lp
 from ndbg_cli.ndbg.generalized import twist as tw
 from ndbg_cli.ndbg.model import NDBG, Region
+from ndbg_cli.report.generalized import generalized_text
 
 from conftest import ASSEMBLIES
 
@@ -876,7 +877,7 @@ def test_section_schema_text_and_partitionings(tmp_path):
     assert [e["parts"] for e in sec["needs_rotation"]] == [["bolt"]]
     assert sec["needs_rotation"][0]["motion"]["type"] == "screw"
     assert sorted(c["moved"] for c in sec["candidates"]) == [["block"], ["bolt"]]
-    text = ge.generalized_text(sec)
+    text = generalized_text(sec)
     assert text[0] == "Generalized motions: 6 suggested, 1 threaded pair(s)"  # 3 lines x 2
     assert any("needs rotation: {bolt} by screw about (+0, +0, +1)" in t for t in text)
     assert any("threaded: bolt on block" in t for t in text)
@@ -1106,7 +1107,7 @@ def test_section_reports_a_cut_candidate_list(tmp_path):
     sec = ge.generalized_section(asm, g, rows, limit=1)
     assert len(sec["candidates"]) == 1 and sec["candidates_truncated"] is True
     assert sec["candidate_limit"] == 1
-    assert any("list limited to 1" in t for t in ge.generalized_text(sec))
+    assert any("list limited to 1" in t for t in generalized_text(sec))
     schema = json.loads(resources.files("ndbg_cli").joinpath(
         "schemas/fragments/generalized.json").read_text())
     jsonschema.validate(json.loads(json.dumps(sec)), schema)

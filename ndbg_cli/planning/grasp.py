@@ -169,109 +169,143 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
                else [np.asarray(ndbg.regions[k].direction, float)[None]])
         for g in ext:
             pieces.add(np.asarray(g, float), q, WEIGHT // len(ext))
-    n0 = len(pieces.req)
-    part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
-    normals = (np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]) if faces
-               else np.zeros((0, ndbg.space_dimension)))
-    inside = bit_rows([c for _, c in reqs], ndbg.n) if reqs else np.zeros((0, ndbg.n), bool)
-    piece_req = np.asarray(pieces.req, dtype=np.intp)
-    # per part: the pieces whose requirement's sink component holds it, and its faces
-    holds = {p: np.flatnonzero(inside[piece_req, p]) for p in np.unique(part_of).tolist()}
-    by_part = {p: np.flatnonzero(part_of == p) for p in holds}
-    size = np.array([len(c) for c in pieces.chunks], dtype=np.int64)
-    work = sum(int(size[holds[p]].sum()) * len(by_part[p]) for p in holds)
-    if work > budget:
+    greedy = _Greedy(ndbg, faces, reqs, pieces, tol)
+    if greedy.work > budget:
         return {"value": None, "skipped": True, "fingers": [], "uncovered": [],
                 "complete": False, "parts": [ndbg.ids[i] for i in bits(m)],
                 "why": (f"skipped: {len(reqs)} (region, sink component) requirements in "
-                        f"{n0} pieces x candidate faces need {work} tests, over the budget "
-                        f"of {budget}")}
-    alive = np.ones(n0, dtype=bool)
-    bound = np.zeros((len(faces), 2), dtype=np.int64)  # gains (covered, cut), or more
-    taken = np.zeros(len(faces), dtype=bool)
-    # most pieces covered wholly first, then cut; ties: lowest part, then first face
-    rank = np.empty(len(faces), dtype=np.int64)
-    rank[np.lexsort((np.arange(len(faces)), part_of))] = np.arange(len(faces))
-    heap: list[tuple[int, int, int, int]] = []
-    exact: dict[int, bool] = {}
+                        f"{greedy.n0} pieces x candidate faces need {greedy.work} tests, over "
+                        f"the budget of {budget}")}
+    stopped = greedy.run(budget)
+    return _summary(ndbg, m, greedy, coverage, budget, stopped)
 
-    def recount(p: int) -> None:
+
+class _Greedy:
+    """The state of :func:`grasp`'s lazy greedy placement: the pieces still to hold, the
+    faces' gain bounds in a heap, and the fingers chosen."""
+
+    def __init__(self, ndbg: NDBG, faces: Sequence[Face], reqs: list[tuple[int, int]],
+                 pieces: _Pieces, tol: float) -> None:
+        self.ndbg, self.faces, self.reqs, self.pieces, self.tol = ndbg, faces, reqs, pieces, tol
+        self.n0 = len(pieces.req)
+        self.part_of = np.array([p for p, _, _ in faces], dtype=np.intp)
+        self.normals = (np.array([np.asarray(nv, dtype=float) for _, nv, _ in faces]) if faces
+                        else np.zeros((0, ndbg.space_dimension)))
+        self.inside = (bit_rows([c for _, c in reqs], ndbg.n) if reqs
+                       else np.zeros((0, ndbg.n), bool))
+        self.piece_req = np.asarray(pieces.req, dtype=np.intp)
+        # per part: the pieces whose requirement's sink component holds it, and its faces
+        self.holds = {p: np.flatnonzero(self.inside[self.piece_req, p])
+                      for p in np.unique(self.part_of).tolist()}
+        self.by_part = {p: np.flatnonzero(self.part_of == p) for p in self.holds}
+        size = np.array([len(c) for c in pieces.chunks], dtype=np.int64)
+        self.work = sum(int(size[self.holds[p]].sum()) * len(self.by_part[p])
+                        for p in self.holds)
+        self.alive = np.ones(self.n0, dtype=bool)
+        self.bound = np.zeros((len(faces), 2), dtype=np.int64)  # gains (covered, cut), or more
+        self.taken = np.zeros(len(faces), dtype=bool)
+        # most pieces covered wholly first, then cut; ties: lowest part, then first face
+        self.rank = np.empty(len(faces), dtype=np.int64)
+        self.rank[np.lexsort((np.arange(len(faces)), self.part_of))] = np.arange(len(faces))
+        self.heap: list[tuple[int, int, int, int]] = []
+        self.exact: dict[int, bool] = {}
+        self.spent = 0  # tests made (the first gains are the work counted above)
+        self.chosen: list[int] = []
+
+    def recount(self, p: int) -> None:
         """Exact gains of all of part ``p``'s faces (in blocks); queued again where they
         rose (a queued key bounds its face's gain from above)."""
-        q = holds[p] = holds[p][alive[holds[p]]]
-        fs = by_part[p][~taken[by_part[p]]]
+        q = self.holds[p] = self.holds[p][self.alive[self.holds[p]]]
+        fs = self.by_part[p][~self.taken[self.by_part[p]]]
         got = np.zeros((len(fs), 2), dtype=np.int64)
         if len(q) and len(fs):
-            gens, seg = pieces.gather(q)
-            wq = np.asarray(pieces.weight, dtype=np.int64)[q]
+            gens, seg = self.pieces.gather(q)
+            wq = np.asarray(self.pieces.weight, dtype=np.int64)[q]
             step = max(1, _BLOCK // len(gens))
-            spent[0] += len(gens) * len(fs)
+            self.spent += len(gens) * len(fs)
             for s in range(0, len(fs), step):
-                cov, cut = _tests(gens, seg, normals[fs[s:s + step]], tol)
+                cov, cut = _tests(gens, seg, self.normals[fs[s:s + step]], self.tol)
                 got[s:s + step] = np.column_stack([wq @ cov, wq @ cut])
-        old = bound[fs]
+        old = self.bound[fs]
         up = (got[:, 0] > old[:, 0]) | ((got[:, 0] == old[:, 0]) & (got[:, 1] > old[:, 1]))
-        bound[fs] = got
+        self.bound[fs] = got
         for f, w, c in zip(fs[up].tolist(), got[up, 0].tolist(), got[up, 1].tolist()):
-            heapq.heappush(heap, (-w, -c, int(rank[f]), f))
-        exact[p] = True
+            heapq.heappush(self.heap, (-w, -c, int(self.rank[f]), f))
+        self.exact[p] = True
 
-    spent = [0]  # tests made (the first gains are the work counted above)
-    for p in holds:
-        recount(p)
-    chosen: list[int] = []
-    stopped = False
-    while heap and alive.any():
-        if spent[0] > budget:
-            stopped = True
-            break
-        neg_w, neg_c, r, f = heapq.heappop(heap)
-        if taken[f]:
-            continue
-        p = int(part_of[f])
-        if not exact[p]:
-            recount(p)
-        w, c = int(bound[f, 0]), int(bound[f, 1])
-        if (w, c) != (-neg_w, -neg_c):  # a stale key: queue the face's current gain
-            if w or c:
-                heapq.heappush(heap, (-w, -c, r, f))
-            continue
-        # an exact gain on top: no other face gains more (every key bounds its face's gain)
-        chosen.append(f)
-        taken[f] = True
-        q = holds[p]
-        cov, cut = (x[:, 0] for x in _tests(*pieces.gather(q), normals[f][None], tol))
-        alive[q[cov | cut]] = False
-        for pp in np.flatnonzero(inside[piece_req[q[cov | cut]]].any(axis=0)).tolist():
-            exact[pp] = False
+    def run(self, budget: int) -> bool:
+        """Place fingers until every piece is held or no face gains; True when the budget
+        of tests stopped it first."""
+        for p in self.holds:
+            self.recount(p)
+        while self.heap and self.alive.any():
+            if self.spent > budget:
+                return True
+            neg_w, neg_c, r, f = heapq.heappop(self.heap)
+            if self.taken[f]:
+                continue
+            p = int(self.part_of[f])
+            if not self.exact[p]:
+                self.recount(p)
+            w, c = int(self.bound[f, 0]), int(self.bound[f, 1])
+            if (w, c) != (-neg_w, -neg_c):  # a stale key: queue the face's current gain
+                if w or c:
+                    heapq.heappush(self.heap, (-w, -c, r, f))
+                continue
+            # an exact gain on top: no other face gains more (every key bounds its face's gain)
+            self.place(f, p)
+        return False
+
+    def place(self, f: int, p: int) -> None:
+        """Take face ``f`` (of part ``p``): the pieces it holds wholly or in part are done,
+        those it cuts leave their unblocked remainders as new pieces."""
+        self.chosen.append(f)
+        self.taken[f] = True
+        q = self.holds[p]
+        cov, cut = (x[:, 0] for x in _tests(*self.pieces.gather(q), self.normals[f][None],
+                                             self.tol))
+        self.alive[q[cov | cut]] = False
+        for pp in np.flatnonzero(self.inside[self.piece_req[q[cov | cut]]].any(axis=0)).tolist():
+            self.exact[pp] = False
         new: list[int] = []
         for i in q[cut].tolist():
-            g = pieces.chunks[i]
-            new += [pieces.add(h, pieces.req[i], pieces.weight[i])
-                    for h in split_piece(g, g @ normals[f], tol)]
+            g = self.pieces.chunks[i]
+            new += [self.pieces.add(h, self.pieces.req[i], self.pieces.weight[i])
+                    for h in split_piece(g, g @ self.normals[f], self.tol)]
         if new:  # new pieces may raise other faces' gains: re-count their parts now
-            alive = np.r_[alive, np.ones(len(new), dtype=bool)]
-            piece_req = np.asarray(pieces.req, dtype=np.intp)
+            self.alive = np.r_[self.alive, np.ones(len(new), dtype=bool)]
+            self.piece_req = np.asarray(self.pieces.req, dtype=np.intp)
             new_a = np.array(new)
-            for pp in holds:
-                mine = new_a[inside[piece_req[new_a], pp]]
+            for pp in self.holds:
+                mine = new_a[self.inside[self.piece_req[new_a], pp]]
                 if len(mine):
-                    holds[pp] = np.r_[holds[pp], mine]
-                    recount(pp)
-    fingers = []
-    for f in chosen:
-        part, normal, point = faces[f]
-        q = np.flatnonzero(inside[piece_req[:n0], part])
-        cov, cut = (x[:, 0] for x in _tests(*pieces.gather(q), normals[f][None], tol))
-        per = np.bincount(piece_req[q], minlength=len(reqs))
-        whole = np.bincount(piece_req[q], weights=cov, minlength=len(reqs))
-        some = np.bincount(piece_req[q], weights=cov | cut, minlength=len(reqs))
+                    self.holds[pp] = np.r_[self.holds[pp], mine]
+                    self.recount(pp)
+
+    def finger(self, f: int) -> dict:
+        """The report record of chosen face ``f``: how many requirements it holds wholly on
+        its own (``covers``) and in part (``covers_part``)."""
+        part, normal, point = self.faces[f]
+        q = np.flatnonzero(self.inside[self.piece_req[:self.n0], part])
+        cov, cut = (x[:, 0] for x in _tests(*self.pieces.gather(q), self.normals[f][None],
+                                             self.tol))
+        n = len(self.reqs)
+        per = np.bincount(self.piece_req[q], minlength=n)
+        whole = np.bincount(self.piece_req[q], weights=cov, minlength=n)
+        some = np.bincount(self.piece_req[q], weights=cov | cut, minlength=n)
         n_whole = int(((per > 0) & (whole == per)).sum())
-        fingers.append({"part": ndbg.ids[part], "normal": [float(x) for x in normal],
-                        "point": None if point is None else [float(x) for x in point],
-                        "covers": n_whole, "covers_part": int((some > 0).sum()) - n_whole})
+        return {"part": self.ndbg.ids[part], "normal": [float(x) for x in normal],
+                "point": None if point is None else [float(x) for x in point],
+                "covers": n_whole, "covers_part": int((some > 0).sum()) - n_whole}
+
+
+def _summary(ndbg: NDBG, m: int, greedy: _Greedy, coverage: str, budget: int,
+             stopped: bool) -> dict:
+    """:func:`grasp`'s result from a finished (or stopped) placement."""
+    reqs, pieces = greedy.reqs, greedy.pieces
+    fingers = [greedy.finger(f) for f in greedy.chosen]
     left: dict[int, int] = {}
-    for i in np.flatnonzero(alive).tolist():
+    for i in np.flatnonzero(greedy.alive).tolist():
         left.setdefault(pieces.req[i], i)
     uncovered = [{"region": reqs[q][0], "parts": ndbg.names(reqs[q][1]),
                   "direction": [float(x) for x in unit(pieces.chunks[i].sum(axis=0))]}
