@@ -5,6 +5,8 @@ Library API (the CLI is a thin layer over it)::
     import ndbg_cli
     asm = ndbg_cli.load("assemblies/bell.yaml")     # -> Assembly
     report = ndbg_cli.analyze(asm)                   # -> dict (the JSON report)
+    contacts = ndbg_cli.find_contacts(asm)           # or the stages one by one:
+    family = ndbg_cli.build_ndbg(asm, "infinitesimal_translation", contacts)
 
 The names are imported on first use (PEP 562), so that ``import ndbg_cli`` and the CLI's
 ``--help`` do not pay for numpy, trimesh and the compiled kernels.
@@ -21,12 +23,15 @@ from ._version import __version__
 _API = {
     "Assembly": "core.assembly", "Part": "core.assembly", "Joint": "core.assembly",
     "Diagnostic": "core.assembly", "InputError": "core.errors", "NdbgError": "core.errors",
-    "Options": "core.options", "load": "io.loaders", "discover": "io.loaders",
+    "Options": "core.options", "load": "io.loaders", "discover": "io.formats",
     "analyze": "pipeline.analysis", "analyze_path": "pipeline.analysis",
+    "find_contacts": "pipeline.stages", "build_ndbg": "pipeline.stages",
+    "measure": "pipeline.stages", "plan_assembly": "pipeline.stages",
 }
 
 __all__ = ["__version__", "Assembly", "Part", "Joint", "Diagnostic", "InputError", "NdbgError",
-           "Options", "load", "discover", "analyze", "analyze_path"]
+           "Options", "load", "discover", "analyze", "analyze_path", "find_contacts",
+           "build_ndbg", "measure", "plan_assembly"]
 
 
 def __getattr__(name: str) -> Any:
@@ -46,5 +51,7 @@ if TYPE_CHECKING:
     from .core.assembly import Assembly, Diagnostic, Joint, Part
     from .core.errors import InputError, NdbgError
     from .core.options import Options
-    from .io.loaders import discover, load
+    from .io.formats import discover
+    from .io.loaders import load
     from .pipeline.analysis import analyze, analyze_path
+    from .pipeline.stages import build_ndbg, find_contacts, measure, plan_assembly

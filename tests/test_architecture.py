@@ -105,3 +105,32 @@ def test_the_docstring_examples_run(monkeypatch):
         assert result.failed == 0, name
         ran += result.attempted
     assert ran > 0
+
+
+def test_the_library_stages_give_the_cli_report(tmp_path):
+    """A notebook calling the stage functions gets the NDBG sections, classes and plan the
+    CLI reports for the same options (the CLI composes the same functions)."""
+    import json
+
+    import ndbg_cli
+    from ndbg_cli.core.constants import FAMILIES, INFINITE
+    from ndbg_cli.report.document import clean
+
+    from helpers import run_cli
+
+    path = ROOT / "assemblies" / "hover.yaml"
+    out = run_cli("analyze", str(path), "--format", "json", "--no-cache")
+    assert out.returncode == 0, out.stderr
+    report = json.loads(out.stdout)
+    asm = ndbg_cli.load(path)
+    contacts = ndbg_cli.find_contacts(asm)
+    families, inf = {}, None
+    for name in FAMILIES:
+        families[name] = ndbg_cli.build_ndbg(asm, name, contacts, infinitesimal=inf)
+        inf = families[name].ndbg if inf is None else inf
+    assert {n: clean(f.section) for n, f in families.items()} == report["ndbg"]
+    ndbgs = {n: f.ndbg for n, f in families.items() if f.usable}
+    measures = ndbg_cli.measure(asm, contacts, ndbgs)
+    assert clean(measures.classes) == report["classes"]
+    plan = clean(ndbg_cli.plan_assembly(asm, contacts, ndbgs, measures))
+    assert plan == report["plan"] and plan["family"] == INFINITE

@@ -264,7 +264,7 @@ def test_index_json_that_cannot_be_removed_is_an_input_error(tmp_path):
     assert not (tmp_path / "out" / "hover.json").exists()  # refused before any analysis
 
 
-def test_a_run_that_cannot_start_keeps_the_previous_index(tmp_path):
+def test_a_run_that_cannot_start_keeps_the_previous_index(tmp_path, monkeypatch):
     """The index goes only once the run can start: an unreachable dask scheduler (exit 2
     before any analysis) leaves the previous complete run's index and reports as they were."""
     pytest.importorskip("distributed")
@@ -276,6 +276,7 @@ def test_a_run_that_cannot_start_keeps_the_previous_index(tmp_path):
     first = run_cli("analyze", src, "--out-dir", out, "--motion", "translation", "-q")
     assert first.returncode == 0, first.stderr
     before = (out / "index.json").read_text()
+    monkeypatch.setenv("NDBG_SCHEDULER_TIMEOUT", "1")  # nothing listens there
     r = run_cli("analyze", src, "--out-dir", out, "--scheduler", "tcp://127.0.0.1:1")
     assert r.returncode == 2 and "tcp://127.0.0.1:1" in r.stderr
     assert (out / "index.json").read_text() == before

@@ -51,7 +51,8 @@ def test_local_cluster_is_byte_identical_to_a_local_run(tmp_path, monkeypatch):
     assert "Traceback" not in dask.stderr
 
 
-def test_unreachable_scheduler_is_a_one_line_error(tmp_path):
+def test_unreachable_scheduler_is_a_one_line_error(tmp_path, monkeypatch):
+    monkeypatch.setenv("NDBG_SCHEDULER_TIMEOUT", "1")  # nothing listens: no need to wait 10 s
     src, _ = make_three(tmp_path)
     r = run_cli("analyze", src, "--format", "jsonl", "--scheduler", "tcp://127.0.0.1:1")
     assert r.returncode == 2

@@ -411,7 +411,7 @@ def test_cli_options_share_the_config_ranges_and_defaults():
 
     import click
 
-    from ndbg_cli.cli.main import cli  # registers the commands
+    from ndbg_cli.cli._app import cli  # registers the commands
     from ndbg_cli.core.options import SETTINGS, Options
 
     params = {p.name: p for p in cli.commands["analyze"].params}

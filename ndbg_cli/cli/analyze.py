@@ -108,7 +108,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     if len(paths) == 1:  # a native reader's start-up overlaps the imports below
         prestart_reader(paths[0])
     from ..core.progress import progress
-    from ..io.loaders import discover
+    from ..io.formats import discover
     from ..pipeline.batch import Interrupted, default_jobs, run_batch, run_batch_dask
     from ..report.document import dumps
     from ..report.text import render
@@ -420,8 +420,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     if len(paths) == 1:  # a native reader's start-up overlaps the imports below
         prestart_reader(paths[0])
     from ..core.progress import progress
-    from ..io.loaders import discover
-    from ..pipeline.batch import default_jobs, run_batch
+    from ..io.formats import discover
     from ..report.diff import holds_reports, read_reports
     from ..report.document import dumps
     from ..report.junit import junit_xml
@@ -445,10 +444,13 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
         fail("nothing to check: no assembly or report in " + ", ".join(paths), EXIT_INPUT)
     reports = list(saved)
     outcomes = [evaluate(r, ruleset) for r in saved]
-    stream = run_batch(targets, options, jobs or default_jobs(), debug=STATE.debug)
-    for r in progress(stream, len(targets), "checking", quiet=STATE.quiet):
-        reports.append(r)
-        outcomes.append(evaluate(r, ruleset))
+    if targets:  # the stages only then: a gate on saved reports starts fast
+        from ..pipeline.batch import default_jobs, run_batch
+
+        stream = run_batch(targets, options, jobs or default_jobs(), debug=STATE.debug)
+        for r in progress(stream, len(targets), "checking", quiet=STATE.quiet):
+            reports.append(r)
+            outcomes.append(evaluate(r, ruleset))
     for pattern in ruleset.unmatched(reports):
         click.echo(f"ndbg check: warning: rules for '{pattern}' matched no assembly", err=True)
     if junit:

@@ -46,3 +46,14 @@ def prestart_reader(path: str | Path) -> None:
     suffix = Path(path).suffix.lower()
     if suffix in NATIVE_SUFFIXES and Path(path).is_file():
         prestart(*reader_preload(suffix))
+
+
+def discover(path: str | Path) -> list[Path]:
+    """The assemblies a path names: a directory of manifests is a batch (one per manifest,
+    recursing into sub-directories that hold manifests); anything else is one assembly."""
+    p = Path(path)
+    if not p.is_dir():
+        return [p]
+    manifests = sorted(q for q in p.rglob("*") if q.suffix.lower() in MANIFEST_SUFFIXES
+                       and q.is_file())
+    return manifests if manifests else [p]

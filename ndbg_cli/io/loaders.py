@@ -160,17 +160,6 @@ def _check_tolerance(asm: Assembly, file: str) -> None:
                          file=file)
 
 
-def discover(path: str | Path) -> list[Path]:
-    """The assemblies a path names: a directory of manifests is a batch (one per manifest,
-    recursing into sub-directories that hold manifests); anything else is one assembly."""
-    p = Path(path)
-    if not p.is_dir():
-        return [p]
-    manifests = sorted(q for q in p.rglob("*") if q.suffix.lower() in MANIFEST_SUFFIXES
-                       and q.is_file())
-    return manifests if manifests else [p]
-
-
 # -- manifests ----------------------------------------------------------------------------
 
 def load_manifest(path: Path, *, units: str | None = None,
@@ -641,5 +630,5 @@ def load_mesh_directory(path: Path, *, units: str | None = None,
                     diagnostics=tuple(diags))
 
 
-__all__ = ["load", "discover", "load_manifest", "load_model", "load_mesh_directory",
+__all__ = ["load", "load_manifest", "load_model", "load_mesh_directory",
            "read_model", "default_deflection_mm", "step_length_unit", "unique_ids"]

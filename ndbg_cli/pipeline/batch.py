@@ -208,7 +208,18 @@ def _collect(futures: dict[int, Future], ready: dict[int, dict], taken,
 
 
 DASK_MISSING = "--scheduler needs dask.distributed: pip install 'ndbg-cli[dask]'"
-CONNECT_TIMEOUT = 10.0  # seconds to reach an existing scheduler
+#: Seconds to reach an existing scheduler (``$NDBG_SCHEDULER_TIMEOUT`` overrides).
+CONNECT_TIMEOUT = 10.0
+
+
+def connect_timeout() -> float:
+    """:data:`CONNECT_TIMEOUT`, or ``$NDBG_SCHEDULER_TIMEOUT`` seconds when set to a positive
+    number (a malformed value is ignored)."""
+    try:
+        value = float(os.environ.get("NDBG_SCHEDULER_TIMEOUT", ""))
+    except ValueError:
+        return CONNECT_TIMEOUT
+    return value if value > 0 else CONNECT_TIMEOUT
 
 
 def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: int = 1, *,
@@ -251,7 +262,7 @@ def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: in
                 silence_logs=logging.ERROR if debug else logging.CRITICAL + 1)
             client = distributed.Client(cluster, set_as_default=False)
         else:
-            client = distributed.Client(address, timeout=CONNECT_TIMEOUT, set_as_default=False)
+            client = distributed.Client(address, timeout=connect_timeout(), set_as_default=False)
     except Exception as exc:
         if cluster is not None:
             cluster.close()
