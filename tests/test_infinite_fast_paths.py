@@ -40,11 +40,23 @@ def _tris(m: trimesh.Trimesh) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(m.triangles, dtype=float), np.asarray(m.face_normals, dtype=float)
 
 
-def _inside(cones: np.ndarray, d: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """``(m,)`` whether each direction of ``d`` lies in some open cone (zero rows ignored)."""
+def _inside(cones: np.ndarray, d: np.ndarray, tol: float = 1e-9,
+            chunk: int = 2048) -> np.ndarray:
+    """``(m,)`` whether each direction of ``d`` lies in some open cone (zero rows ignored);
+    a chunk of cones at a time, as one matrix product (a dense pair's 10,000 cones against
+    4,000 directions would otherwise make one 10^9-element array)."""
     zero = ~np.any(cones != 0.0, axis=2)
-    v = np.einsum("pkx,mx->mpk", cones, d)
-    return np.all((v > tol) | zero[None], axis=2).any(axis=1)
+    p, k, _ = cones.shape
+    flat = cones.reshape(-1, 3)
+    out = np.zeros(len(d), dtype=bool)
+    for s in range(0, p, chunk):
+        todo = np.flatnonzero(~out)  # a direction inside one cone needs no other
+        if not len(todo):
+            break
+        v = (d[todo] @ flat[s * k:(s + chunk) * k].T).reshape(len(todo), -1, k)
+        v[:, zero[s:s + chunk]] = np.inf  # padding rows constrain nothing
+        out[todo] = (v.min(axis=2) > tol).any(axis=1)
+    return out
 
 
 def test_two_cubes_block_exactly_the_directions_of_one_cube_face():
