@@ -411,7 +411,8 @@ def test_cli_options_share_the_config_ranges_and_defaults():
 
     import click
 
-    from ndbg_cli.cli._app import cli  # registers the commands
+    import ndbg_cli.cli.main  # noqa: F401  (registers the commands on the group)
+    from ndbg_cli.cli._app import cli
     from ndbg_cli.core.options import SETTINGS, Options
 
     params = {p.name: p for p in cli.commands["analyze"].params}
