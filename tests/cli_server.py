@@ -8,9 +8,9 @@ separate process with its own working folder, environment, standard streams and 
 which runs the real CLI to its normal interpreter exit. Only the start-up is shared.
 
 The server is single-threaded when it forks (checked before each fork; it answers "spawn"
-otherwise, and the caller starts a plain subprocess). Protocol on stdin/stdout: one pickled
-request ``(args, cwd, env, stdin_bytes, timeout)`` per line of length-prefixed bytes; the answer
-is ``(returncode, stdout_bytes, stderr_bytes)`` or ``None`` (spawn instead).
+otherwise, and the caller starts a plain subprocess). Protocol on stdin/stdout, each message
+pickled behind its length: a request ``(args, cwd, env, stdin_bytes, timeout, umask)``, an
+answer ``(returncode, stdout_bytes, stderr_bytes)`` or ``None`` (spawn instead).
 """
 
 from __future__ import annotations
@@ -49,13 +49,14 @@ def _warm(root: str) -> None:
 
 
 def _child(args: list[str], cwd: str, env: dict, stdin: bytes, folder: str,
-           timeout: float) -> None:
+           timeout: float, umask: int) -> None:
     """In the forked child: become ``python -m ndbg_cli ARGS`` (never returns)."""
     import io
     import runpy
     import signal
 
     os.chdir(cwd)
+    os.umask(umask)
     os.environ.clear()
     os.environ.update(env)
     with open(os.path.join(folder, "in"), "wb") as fh:
@@ -122,7 +123,7 @@ def serve(root: str) -> None:
         req = _read(inp)
         if req is None:
             return
-        args, cwd, env, stdin, timeout = req
+        args, cwd, env, stdin, timeout, umask = req
         if threading.active_count() > 1:
             _write(out, None)
             continue
@@ -132,7 +133,7 @@ def serve(root: str) -> None:
             pid = os.fork()
             if pid == 0:
                 try:
-                    _child(args, cwd, env, stdin, folder, timeout)
+                    _child(args, cwd, env, stdin, folder, timeout, umask)
                     _exit_as_python_does(None)
                 except BaseException as exc:  # noqa: BLE001 (the child ends here, always)
                     _exit_as_python_does(exc)

@@ -19,8 +19,8 @@ def run_cli(*args: str, cwd: Path | None = None, stdin: str | None = None
     """Run ``python -m ndbg_cli ARGS`` as a user would; returns the completed process.
 
     The process is forked from a server that has the stages imported and the kernels loaded
-    (``tests/cli_server.py``): a real separate process with this process's working folder and
-    environment, its own streams and exit code, without the 2 s start-up each time.
+    (``tests/cli_server.py``): a real separate process with this process's working folder,
+    environment and umask, its own streams and exit code, without the 2 s start-up each time.
     ``NDBG_TEST_SPAWN=1`` starts a fresh interpreter for every run instead."""
     argv = [str(a) for a in args]
     if not os.environ.get("NDBG_TEST_SPAWN"):
@@ -64,7 +64,9 @@ def _forked(argv: list[str], cwd: Path | None, stdin: str | None
     proc = _server()
     if proc is None:
         return None
-    req = (argv, str(cwd or os.getcwd()), dict(os.environ), (stdin or "").encode(), 300)
+    mask = os.umask(0o022)  # read the caller's umask (the child takes it), and put it back
+    os.umask(mask)
+    req = (argv, str(cwd or os.getcwd()), dict(os.environ), (stdin or "").encode(), 300, mask)
     try:
         _write(proc.stdin, req)
         got = _read(proc.stdout)
