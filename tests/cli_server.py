@@ -71,8 +71,10 @@ def _child(args: list[str], cwd: str, env: dict, stdin: bytes, folder: str,
     sys.stdout = io.TextIOWrapper(io.FileIO(1, "w", closefd=False), encoding=enc, errors=errs)
     sys.stderr = io.TextIOWrapper(io.FileIO(2, "w", closefd=False), encoding=enc,
                                   errors="backslashreplace", line_buffering=True)
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGPIPE):
-        signal.signal(sig, signal.SIG_DFL if sig != signal.SIGINT else signal.default_int_handler)
+    # the dispositions a fresh interpreter starts with
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGPIPE, signal.SIG_IGN)
     signal.alarm(int(timeout))
     sys.argv = [os.path.join(os.path.dirname(sys.modules["ndbg_cli"].__file__), "__main__.py"),
                 *args]
