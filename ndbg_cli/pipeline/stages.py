@@ -196,10 +196,10 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
     >>> len(fam.partitionings)  # puck and bridge touch only the base: every split is free
     6
     """
-    from ..ndbg.generalized.build import block_threads, threaded_pairs
+    from ..ndbg.generalized.build import block_threads
 
     clock = Clock(timings)
-    threaded = threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
+    threaded = _threaded(asm, options)
     if family in (INFINITESIMAL, GENERALIZED) and infinitesimal is None:
         from ..ndbg.infinitesimal.build import infinitesimal_ndbg
 
@@ -312,9 +312,7 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     # the AND/OR graphs the classes built: size, and the exact counts when complete
     andor = {fam: andor_section(g, (classes.get(fam) or {}).get("min_depth"))
              for fam, g in sorted(graphs.items())}
-    from ..ndbg.generalized.build import threaded_pairs
-
-    threaded = threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
+    threaded = _threaded(asm, options)
     if threaded and not options.threads_as_cylinders:
         for fam in (INFINITESIMAL, INFINITE):
             if fam in classes:
@@ -323,6 +321,14 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                     "why": "declared screw joints are threads: these pairs cannot translate "
                            "apart; --threads-as-cylinders treats them as plain cylinders"}
     return Measures(classes, andor, graphs)
+
+
+def _threaded(asm: Assembly, options: Options) -> set[tuple[str, str]]:
+    """The declared screw joints read as threads (none in 2D, none with
+    ``--threads-as-cylinders``): :func:`~ndbg_cli.ndbg.generalized.build.threaded_pairs`."""
+    from ..ndbg.generalized.build import threaded_pairs
+
+    return threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
 
 
 def _budget(options: Options) -> Any:
