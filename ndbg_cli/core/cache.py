@@ -20,6 +20,7 @@ import re
 import stat
 import time
 from functools import cache as cache_fn
+from importlib.util import resolve_name
 from pathlib import Path
 from typing import Any
 
@@ -48,23 +49,23 @@ def _module_file(name: str) -> Path | None:
     return None
 
 
-def _relative_imports(source: str, name: str) -> set[str]:
-    """The package modules (dotted names) that module ``name``'s source imports with
-    relative imports (``from ..x.y import ...``, ``from . import x``; anywhere in the file,
-    functions included)."""
-    here = name.split(".")[:-1]
+def _relative_imports(source: str, name: str, path: Path) -> set[str]:
+    """The package modules (dotted names) that module ``name`` (source file ``path``) imports
+    with relative imports (``from ..x.y import ...``, ``from . import x``; anywhere in the
+    file, functions included)."""
+    package = ".".join(["ndbg_cli", *name.split(".")[:None if path.name == "__init__.py"
+                                                   else -1]])
     out: set[str] = set()
     for node in ast.walk(ast.parse(source)):
         if not isinstance(node, ast.ImportFrom) or not node.level:
             continue
-        base = here[: len(here) - (node.level - 1)] if node.level > 1 else list(here)
-        if node.module:
-            out.add(".".join(base + node.module.split(".")))
-        for a in node.names:  # ``from .pkg import module`` names a module too
-            dotted = ".".join(base + (node.module.split(".") if node.module else []) + [a.name])
-            if _module_file(dotted) is not None:
+        target = resolve_name("." * node.level + (node.module or ""), package)
+        target = target.removeprefix("ndbg_cli").lstrip(".")
+        # ``from .pkg import module`` names a module too
+        for dotted in (target, *(f"{target}.{a.name}".lstrip(".") for a in node.names)):
+            if dotted and _module_file(dotted) is not None:
                 out.add(dotted)
-    return {m for m in out if m and _module_file(m) is not None}
+    return out
 
 
 @cache_fn
@@ -79,11 +80,13 @@ def stage_modules(stage: str) -> tuple[str, ...]:
             continue
         seen.add(name)
         path = _module_file(name)
-        try:
-            source = path.read_text(encoding="utf-8") if path else ""
-        except OSError:  # an installed wheel without sources
+        if path is None:  # an installed wheel without sources
             continue
-        todo.extend(_relative_imports(source, name) - seen)
+        try:
+            source = path.read_text(encoding="utf-8")
+        except OSError:
+            continue
+        todo.extend(_relative_imports(source, name, path) - seen)
     return tuple(sorted(seen))
 
 
