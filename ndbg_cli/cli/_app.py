@@ -35,7 +35,7 @@ DEFAULTS = Options()
 
 
 def range_type(name: str) -> click.ParamType:
-    """The click type of a numeric setting, from its range in :data:`analysis.SETTINGS`
+    """The click type of a numeric setting, from its range in :data:`ndbg_cli.core.options.SETTINGS`
     (the one a config file is checked against)."""
     kind, low, excluded = (SETTINGS[name] + (None, False))[:3]
     if kind is int:

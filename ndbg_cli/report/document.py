@@ -32,6 +32,7 @@ FLOAT_DIGITS = 9
 #: vector; far below any length, area or volume tolerance in any supported unit).
 ZERO = 1e-15
 
+
 def validate_report(doc: dict) -> None:
     """Raise ``jsonschema.ValidationError`` if ``doc`` is not a valid report or batch."""
     import jsonschema
