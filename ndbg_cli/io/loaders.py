@@ -1,6 +1,7 @@
 """Loading assemblies from every input format ndbg accepts (:func:`load`): YAML manifests,
 multi-body model files (STEP, IGES, GLB, ...) and directories of mesh files. A directory
-holding manifests is a *batch* (one assembly per manifest); see :func:`discover`.
+holding manifests is a *batch* (one assembly per manifest); see
+:func:`ndbg_cli.io.formats.discover`.
 """
 
 from __future__ import annotations
