@@ -1042,51 +1042,6 @@ def test_no_candidate_tree_is_proven_without_a_search():
             assert "['A', 'B'] has no candidate partitioning" in p.notes[0]
 
 
-def test_verified_steps_state_the_nearest_axis_the_sweep_test_frees():
-    from ndbg_cli.planning.plans import axis_directions
-
-    def stack_on(d):  # A on B on C; region 0 (removal along d) frees A, then B; region 1 C
-        d = tuple(np.array(d) / np.linalg.norm(d))
-        return NDBG("infinite_translation", ("A", "B", "C"),
-                    (Region(2, d, DBG.from_arcs(3, [(1, 0), (2, 1), (2, 0)])),
-                     Region(2, DOWN, DBG.from_arcs(3, [(0, 1), (1, 2), (0, 2)]))))
-
-    def removal(p):
-        return [s["removal_direction"] for s in plan_section(p)["sequence"]]
-
-    # the sweep test's stand-ins: free iff well upwards / well along +x / only A, upwards
-    def up(m, r, d):
-        return d[2] > 0.5
-
-    def along_x(m, r, d):
-        return d[0] > 0.5
-
-    def only_a(m, r, d):
-        return m == 0b001 and d[2] > 0.5
-
-    nd = stack_on((0.3, 0.1, 0.95))
-    p = plan(nd, "linear")
-    assert {s.region for s in p.steps.values()} == {0}
-    assert axis_directions(p, up) == 2
-    assert removal(p) == [[0.0, 0.0, 1.0]] * 2 and p.directions() == 1
-    # +x is 73 degrees away (cosine 0.2996 < AXIS_COS): not tried, the representative stays
-    p = plan(nd, "linear")
-    assert axis_directions(p, along_x) == 0 and removal(p)[0][2] == pytest.approx(0.9487, 1e-3)
-    # nearest first, a failing axis skipped: (0.6, 0, 0.8) tries +z (0.8), then +x (0.6)
-    p = plan(stack_on((0.6, 0.0, 0.8)), "linear")
-    assert axis_directions(p, along_x) == 2 and removal(p) == [[1.0, 0.0, 0.0]] * 2
-    # one direction per region: an axis must free every step of the region, else none
-    p = plan(nd, "linear")
-    assert axis_directions(p, only_a) == 0 and p.directions() == 1
-    # a region whose direction is an axis already is left alone; 2D directions get 2D axes
-    p = plan(stack_on((0.0, 0.0, 1.0)), "linear")
-    assert axis_directions(p, up) == 0 and removal(p) == [[0.0, 0.0, 1.0]] * 2
-    flat = NDBG("infinite_translation", ("A", "B"),
-                (Region(1, (0.6, 0.8), DBG.from_arcs(2, [(1, 0)])),))
-    q = plan(flat, "linear")
-    assert axis_directions(q, lambda m, r, d: True) == 1 and removal(q) == [[0.0, 1.0]]
-
-
 def test_removal_states_the_nearest_axis_the_sweep_test_frees():
     # a tilted region frees A (on B on C) and then B; the stand-in sweep test frees only
     # well-upward translations: the removal states +z for both; without the test, or for a

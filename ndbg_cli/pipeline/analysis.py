@@ -59,7 +59,7 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     >>> import ndbg_cli
     >>> report = ndbg_cli.analyze(ndbg_cli.load("assemblies/hover.yaml"))
     >>> [(s["moved"], s["direction"]) for s in report["plan"]["sequence"]]
-    [(['puck'], [-1.0, 0.0, 0.0]), (['bridge'], [0.0, -1.0, 0.0])]
+    [(['puck'], [0.0, 0.0, -1.0]), (['bridge'], [0.0, 0.0, -1.0])]
     >>> report["plan"]["verified"]["value"]  # each step leaves by one translation
     True
     """

@@ -401,6 +401,8 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                     "" if p.exact else " found within the budget")
                     + "; any candidate split used")
                 p = q
+            elif q.exact and q.stuck is not None:
+                p = q  # no candidate tree at all: its stuck subassembly is the proof
         if chosen is None or (p.found and not chosen.found):
             chosen = p
         if p.found:
@@ -409,36 +411,50 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
         return {"family": None, "strategy": options.strategy, "found": False,
                 "exact": True, "depth": None, "tree": None, "sequence": [],
                 "notes": ["no motion family computed"]}
-    checked = None
+    proof: dict = {}
     if chosen.found and chosen.ndbg.family in (INFINITESIMAL, INFINITE):
-        # before the section: a verified step takes a coordinate axis where one frees it
-        checked = _verify(asm, chosen, measures, options, base, budget, clock)
-    out = {"family": chosen.ndbg.family, **plan_section(chosen)}
-    if checked is not None:
-        out["verified"], out["proofs"] = checked
+        # every step proven along an exact direction, or another tree that is, or why not
+        proof = clock("verify_s", lambda: _prove(asm, contacts, chosen, measures, options,
+                                                 base, budget, plan_conn))
+    elif chosen.ndbg.family in (INFINITESIMAL, INFINITE) and chosen.exact \
+            and chosen.stuck is not None:
+        # no candidate tree: a subassembly no direction splits, even infinitesimally (or, for
+        # the whole sphere's infinite NDBG, at all), so no plan of translations exists
+        names = ", ".join(chosen.ndbg.names(chosen.stuck))
+        proof = {"verified": {
+            "value": False, "steps": 0, "proof_of_none": True,
+            "why": f"no plan of single translations exists: no direction splits {{{names}}}"
+                   + (" even infinitesimally" if chosen.ndbg.family == INFINITESIMAL else "")
+                   + " (a proof: any plan would split it)"}}
+    out = {"family": chosen.ndbg.family, **plan_section(chosen), **proof}
     return out
 
 
-def _verify(asm: Assembly, chosen: Any, measures: Measures, options: Options,
-            base: int | None, budget: Any, clock: Clock) -> tuple[dict, list[dict]]:
-    """The chosen translation plan checked step by step with the direct sweep test: a
-    candidate tree that passes is a real algorithm, which the rules count as proof."""
-    from ..ndbg.infinite.sweep import SweepChecker
-    from ..planning.plans import axis_directions, verify
+def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
+           options: Options, base: int | None, budget: Any, conn: ConnectivityTest) -> dict:
+    """:func:`~ndbg_cli.pipeline.proofs.prove_plan` on the chosen plan, with the trees of the
+    :data:`PROOF_STRATEGIES` that could prove more than it (fewer directions, or a linear
+    tree, when the candidates' minimum allows it) as ``others``."""
+    from ..planning.plans import plan
+    from .proofs import prove_plan
 
-    sweep = SweepChecker(asm)
-    verified = clock("verify_s", lambda: verify(chosen, sweep.frees))
-    if verified["value"]:
-        # a coordinate axis where the sweep test frees a region's steps along it
-        clock("verify_s", lambda: axis_directions(chosen, sweep.frees))
-    proofs: list[dict] = []
+    others = []
     if chosen.ndbg.family == INFINITESIMAL:
-        # the candidate trees behind the classes' best measures, checked the same way:
-        # each that passes proves its depth, directions and nonlinear steps
-        proofs = clock("verify_s", lambda: _proof_trees(
-            sweep, chosen, measures.classes.get(INFINITESIMAL) or {}, options.strategy,
-            base, budget, measures.graphs.get(INFINITESIMAL)))
-    return verified, proofs
+        classes = measures.classes.get(INFINITESIMAL) or {}
+        graph = measures.graphs.get(INFINITESIMAL)
+        least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
+                 "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
+        has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
+        for strategy in PROOF_STRATEGIES:
+            if strategy == options.strategy or least[strategy] is None \
+                    or has[strategy] <= least[strategy]:
+                continue
+            q = plan(chosen.ndbg, strategy, base=base, connected=None, budget=budget,
+                     graph=graph)
+            if q.found:
+                others.append(q)
+    return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
+                      connected=conn, others=others, budget=options.infinite_budget)
 
 
 def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
@@ -477,33 +493,8 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     return out, warnings
 
 
-#: Strategies whose trees :func:`_proof_trees` checks besides the reported plan's.
+#: Strategies whose trees :func:`_prove` checks besides the reported plan's.
 PROOF_STRATEGIES = ("fewest-directions", "linear")
-
-
-def _proof_trees(sweep: Any, chosen: Any, classes: dict, reported: str,
-                 base: int | None, budget: Any, graph: Any) -> list[dict]:
-    """Trees of the :data:`PROOF_STRATEGIES` that pass the direct sweep test (``sweep``, a
-    :class:`~ndbg_cli.ndbg.infinite.sweep.SweepChecker`) at every step (contact-connected or not, as
-    the classes count them): ``{"strategy", "depth", "nonlinear_steps", "directions"}`` each. A
-    strategy is tried only when its tree could prove more than the reported plan: fewer directions,
-    or a linear tree, than it has, when the candidates' minimum (``classes``) allows it."""
-    from ..planning.plans import plan, verify
-
-    nd = chosen.ndbg
-    least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
-             "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
-    has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
-    out = []
-    for strategy in PROOF_STRATEGIES:
-        if strategy == reported or least[strategy] is None or has[strategy] <= least[strategy]:
-            continue
-        q = plan(nd, strategy, base=base, connected=None, budget=budget, graph=graph)
-        if not q.found or not verify(q, sweep.frees)["value"]:
-            continue
-        out.append({"strategy": strategy, "depth": q.depth(), "nonlinear_steps": q.nonlinear(),
-                    "directions": q.directions()})
-    return out
 
 
 def _over_budget(asm: Assembly, options: Options) -> str:

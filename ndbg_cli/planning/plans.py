@@ -5,7 +5,8 @@ node is an instruction: its ``moved`` side travels along a region's motion away 
 ``rest`` (disassembly), i.e. it is inserted along the opposite direction when assembling. In
 the output ``removal_direction`` is the region's direction ``d``, ``direction`` the insertion
 direction ``-d``; generalized regions give their ``motion`` dict instead. :func:`plan` builds
-a tree with one of :data:`STRATEGIES`; :func:`verify` checks it with the direct sweep test.
+a tree with one of :data:`STRATEGIES`; :mod:`ndbg_cli.planning.proven` proves its steps (or
+another tree's) with an exact test of infinite translation.
 With ``base`` (a part index) the base is never moved: it always stays on the ``rest`` side.
 """
 
@@ -39,14 +40,18 @@ class Step:
     mask: int
     moved: int
     rest: int
-    region: int
-    #: a coordinate axis (removal direction) stated instead of the region's representative:
-    #: the direct sweep test frees the step along it (see :func:`axis_directions`)
-    axis: tuple[float, ...] | None = None
+    region: int | None
+    #: the removal direction the step was proven along (exactly as tested, e.g. a coordinate
+    #: axis), stated instead of the region's representative (:mod:`ndbg_cli.planning.proven`)
+    stated: tuple[float, ...] | None = None
+    #: where ``stated`` came from (:data:`ndbg_cli.planning.proven.SOURCES`)
+    source: str | None = None
 
     def removal(self, ndbg: NDBG) -> tuple[float, ...] | None:
-        """The removal direction stated for this step: its axis, else its region's."""
-        return self.axis if self.axis is not None else ndbg.regions[self.region].direction
+        """The removal direction stated for this step: its proven one, else its region's."""
+        if self.stated is not None:
+            return self.stated
+        return None if self.region is None else ndbg.regions[self.region].direction
 
 
 @dataclass
@@ -90,7 +95,7 @@ class Plan:
         return len({s.removal(self.ndbg) for s in self.steps.values()})
 
     def regions_used(self) -> list[int]:
-        return sorted({s.region for s in self.steps.values()})
+        return sorted({s.region for s in self.steps.values() if s.region is not None})
 
     def sequence(self) -> list[Step]:
         """Assembly order (the reverse of a disassembly): children before parents; for each
@@ -122,55 +127,11 @@ def pick_region(ndbg: NDBG, regions: tuple[int, ...] | list[int]) -> int:
     designer. In 2D such bands are 1-dimensional arcs of S^1 (wider than ``eta``), marked thin
     (:mod:`ndbg_cli.ndbg.infinite.equator`): beside a sliding direction the direct test blocks their
     middles. Families without contact counts rank by dimension and index alone."""
-    return min(regions, key=lambda r: _rank(ndbg, r))
-
-
-#: Regions tried per step by :func:`verify` (the step's own first, then the other regions
-#: where its split is a candidate, in :func:`pick_region`'s order).
-VERIFY_REGIONS = 4
-
-
-def verify(p: Plan, frees: Callable[[int, int, np.ndarray], bool],
-           tries: int = VERIFY_REGIONS) -> dict:
-    """Check a translation plan's steps with an independent test: ``frees(moved, rest, d)`` says
-    whether ``moved`` comes out of ``rest`` by one translation to infinity along ``d``
-    (:meth:`ndbg_cli.ndbg.infinite.sweep.SweepChecker.frees`). A step whose direction fails is moved
-    to another region where its split is a candidate, if one passes (at most ``tries`` regions
-    tried, the step's own first). Every step passing makes the candidate tree a real 1-handed
-    monotone 1-prismatic assembly algorithm (paper 7.1), whatever its family.
-
-    Returns ``{"value", "steps", "why"}`` (``value``: all steps free; the first failing step
-    named in ``why``) and updates ``p``'s steps in place. A verified plan may then state a
-    coordinate axis instead of a region's representative direction where the sweep test
-    frees every step of that region along it (:func:`axis_directions`; the step says
-    ``"axis": true``, its ``region`` is the one it was planned in, and the axis may lie on
-    that region's boundary, e.g. sliding along a contact face, or beyond it)."""
-    nd = p.ndbg
-    seq = p.sequence()
-    for k, s in enumerate(seq, start=1):
-        regs = [r for r, reg in enumerate(nd.regions)
-                if reg.direction is not None and reg.dbg.is_free(s.moved, s.mask)]
-        order = [s.region] + sorted((r for r in regs if r != s.region),
-                                    key=lambda r: _rank(nd, r))
-        good = None
-        for r in order[:tries]:
-            d = nd.regions[r].direction
-            if d is not None and frees(s.moved, s.rest, np.asarray(d, dtype=float)):
-                good = r
-                break
-        if good is None:
-            return {"value": False, "steps": len(seq),
-                    "why": f"step {k} ({', '.join(nd.names(s.moved))}) is blocked further "
-                           f"away along every direction tried: a candidate only"}
-        if good != s.region:
-            p.steps[s.mask] = replace(s, region=good)
-    return {"value": True, "steps": len(seq),
-            "why": "every step comes out by one translation to infinity along its direction "
-                   "(direct sweep test): a 1-handed monotone 1-prismatic algorithm"}
+    return min(regions, key=lambda r: region_rank(ndbg, r))
 
 
 #: The least cosine between a coordinate axis and a region's direction for
-#: :func:`axis_directions` to try the axis (within about 72 degrees).
+#: :func:`axis_step` to try the axis (within about 72 degrees).
 AXIS_COS = 0.3
 
 
@@ -178,30 +139,6 @@ def _axes(k: int) -> list[tuple[float, ...]]:
     """The ``2k`` coordinate axes of ``R^k`` (``+e_i`` then ``-e_i``, by ``i``)."""
     eye = [tuple(float(i == j) for j in range(k)) for i in range(k)]
     return eye + [tuple(-x + 0.0 for x in e) for e in eye]
-
-
-def axis_directions(p: Plan, frees: Callable[[int, int, np.ndarray], bool]) -> int:
-    """State a coordinate axis instead of a region's representative direction where one
-    serves: per region used by ``p``'s steps, the axes within :data:`AXIS_COS` of its
-    direction are tried nearest first, and the first along which the direct sweep test
-    (``frees``, as for :func:`verify`) frees every step of that region is kept for them
-    (a designer reads "along -z" more easily than "along (-0.089, +0.02, -0.996)", and a
-    region's representative is only some point inside it). Steps of one region keep one
-    direction, so the tree's direction count does not grow. Returns the steps changed;
-    updates ``p`` in place. Only for a verified plan: the axis is then as proven as the
-    representative was."""
-    nd = p.ndbg
-    by_region: dict[int, list[Step]] = {}
-    for s in p.steps.values():
-        by_region.setdefault(s.region, []).append(s)
-    changed = 0
-    for r, steps in sorted(by_region.items()):
-        a = _axis_for(nd, r, steps, frees)
-        if a is not None:
-            for s in steps:
-                p.steps[s.mask] = replace(s, axis=a)
-            changed += len(steps)
-    return changed
 
 
 def _axis_for(nd: NDBG, r: int, steps: list[Step],
@@ -226,7 +163,7 @@ def _axis_for(nd: NDBG, r: int, steps: list[Step],
 def axis_step(nd: NDBG, s: Step, frees: Callable[[int, int, np.ndarray], bool]) -> Step:
     """``s`` stating the axis :func:`_axis_for` finds for it alone, if any."""
     a = _axis_for(nd, s.region, [s], frees)
-    return s if a is None else replace(s, axis=a)
+    return s if a is None else replace(s, stated=a, source="axis")
 
 
 def free_region(ndbg: NDBG, subset: int, mask: int,
@@ -238,7 +175,7 @@ def free_region(ndbg: NDBG, subset: int, mask: int,
     return pick_region(ndbg, regs) if regs else None
 
 
-def _rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
+def region_rank(ndbg: NDBG, r: int) -> tuple[int, int, int, int]:
     """:func:`pick_region`'s order key of region ``r``."""
     reg = ndbg.regions[r]
     if reg.dimension == ndbg.space_dimension - 1 and not reg.thin:
@@ -441,18 +378,18 @@ def _vec(v) -> list[float] | None:
 
 def step_motion(ndbg: NDBG, s: Step) -> dict:
     """Family and motion fields of an instruction (see the module docstring)."""
-    r = ndbg.regions[s.region]
+    r = None if s.region is None else ndbg.regions[s.region]
     d: dict = {"family": ndbg.family, "region": s.region}
-    if r.direction is not None:
+    if s.stated is not None or (r is not None and r.direction is not None):
         d["removal_direction"] = _vec(s.removal(ndbg))
         d["direction"] = [(-x if x != 0 else 0.0) for x in d["removal_direction"]]
-        if s.axis is not None:
-            # a coordinate axis the sweep test frees the step along, which may lie on the
-            # region's boundary (a sliding contact) or in a neighbouring region
-            d["axis"] = True
+        if s.stated is not None:
+            # the direction the step was proven along, which may lie on the region's
+            # boundary (a sliding contact) or in a neighbouring region
+            d["proof"] = {"test": "sweep", "source": s.source}
     else:
         d["direction"] = None
-    if r.motion is not None:
+    if r is not None and r.motion is not None:
         d["motion"] = r.motion
     return d
 
@@ -485,10 +422,10 @@ def sequence_json(p: Plan) -> list[dict]:
 
 def plan_proves(p: dict) -> dict | None:
     """What a plan section (:func:`plan_section`, with its ``verified`` and ``proofs``)
-    proves when the direct sweep test verified it (a real 1-handed monotone 1-prismatic
-    algorithm, :func:`verify`): the classes it shows, and upper bounds on the minimum depth,
-    nonlinear steps and directions from it and the verified ``proofs`` trees; ``None``
-    without a verified plan. The rules (``ndbg check``) and the text report read it."""
+    proves when every step is proven (a real 1-handed monotone 1-prismatic algorithm,
+    :mod:`ndbg_cli.planning.proven`): the classes it shows, and upper bounds on the minimum
+    depth, nonlinear steps and directions from it and the proven ``proofs`` trees; ``None``
+    without a proven plan. The rules (``ndbg check``) and the text report read it."""
     v = p.get("verified") or {}
     if not p.get("found") or v.get("value") is not True:
         return None

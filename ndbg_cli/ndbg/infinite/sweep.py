@@ -5,9 +5,11 @@ arrangement in :mod:`ndbg_cli.ndbg.infinite.build` (it shares no code with it).
 and a triangle of ``P_j`` facing against it (``n_j . d < 0``) overlap with positive area in
 the orthographic projection along ``d``, and somewhere in the overlap ``t_j`` is not behind
 ``t_i`` (``z_j - z_i > -eps``). A direction parallel to a contact face
-(``|n . d| <= FACING_TOL``) does not cross it: sliding does not block. Every front triangle
-is tested against every back triangle after a box cull: fine for tests, single queries
-(``ndbg query --direction``) and plan checks, not for sweeping thousands of directions.
+(``|n . d| <= FACING_TOL``) does not cross it: sliding does not block. The triangle pairs
+whose shadows meet are found on a grid and tested exactly by the compiled
+:mod:`ndbg_cli.ndbg.infinite._sweep_kernels`: one direction's whole DBG costs milliseconds to
+a second on real products, fine for plan proofs (:mod:`ndbg_cli.planning.proven`) and single
+queries (``ndbg query --direction``), not for sweeping the whole sphere.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
+from ._sweep_kernels import first_blocking, overlap_centroid, plane
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
@@ -73,6 +76,9 @@ class SweepChecker:
                             for a in (0, 1) for b in (0, 1) for c in (0, 1)])
         self._corners = np.array(corners, dtype=float).reshape(-1, 8, 3)
         self._view: tuple[tuple[float, ...], _View] | None = None
+        diag = max(asm.diagonal, 1e-300)
+        # overlaps below these are edges or points touching (areas: the test's resolution)
+        self._amin, self._tiny = (1e-6 * diag) ** 2, 1e-9 * diag
 
     def view(self, d: np.ndarray) -> _View:
         """The :class:`_View` along ``d`` (a 3-vector, or a 2-vector in the plane), kept
@@ -87,67 +93,51 @@ class SweepChecker:
 
     def blocked(self, i: int, j: int, d: np.ndarray) -> bool:
         """Whether part ``j`` blocks the infinite translation of part ``i`` along ``d``."""
+        return self._first(i, j, d) is not None
+
+    def witness(self, i: int, j: int, d: np.ndarray) -> tuple[float, ...] | None:
+        """Where part ``j`` blocks part ``i`` along ``d``: a point of ``j``'s surface in front
+        of ``i`` (the middle of the first blocking triangle pair's overlap, on ``j``'s
+        triangle, assembly frame); ``None`` when ``j`` does not block ``i``."""
+        got = self._first(i, j, d)
+        if got is None:
+            return None
+        ti, tj = got
+        u, v = overlap_centroid(ti, tj)
+        c0, cu, cv = plane(tj)
+        p = np.array([u, v, c0 + cu * u + cv * v]) @ self.view(d).frame
+        return tuple(float(x) for x in p[:len(np.asarray(d))])
+
+    def _first(self, i: int, j: int, d: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """The first blocking pair of projected triangles of ``i`` and ``j`` along ``d``."""
         v = self.view(d)
         # the parts' boxes seen along d: apart (or j wholly behind i), no ray meets both
         if np.any(v.lo[i] >= v.hi[j]) or np.any(v.lo[j] >= v.hi[i]) \
                 or v.zhi[j] <= v.zlo[i] - self.eps:
-            return False
+            return None
         pi = v.facing(i, 1)
         pj = v.facing(j, -1)
         if not len(pi) or not len(pj):
-            return False
-        if pj[:, :, 2].max() <= pi[:, :, 2].min() - self.eps:
-            return False
-        lo_i, hi_i = pi[:, :, :2].min(axis=1), pi[:, :, :2].max(axis=1)
-        lo_j, hi_j = pj[:, :, :2].min(axis=1), pj[:, :, :2].max(axis=1)
-        zmin_i = pi[:, :, 2].min(axis=1)
-        zmax_j = pj[:, :, 2].max(axis=1)
-        tiny = 1e-9 * max(self.asm.diagonal, 1e-300)
-        for s in range(0, len(pi), 256):
-            a = slice(s, s + 256)
-            ov = ((lo_i[a, None, :] < hi_j[None, :, :] - tiny)
-                  & (lo_j[None, :, :] < hi_i[a, None, :] - tiny)).all(axis=2)
-            ov &= zmax_j[None, :] > zmin_i[a, None] - self.eps
-            ia, jb = np.nonzero(ov)
-            if not len(ia):
-                continue
-            ia = ia + s
-            if self._pairs_block(pi[ia], pj[jb]):
-                return True
-        return False
+            return None
+        ki, kj = first_blocking(pi, pj, self.eps, self._amin, self._tiny)
+        return None if ki < 0 else (pi[ki], pj[kj])
 
-    def _pairs_block(self, pi: np.ndarray, pj: np.ndarray) -> bool:
-        """Projected triangle pairs ``(k, 3, 3)`` (u, v, z): does any pair overlap with positive
-        area (above ``(1e-6 diagonal)^2``) while ``t_j`` is not behind ``t_i`` over an area
-        above ``eps^2`` of the overlap (depth difference ``z_j - z_i >= -1e-3 eps``: a single
-        touching point or edge has none; a crossed face contact has all of it)?
-
-        Each ``t_i`` is clipped by the three edges of ``t_j`` and then by the line where the
-        depth difference, affine over the overlap, reaches ``-1e-3 eps``, all pairs at once
-        (:func:`_clip`)."""
-        amin = (1e-6 * self.asm.diagonal) ** 2
-        tau = 1e-3 * self.eps
-        uv_i, uv_j = pi[:, :, :2], pj[:, :, :2]
-        e = np.roll(uv_j, -1, axis=1) - uv_j  # (k, 3, 2) edges of t_j
-        orient = np.sign(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
-        ok = orient != 0  # an edge-on t_j (zero projected area) overlaps nothing
-        if not ok.any():
-            return False
-        uv_i, uv_j, e, orient = uv_i[ok], uv_j[ok], e[ok], orient[ok]
-        pi, pj = pi[ok], pj[ok]
-        poly, cnt = uv_i.copy(), np.full(len(uv_i), 3)
-        for k in range(3):  # inside t_j: orient * cross(e_k, x - p_k) >= 0
-            a = orient[:, None] * np.stack([e[:, k, 1], -e[:, k, 0]], axis=1)
-            poly, cnt = _clip(poly, cnt, a, np.einsum("ij,ij->i", a, uv_j[:, k]))
-        over = _area(poly, cnt) > amin
-        if not over.any():
-            return False
-        poly, cnt = poly[over], cnt[over]
-        ci, cj = _plane(pi[over]), _plane(pj[over])
-        # z_j - z_i >= -tau  <=>  -(dc_u u + dc_v v) <= tau + dc_0
-        dc = cj - ci
-        poly, cnt = _clip(poly, cnt, -dc[:, 1:], tau + dc[:, 0])
-        return bool((_area(poly, cnt) > self.eps ** 2).any())
+    def blockers(self, i: int, d: np.ndarray) -> int:
+        """The bitmask of the parts that block part ``i`` along ``d`` (all parts at once: the
+        box culls of :meth:`blocked` for every ``j`` in one array operation)."""
+        v = self.view(d)
+        near = ~((v.lo[i] >= v.hi).any(axis=1) | (v.lo >= v.hi[i]).any(axis=1)
+                 | (v.zhi <= v.zlo[i] - self.eps))
+        near[i] = False
+        out = 0
+        pi = v.facing(i, 1)
+        if not len(pi):
+            return 0
+        for j in np.flatnonzero(near).tolist():
+            pj = v.facing(j, -1)
+            if len(pj) and first_blocking(pi, pj, self.eps, self._amin, self._tiny)[0] >= 0:
+                out |= 1 << j
+        return out
 
     def frees(self, moved: int, rest: int, d: np.ndarray) -> bool:
         """Whether the parts of bitmask ``moved`` translate to infinity along ``d`` without
@@ -160,63 +150,6 @@ class SweepChecker:
         n = len(self.tris)
         return DBG.from_arcs(n, [(i, j) for i in range(n) for j in range(n)
                                  if i != j and self.blocked(i, j, d)])
-
-
-def _clip(poly: np.ndarray, cnt: np.ndarray, a: np.ndarray, b: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray]:
-    """Clip convex polygons ``poly`` ``(k, m, 2)`` (the first ``cnt[k]`` vertices of each, in
-    order) to the half-planes ``a_k . x <= b_k`` (``a`` ``(k, 2)``, ``b`` ``(k,)``), all at once
-    (Sutherland-Hodgman: each edge keeps its start when inside and adds its crossing of the
-    line). Returns the clipped polygons (at most ``m + 1`` vertices) and their counts."""
-    k, m, _ = poly.shape
-    if k == 0 or m == 0:
-        return poly, cnt
-    col = np.arange(m)
-    row = np.arange(k)[:, None]
-    valid = col[None, :] < cnt[:, None]
-    nxt = (col[None, :] + 1) % np.maximum(cnt, 1)[:, None]
-    q = poly[row, nxt]
-    s = poly[:, :, 0] * a[:, 0, None] + poly[:, :, 1] * a[:, 1, None] - b[:, None]
-    sq = s[row, nxt]
-    inside = s <= 0
-    keep = valid & inside
-    cross = valid & (inside != (sq <= 0))
-    w = np.where(cross, s / np.where(cross, s - sq, 1.0), 0.0)
-    x = poly + w[:, :, None] * (q - poly)
-    pts = np.stack([poly, x], axis=2).reshape(k, 2 * m, 2)
-    mask = np.stack([keep, cross], axis=2).reshape(k, 2 * m)
-    pos = np.cumsum(mask, axis=1) - 1
-    cnt = pos[:, -1] + 1
-    out = np.zeros((k, max(int(cnt.max()), 1), 2))
-    r, c = np.nonzero(mask)
-    out[r, pos[r, c]] = pts[r, c]
-    return out, cnt
-
-
-def _area(poly: np.ndarray, cnt: np.ndarray) -> np.ndarray:
-    """Areas ``(k,)`` of the polygons ``poly`` ``(k, m, 2)`` with ``cnt`` vertices (shoelace;
-    fewer than 3 vertices: 0)."""
-    k, m, _ = poly.shape
-    if k == 0 or m == 0:
-        return np.zeros(k)
-    col = np.arange(m)
-    nxt = (col[None, :] + 1) % np.maximum(cnt, 1)[:, None]
-    q = np.take_along_axis(poly, nxt[:, :, None], axis=1)
-    term = poly[:, :, 0] * q[:, :, 1] - poly[:, :, 1] * q[:, :, 0]
-    term = np.where(col[None, :] < cnt[:, None], term, 0.0)
-    return np.where(cnt >= 3, 0.5 * np.abs(term.sum(axis=1)), 0.0)
-
-
-def _plane(tri: np.ndarray) -> np.ndarray:
-    """Coefficients ``(k, 3)`` ``(c0, cu, cv)`` of the depth ``z = c0 + cu u + cv v`` of the
-    planes of projected triangles ``(k, 3, 3)`` (u, v, z; not edge-on)."""
-    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
-    e1, e2 = b - a, c - a
-    det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    det = np.where(det == 0, 1e-300, det)
-    cu = (e1[:, 2] * e2[:, 1] - e2[:, 2] * e1[:, 1]) / det
-    cv = (e1[:, 0] * e2[:, 2] - e2[:, 0] * e1[:, 2]) / det
-    return np.stack([a[:, 2] - cu * a[:, 0] - cv * a[:, 1], cu, cv], axis=1)
 
 
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:

@@ -1,0 +1,225 @@
+"""Compiled kernels (numba) of the direct sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`).
+
+One part pair along one direction: the facing triangles of the moved part and of the blocker,
+projected along the direction to ``(u, v, z)``, are binned on a grid over the common part of
+their shadows, and each triangle pair whose boxes meet is tested exactly (convex clipping of
+``t_i`` by ``t_j``'s edges, then by the line where the depth difference reaches ``-tau``). The
+first blocking pair ends the test. These kernels share no code with the arrangement's
+(:mod:`ndbg_cli.ndbg.infinite._kernels`): the sweep test is the independent check of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: Vertices a clipped polygon can reach: a triangle cut by four lines.
+MAX_VERTICES = 8
+
+
+@njit(cache=True)
+def clip_half_plane(px: np.ndarray, py: np.ndarray, n: int, ax: float, ay: float, b: float,
+                    qx: np.ndarray, qy: np.ndarray) -> int:
+    """Clip the convex polygon ``(px, py)[:n]`` to ``ax x + ay y <= b`` into ``(qx, qy)``
+    (Sutherland-Hodgman: each edge keeps its start when inside and adds its crossing of the
+    line); returns the new vertex count."""
+    m = 0
+    for k in range(n):
+        k2 = (k + 1) % n
+        s = ax * px[k] + ay * py[k] - b
+        s2 = ax * px[k2] + ay * py[k2] - b
+        if s <= 0:
+            qx[m] = px[k]
+            qy[m] = py[k]
+            m += 1
+        if (s <= 0) != (s2 <= 0):
+            w = s / (s - s2)
+            qx[m] = px[k] + w * (px[k2] - px[k])
+            qy[m] = py[k] + w * (py[k2] - py[k])
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def polygon_area(px: np.ndarray, py: np.ndarray, n: int) -> float:
+    """The area of the polygon ``(px, py)[:n]`` (shoelace; fewer than 3 vertices: 0)."""
+    if n < 3:
+        return 0.0
+    s = 0.0
+    for k in range(n):
+        k2 = (k + 1) % n
+        s += px[k] * py[k2] - py[k] * px[k2]
+    return 0.5 * abs(s)
+
+
+@njit(cache=True)
+def plane(t: np.ndarray) -> tuple[float, float, float]:
+    """``(c0, cu, cv)`` of the depth ``z = c0 + cu u + cv v`` of a projected triangle ``(3, 3)``."""
+    e1u, e1v, e1z = t[1, 0] - t[0, 0], t[1, 1] - t[0, 1], t[1, 2] - t[0, 2]
+    e2u, e2v, e2z = t[2, 0] - t[0, 0], t[2, 1] - t[0, 1], t[2, 2] - t[0, 2]
+    det = e1u * e2v - e1v * e2u
+    if det == 0:
+        det = 1e-300
+    cu = (e1z * e2v - e2z * e1v) / det
+    cv = (e1u * e2z - e2u * e1z) / det
+    return t[0, 2] - cu * t[0, 0] - cv * t[0, 1], cu, cv
+
+
+@njit(cache=True)
+def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
+                     area_min: float, buf: np.ndarray) -> bool:
+    """Whether projected triangles ``ti``, ``tj`` ``(3, 3)`` (u, v, z) overlap over an area above
+    ``amin`` and ``tj`` is not behind ``ti`` (``z_j - z_i >= -tau``) over an area above
+    ``area_min`` of that overlap. ``buf`` ``(4, MAX_VERTICES)`` is scratch space."""
+    ox, oy = buf[0], buf[1]
+    qx, qy = buf[2], buf[3]
+    e0u, e0v = tj[1, 0] - tj[0, 0], tj[1, 1] - tj[0, 1]
+    e1u, e1v = tj[2, 0] - tj[1, 0], tj[2, 1] - tj[1, 1]
+    cr = e0u * e1v - e0v * e1u
+    if cr == 0:
+        return False  # an edge-on t_j (zero projected area) overlaps nothing
+    orient = 1.0 if cr > 0 else -1.0
+    for k in range(3):
+        ox[k] = ti[k, 0]
+        oy[k] = ti[k, 1]
+    n = 3
+    for k in range(3):  # inside t_j: orient * cross(e_k, x - p_k) >= 0
+        k2 = (k + 1) % 3
+        eu, ev = tj[k2, 0] - tj[k, 0], tj[k2, 1] - tj[k, 1]
+        ax, ay = orient * ev, -orient * eu
+        n = clip_half_plane(ox, oy, n, ax, ay, ax * tj[k, 0] + ay * tj[k, 1], qx, qy)
+        ox, oy, qx, qy = qx, qy, ox, oy
+        if n == 0:
+            return False
+    if polygon_area(ox, oy, n) <= amin:
+        return False
+    ci0, ciu, civ = plane(ti)
+    cj0, cju, cjv = plane(tj)
+    # z_j - z_i >= -tau  <=>  -(dc_u u + dc_v v) <= tau + dc_0
+    n = clip_half_plane(ox, oy, n, -(cju - ciu), -(cjv - civ), tau + (cj0 - ci0), qx, qy)
+    return polygon_area(qx, qy, n) > area_min
+
+
+@njit(cache=True)
+def _boxes(t: np.ndarray) -> np.ndarray:
+    """Per triangle ``(u_lo, v_lo, u_hi, v_hi, z_lo, z_hi)``."""
+    out = np.empty((t.shape[0], 6))
+    for k in range(t.shape[0]):
+        out[k, 0] = min(t[k, 0, 0], t[k, 1, 0], t[k, 2, 0])
+        out[k, 1] = min(t[k, 0, 1], t[k, 1, 1], t[k, 2, 1])
+        out[k, 2] = max(t[k, 0, 0], t[k, 1, 0], t[k, 2, 0])
+        out[k, 3] = max(t[k, 0, 1], t[k, 1, 1], t[k, 2, 1])
+        out[k, 4] = min(t[k, 0, 2], t[k, 1, 2], t[k, 2, 2])
+        out[k, 5] = max(t[k, 0, 2], t[k, 1, 2], t[k, 2, 2])
+    return out
+
+
+@njit(cache=True)
+def first_blocking(pi: np.ndarray, pj: np.ndarray, eps: float, amin: float, tiny: float
+                   ) -> tuple[int, int]:
+    """The first triangle pair ``(k_i, k_j)`` (``(-1, -1)`` when none) of ``pi`` ``(a, 3, 3)``
+    (the moved part's, facing the direction) and ``pj`` ``(b, 3, 3)`` (the blocker's, facing
+    against it), projected (u, v, z), that passes :func:`overlap_in_front` (``tau = 1e-3 eps``,
+    area ``eps^2``) after their boxes meet by more than ``tiny`` and ``t_j`` reaches in front
+    of ``t_i - eps``.
+
+    Only the triangles meeting the common box of both shadows are binned, on a grid of about
+    one ``t_j`` per cell, so the cost follows the triangle pairs that really meet."""
+    if pi.shape[0] == 0 or pj.shape[0] == 0:
+        return -1, -1
+    bi, bj = _boxes(pi), _boxes(pj)
+    lo_u = max(bi[:, 0].min(), bj[:, 0].min())
+    lo_v = max(bi[:, 1].min(), bj[:, 1].min())
+    hi_u = min(bi[:, 2].max(), bj[:, 2].max())
+    hi_v = min(bi[:, 3].max(), bj[:, 3].max())
+    if lo_u >= hi_u - tiny or lo_v >= hi_v - tiny:
+        return -1, -1
+    zi_lo = bi[:, 4].min()
+    sel = np.empty(bj.shape[0], np.int64)
+    m = 0
+    for k in range(bj.shape[0]):
+        if bj[k, 2] > lo_u and bj[k, 0] < hi_u and bj[k, 3] > lo_v and bj[k, 1] < hi_v \
+                and bj[k, 5] > zi_lo - eps:
+            sel[m] = k
+            m += 1
+    if m == 0:
+        return -1, -1
+    g = max(1, min(256, int(np.sqrt(m))))
+    su, sv = (hi_u - lo_u) / g, (hi_v - lo_v) / g
+    # cells each selected t_j covers, as a CSR list per cell
+    cnt = np.zeros(g * g + 1, np.int64)
+    for q in range(m):
+        k = sel[q]
+        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, g)
+        for cu in range(u0, u1 + 1):
+            for cv in range(v0, v1 + 1):
+                cnt[cu * g + cv + 1] += 1
+    start = np.cumsum(cnt)
+    fill = start[:-1].copy()
+    items = np.empty(start[-1], np.int64)
+    for q in range(m):
+        k = sel[q]
+        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, g)
+        for cu in range(u0, u1 + 1):
+            for cv in range(v0, v1 + 1):
+                c = cu * g + cv
+                items[fill[c]] = k
+                fill[c] += 1
+    stamp = np.full(bj.shape[0], -1, np.int64)
+    buf = np.empty((4, MAX_VERTICES))
+    tau, area_min = 1e-3 * eps, eps * eps
+    for i in range(bi.shape[0]):
+        b = bi[i]
+        if b[2] <= lo_u or b[0] >= hi_u or b[3] <= lo_v or b[1] >= hi_v:
+            continue
+        u0, u1, v0, v1 = _cells(b, lo_u, lo_v, su, sv, g)
+        for cu in range(u0, u1 + 1):
+            for cv in range(v0, v1 + 1):
+                c = cu * g + cv
+                for q in range(start[c], start[c + 1]):
+                    k = items[q]
+                    if stamp[k] == i:
+                        continue
+                    stamp[k] = i
+                    o = bj[k]
+                    if b[0] < o[2] - tiny and o[0] < b[2] - tiny and b[1] < o[3] - tiny \
+                            and o[1] < b[3] - tiny and o[5] > b[4] - eps \
+                            and overlap_in_front(pi[i], pj[k], amin, tau, area_min, buf):
+                        return i, k
+    return -1, -1
+
+
+@njit(cache=True)
+def overlap_centroid(ti: np.ndarray, tj: np.ndarray) -> tuple[float, float]:
+    """The centroid ``(u, v)`` of the overlap of two projected triangles (vertex mean of the
+    clipped polygon; ``t_i``'s own when they do not overlap): where a blocking pair meets."""
+    buf = np.empty((4, MAX_VERTICES))
+    ox, oy, qx, qy = buf[0], buf[1], buf[2], buf[3]
+    for k in range(3):
+        ox[k] = ti[k, 0]
+        oy[k] = ti[k, 1]
+    n = 3
+    cr = (tj[1, 0] - tj[0, 0]) * (tj[2, 1] - tj[1, 1]) \
+        - (tj[1, 1] - tj[0, 1]) * (tj[2, 0] - tj[1, 0])
+    orient = 1.0 if cr > 0 else -1.0
+    for k in range(3):
+        k2 = (k + 1) % 3
+        eu, ev = tj[k2, 0] - tj[k, 0], tj[k2, 1] - tj[k, 1]
+        ax, ay = orient * ev, -orient * eu
+        m = clip_half_plane(ox, oy, n, ax, ay, ax * tj[k, 0] + ay * tj[k, 1], qx, qy)
+        if m == 0:
+            break
+        ox, oy, qx, qy = qx, qy, ox, oy
+        n = m
+    return ox[:n].mean(), oy[:n].mean()
+
+
+@njit(cache=True)
+def _cells(box: np.ndarray, lo_u: float, lo_v: float, su: float, sv: float, g: int
+           ) -> tuple[int, int, int, int]:
+    """The grid cells (first and last along u, then v) a triangle's box covers, clamped."""
+    u0 = min(max(int((box[0] - lo_u) / su), 0), g - 1)
+    u1 = min(max(int((box[2] - lo_u) / su), 0), g - 1)
+    v0 = min(max(int((box[1] - lo_v) / sv), 0), g - 1)
+    v1 = min(max(int((box[3] - lo_v) / sv), 0), g - 1)
+    return u0, u1, v0, v1

@@ -1,0 +1,236 @@
+"""The plan stage's proofs: the chosen translation plan's steps proven with the direct sweep
+test (:mod:`ndbg_cli.planning.proven`), or another tree found that is, or the subassembly
+where every direction tried fails, with the blocking pairs and points.
+
+The planner sees only the pairwise test (:class:`~ndbg_cli.ndbg.infinite.sweep.SweepChecker`)
+and the candidate directions; this module collects those from the contacts (their normals and
+cylinder axes: where a designer expects parts to move) and from the NDBG's regions.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..core.assembly import Assembly
+from ..core.constants import INFINITESIMAL
+from ..ndbg.model import NDBG, ConnectivityTest
+from ..planning.plans import Plan, Step, region_rank
+from ..planning.proven import (
+    Clearance,
+    Direction,
+    Rows,
+    chooser,
+    directions,
+    greedy,
+    prove,
+    prove_tree,
+    snap,
+    why_stuck,
+)
+
+#: Natural directions (axes, then the most shared contact normals and cylinder axes) that the
+#: greedy search tries in full at every subassembly; further ones are tried only when these
+#: fail (:func:`ndbg_cli.planning.proven.greedy`).
+NATURAL_LIMIT = 32
+#: Stuck subassemblies whose own infinite NDBG is computed before the search gives up.
+EXACT_ROUNDS = 3
+
+
+def natural_directions(analysis: Any, dimension: int) -> list[tuple[tuple[float, ...], str]]:
+    """The contacts' normals and (3D) cylinder axes, snapped, most shared first (ties by
+    value): ``(vector, source)`` for :func:`ndbg_cli.planning.proven.directions`."""
+    count: Counter = Counter()
+    source: dict[tuple[float, ...], str] = {}
+    for c in getattr(analysis, "contacts", ()):
+        axis = getattr(c, "axis", None)
+        if getattr(c, "surface", None) == "cylinder" and axis is not None:
+            key = _line(axis)
+            count[key] += 1
+            source.setdefault(key, "cylinder axis")
+        for n in np.asarray(c.normals, dtype=float).reshape(-1, dimension):
+            if dimension == 2 or c.kind != "curved":
+                key = _line(n)
+                count[key] += 1
+                source.setdefault(key, "contact normal")
+    ranked = sorted(count, key=lambda k: (-count[k], k))
+    return [(k, source[k]) for k in ranked]
+
+
+def _line(v: Any) -> tuple[float, ...]:
+    """``v`` snapped, with its sign fixed (first nonzero component positive): a line's key."""
+    u = snap(v)
+    first = next(x for x in u if x != 0.0)
+    return tuple(round(x if first > 0 else -x, 12) + 0.0 for x in u)
+
+
+def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
+               base: int | None, connected: ConnectivityTest,
+               others: list[Plan] | None = None, budget: int = 1_000_000) -> dict:
+    """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
+    proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
+    proven tree exists along the directions tried. Returns the report's ``verified``,
+    ``proofs`` (``others`` trees that pass), and, when no proven tree was found, ``blocked``
+    (why, :func:`ndbg_cli.planning.proven.why_stuck`) and ``candidate`` (the unproven tree's
+    steps, kept for what they are)."""
+    from ..ndbg.infinite.sweep import SweepChecker
+
+    nd = chosen.ndbg
+    sweep = SweepChecker(asm)
+    natural = natural_directions(analysis, nd.space_dimension)[:NATURAL_LIMIT]
+    order = sorted((r for r, reg in enumerate(nd.regions) if reg.direction is not None),
+                   key=lambda r: region_rank(nd, r))
+    dirs = directions(nd.space_dimension, natural, [(r, nd.regions[r].direction) for r in order])
+    rows = Rows(sweep, nd.n, dirs, nd)
+    n_nat = sum(d.source != "region" for d in dirs)  # natural ones first (directions())
+    cand = [(s.mask, s.moved, None if s.region is None else nd.regions[s.region].direction)
+            for s in chosen.sequence()]
+    room = _Clearance(analysis, nd.space_dimension)
+    key = chooser(strategy, connected, set(), dirs, room)
+    got = prove(rows, chosen.root, cand, natural=n_nat, key=key, base=base, clearance=room)
+    exact: dict[int, str] = {}
+    for _ in range(EXACT_ROUNDS):
+        if got.found or got.stuck in exact:
+            break
+        # the stuck subassembly's own infinite NDBG over the whole sphere, when small enough:
+        # no partitioning is a proof that no plan exists; else its regions' directions join D
+        verdict, more = _exact_split(asm, nd, got.stuck, budget)
+        exact[got.stuck] = verdict
+        if verdict != "some" or not rows.extend(more):
+            break
+        failed = got.failed_step
+        got = greedy(rows, chosen.root, base=base, key=key, natural=n_nat)
+        got.failed_step = failed
+    out: dict = {}
+    if got.found:
+        steps = {m: _step(nd, sp.mask, sp.moved, sp.vector(dirs), dirs[sp.k].source)
+                 for m, sp in got.splits.items()}
+        chosen.steps = steps
+        if got.searched:
+            chosen.exact = False
+            chosen.notes.append(
+                f"the candidate tree's step {got.failed_step} is blocked further away along "
+                f"every direction tried; this proven tree was found by a greedy search, which "
+                f"needs no backtracking (any proven tree restricts to every subassembly)")
+        out["verified"] = {"value": True, "steps": len(steps),
+                           "directions_tried": len(rows.dirs),
+                           "why": "every step is proven: its moved side leaves the rest by one "
+                                  "translation to infinity along the stated direction (direct "
+                                  "sweep test, exact for that direction): a 1-handed monotone "
+                                  "1-prismatic algorithm"}
+    else:
+        out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
+    out["proofs"] = [_other(rows, q, n_nat, room) for q in others or []]
+    out["proofs"] = [p for p in out["proofs"] if p is not None]
+    return out
+
+
+class _Clearance:
+    """:data:`ndbg_cli.planning.proven.Clearance` from the contacts: the least ``-n . d``
+    over the contact normals ``n`` out of ``moved`` into ``rest`` (1 when they touch
+    nowhere)."""
+
+    def __init__(self, analysis: Any, dimension: int) -> None:
+        self.normals: dict[tuple[int, int], np.ndarray] = {}
+        for c in getattr(analysis, "contacts", ()):
+            n = np.asarray(c.normals, dtype=float).reshape(-1, dimension)
+            for a, b, m in ((c.a, c.b, n), (c.b, c.a, -n)):
+                old = self.normals.get((a, b))
+                self.normals[a, b] = m if old is None else np.vstack([old, m])
+
+    def __call__(self, moved: int, rest: int, d: tuple[float, ...]) -> float:
+        v = np.asarray(d)
+        least = 1.0
+        for (a, b), n in self.normals.items():
+            if moved >> a & 1 and rest >> b & 1:
+                least = min(least, float((-(n @ v)).min()))
+        return least
+
+
+def _step(nd: NDBG, mask: int, moved: int, d: tuple[float, ...], source: str) -> Step:
+    """A proven step along ``d``, in the region freeing it whose direction is nearest ``d``
+    (``None`` when no region of ``nd`` frees it: the tolerances of the two tests differ)."""
+    v = np.asarray(d)
+    regs = [r for r, reg in enumerate(nd.regions)
+            if reg.direction is not None and reg.dbg.is_free(moved, mask)]
+    region = max(regs, key=lambda r: (round(float(np.dot(nd.regions[r].direction, v)), 9),
+                                      -r)) if regs else None
+    return Step(mask=mask, moved=moved, rest=mask & ~moved, region=region, stated=d,
+                source=source)
+
+
+def _exact_split(asm: Assembly, nd: NDBG, stuck: int, budget: int
+                 ) -> tuple[str, list[Direction]]:
+    """Whether any translation splits subassembly ``stuck``, from its own infinite-translation
+    NDBG over the whole sphere (paper 5.3, the arrangement of
+    :mod:`ndbg_cli.ndbg.infinite.build`, with the whole assembly's length tolerance):
+    ``("none", [])`` (a proof), ``("some", its partitionings' region directions)`` or
+    ``("over budget", [])`` when it has more than ``budget`` facing triangle pairs."""
+    from ..ndbg.infinite.blocked_sets import triangle_pairs
+    from ..ndbg.infinite.build import build_infinite
+    from ..ndbg.model import partitionings
+
+    sub = asm.subset(nd.names(stuck)).replace(tolerance=asm.length_tolerance)
+    if triangle_pairs(sub) > budget:
+        return "over budget", []
+    inf = build_infinite(sub)
+    parts, _ = partitionings(inf)
+    if not parts:
+        return "none", []
+    regs = sorted({r for p in parts for r in p.regions}, key=lambda r: region_rank(inf, r))
+    return "some", [Direction(snap(inf.regions[r].direction), "region") for r in regs
+                    if inf.regions[r].direction is not None]
+
+
+def _no_plan(rows: Rows, sweep: Any, nd: NDBG, chosen: Plan, stuck: int,
+             exact: str | None) -> dict:
+    """The report's fields when no proven tree exists along the directions tried (``exact``:
+    :func:`_exact_split`'s verdict on ``stuck``, if it ran)."""
+    from ..planning.decompose import sink_decompose
+    from ..planning.plans import sequence_json
+
+    candidate = {"sequence": sequence_json(chosen),
+                 "why": "a candidate tree: each step is free for the family's motions "
+                        "(a necessary condition only); some step of it is blocked further "
+                        "away along every direction tried"}
+    tried = len(rows.dirs)
+    names = ", ".join(nd.names(stuck))
+    if nd.family == INFINITESIMAL and sink_decompose(nd, stuck)[1] is not None:
+        proof, why = True, (f"no plan of single translations exists: no direction moves any "
+                            f"part of {{{names}}} even infinitesimally (a proof)")
+    elif exact == "none":
+        proof, why = True, (f"no plan of single translations exists: the infinite-translation "
+                            f"NDBG of {{{names}}}, computed over every direction, has no "
+                            f"partitioning of it (a proof)")
+    else:
+        proof, why = False, (
+            f"no proven plan along the {tried} directions tried: no direction among them "
+            f"splits {{{names}}} (any plan along them would); not a proof over all directions"
+            + ("" if exact != "over budget" else
+               " (its infinite-translation NDBG is over the --infinite-budget)"))
+    blocked = [{"moved": nd.names(w["moved"]), "region": w["region"],
+                "removal_direction": list(w["direction"]),
+                "blocked_by": [nd.ids[w["pair"][0]], nd.ids[w["pair"][1]]],
+                "at": None if w["point"] is None else [float(x) for x in w["point"]]}
+               for w in why_stuck(rows, sweep, nd, stuck)]
+    chosen.found, chosen.stuck, chosen.steps = False, stuck, {}
+    chosen.notes.append(why)
+    return {"verified": {"value": False, "steps": 0, "directions_tried": tried,
+                         "proof_of_none": proof, "why": why},
+            "blocked": blocked, "candidate": candidate}
+
+
+def _other(rows: Rows, q: Plan, natural: int, room: Clearance) -> dict | None:
+    """Another strategy's candidate tree, when every step of it is proven."""
+    cand = [(s.mask, s.moved, None if s.region is None else q.ndbg.regions[s.region].direction)
+            for s in q.sequence()]
+    splits, failed = prove_tree(rows, cand, natural, room)
+    if failed is not None:
+        return None
+    q.steps = {m: replace(q.steps[m], stated=sp.vector(rows.dirs),
+                          source=rows.dirs[sp.k].source) for m, sp in splits.items()}
+    return {"strategy": q.strategy, "depth": q.depth(), "nonlinear_steps": q.nonlinear(),
+            "directions": q.directions()}

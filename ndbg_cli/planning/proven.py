@@ -1,0 +1,397 @@
+"""Proven assembly plans: every step checked by an exact test of infinite translation (paper
+sections 5.3 and 7.1), or the subassembly no tried direction splits.
+
+A step moves ``S`` out of subassembly ``M`` along ``d``: every part of ``S`` translates to
+infinity without meeting the interior of ``M \\ S``. The test is a :class:`BlockingTest`
+(``j`` blocks ``i`` along ``d``, pairwise; the pipeline passes the direct sweep test
+:class:`ndbg_cli.ndbg.infinite.sweep.SweepChecker`), never a collision library: planners depend
+on this protocol only.
+
+Blocking under infinite translation is a relation between part pairs. So when ``S`` leaves
+``M`` along ``d``, every ``S' ⊆ S`` leaves every ``M' ⊇ S'`` inside ``M`` along ``d``: a plan of
+the product restricts to a plan of any subset of its parts (drop the parts outside it, keep
+each split's direction). Two consequences shape the search:
+
+* a greedy search that splits each subassembly along any direction of a fixed set ``D`` never
+  needs to backtrack: it finds a plan exactly when some plan uses only directions of ``D``;
+* where it stops, the subassembly ``X`` no direction of ``D`` splits proves that no plan with
+  directions of ``D`` exists; and when the infinitesimal NDBG has no candidate partitioning of
+  ``X`` (paper 4.4: no direction moves any part of ``X`` even infinitesimally), that no plan of
+  single translations exists at all.
+
+``D`` (:func:`directions`) puts natural directions first (the coordinate axes, then the
+contacts' normals and cylinder axes, by how many contacts share them) and then one
+representative of each region of the proposing NDBG: a step states the direction it was
+proven along, exactly, e.g. ``(0, 0, -1)``. :func:`prove` first tries the candidate tree the
+strategies chose (optimal among candidates: each step along the best freeing direction of
+``D``), then, if a step of it fails, searches greedily (:func:`greedy`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from ..ndbg.dbg import bits, tarjan
+from ..ndbg.model import NDBG, ConnectivityTest
+
+__all__ = ["BlockingTest", "Direction", "directions", "snap", "Rows", "greedy", "prove_tree",
+           "Outcome", "prove", "SNAP_TOL"]
+
+#: Components of a candidate direction below this (unit vector) are set to zero before it is
+#: tested: a region's representative ``(1.6e-08, -6.2e-10, 1)`` is tested, and reported, as
+#: ``(0, 0, 1)``. The snapped direction is the one proven, so snapping costs no soundness.
+SNAP_TOL = 1e-6
+
+#: Source ranks: the order in which directions are tried and preferred.
+SOURCES = ("axis", "contact normal", "cylinder axis", "region")
+
+
+class BlockingTest(Protocol):
+    """An exact pairwise test of infinite translation."""
+
+    def blocked(self, i: int, j: int, d: np.ndarray) -> bool:
+        """Whether part ``j`` blocks part ``i`` translating to infinity along ``d``."""
+
+    def blockers(self, i: int, d: np.ndarray) -> int:
+        """The bitmask of the parts that block part ``i`` along ``d``."""
+
+    def witness(self, i: int, j: int, d: np.ndarray) -> tuple[float, ...] | None:
+        """A point where ``j`` blocks ``i`` along ``d`` (``None`` when it does not)."""
+
+
+@dataclass(frozen=True)
+class Direction:
+    """A candidate removal direction: its unit vector, exactly as tested, and where it came
+    from (one of :data:`SOURCES`)."""
+
+    vector: tuple[float, ...]
+    source: str
+    #: the proposing NDBG's region it represents (``source == "region"``): only where that
+    #: region's DBG frees something can this direction free anything (paper 4.4)
+    region: int | None = None
+
+
+def snap(d: Sequence[float], tol: float = SNAP_TOL) -> tuple[float, ...]:
+    """``d`` normalised with components below ``tol`` set to zero (and ``-0.0`` to ``0.0``).
+
+    >>> snap((1.6e-08, -6.2e-10, 2.0))
+    (0.0, 0.0, 1.0)
+    """
+    v = np.asarray(d, dtype=float)
+    v = v / np.linalg.norm(v)
+    v = np.where(np.abs(v) < tol, 0.0, v)
+    v = v / np.linalg.norm(v)
+    return tuple(float(x) + 0.0 for x in v)
+
+
+def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
+               regions: Sequence[tuple[int, Sequence[float]]]) -> list[Direction]:
+    """The candidate set ``D``: the ``2 dimension`` coordinate axes, then ``natural``
+    (``(vector, source)``, e.g. contact normals and cylinder axes, in the given order) and
+    ``regions`` (``(region, representative)``), each snapped (:func:`snap`) and followed by
+    its opposite; duplicates (equal after rounding to 1e-9) keep their first place.
+
+    A region's representative comes without its opposite (that is another region's).
+
+    >>> [(d.source, [round(x, 4) for x in d.vector])
+    ...  for d in directions(2, [((1, 1), "contact normal")], [(7, (0, -1))])]
+    ... # doctest: +NORMALIZE_WHITESPACE
+    [('axis', [1.0, 0.0]), ('axis', [-1.0, 0.0]), ('axis', [0.0, 1.0]), ('axis', [0.0, -1.0]),
+     ('contact normal', [0.7071, 0.7071]), ('contact normal', [-0.7071, -0.7071])]
+    """
+    seen: set[tuple[float, ...]] = set()
+    out: list[Direction] = []
+
+    def add(v: Sequence[float], source: str, signs=(1.0, -1.0), region=None) -> None:
+        for s in signs:
+            u = snap([s * x for x in v])
+            key = tuple(round(x, 9) + 0.0 for x in u)
+            if key not in seen:
+                seen.add(key)
+                out.append(Direction(u, source, region))
+
+    for k in range(dimension):
+        add([float(k == j) for j in range(dimension)], "axis")
+    for v, source in natural:
+        add(v, source)
+    for r, v in regions:
+        add(v, "region", (1.0,), r)
+    return out
+
+
+class Rows:
+    """Blocking rows per direction, computed when first asked: ``row(k, i)`` is the bitmask of
+    the parts that block part ``i`` along ``dirs[k]``, over the whole product."""
+
+    def __init__(self, test: BlockingTest, n: int, dirs: Sequence[Direction],
+                 proposer: NDBG | None = None) -> None:
+        self.test, self.n, self.dirs, self.proposer = test, n, list(dirs), proposer
+        self._rows: dict[tuple[int, int], int] = {}
+        self._vec = [np.asarray(d.vector, dtype=float) for d in self.dirs]
+
+    def row(self, k: int, i: int) -> int:
+        key = (k, i)
+        if key not in self._rows:
+            self._rows[key] = self.test.blockers(i, self._vec[k])
+        return self._rows[key]
+
+    def extend(self, more: Sequence[Direction]) -> int:
+        """Append the directions of ``more`` not already in ``dirs`` (equal after rounding to
+        1e-9); returns how many were added."""
+        have = {tuple(round(x, 9) + 0.0 for x in d.vector) for d in self.dirs}
+        added = 0
+        for d in more:
+            key = tuple(round(x, 9) + 0.0 for x in d.vector)
+            if key not in have:
+                have.add(key)
+                self.dirs.append(d)
+                self._vec.append(np.asarray(d.vector, dtype=float))
+                added += 1
+        return added
+
+    def may_split(self, k: int, mask: int) -> bool:
+        """Whether ``dirs[k]`` can split ``mask`` at all: not when it represents a region of
+        the proposing NDBG whose DBG frees nothing in ``mask`` (a necessary condition)."""
+        r = self.dirs[k].region
+        if r is None or self.proposer is None:
+            return True
+        return len(tarjan(list(self.proposer.regions[r].dbg.succ), mask)[0]) > 1
+
+    def may_free(self, k: int, moved: int, mask: int) -> bool:
+        """Whether ``dirs[k]`` can free ``moved`` in ``mask`` (as :meth:`may_split`)."""
+        r = self.dirs[k].region
+        if r is None or self.proposer is None:
+            return True
+        return self.proposer.regions[r].dbg.is_free(moved, mask)
+
+    def frees(self, k: int, moved: int, rest: int) -> bool:
+        """Whether ``moved`` leaves ``rest`` along ``dirs[k]`` (both bitmasks)."""
+        return all(self.row(k, i) & rest == 0 for i in bits(moved))
+
+    def components(self, k: int, mask: int) -> list[int]:
+        """Strong components of the blocking graph along ``dirs[k]`` induced on ``mask``,
+        sinks first (a prefix of the list is free along ``dirs[k]``)."""
+        succ = [0] * self.n
+        for i in bits(mask):
+            succ[i] = self.row(k, i) & mask
+        return tarjan(succ, mask)[0]
+
+
+@dataclass(frozen=True)
+class Split:
+    """One proven step: ``moved`` leaves ``mask`` along ``sense * dirs[k]`` (blocking is a
+    relation of relative motion: ``moved`` leaving along ``-d`` is the rest leaving along
+    ``d``)."""
+
+    mask: int
+    moved: int
+    k: int
+    sense: int = 1
+
+    @property
+    def rest(self) -> int:
+        return self.mask & ~self.moved
+
+    def vector(self, dirs: Sequence[Direction]) -> tuple[float, ...]:
+        """The removal direction of ``moved``, exactly as proven."""
+        return tuple(self.sense * x + 0.0 for x in dirs[self.k].vector)
+
+
+@dataclass
+class Outcome:
+    """What :func:`prove` found: ``splits`` (mask -> :class:`Split`) forming a tree of
+    ``root`` when ``found``; else ``stuck``, the subassembly no direction of ``dirs`` splits,
+    and ``failed_step``, the candidate tree's first step no direction frees (1-based, in
+    assembly order; ``None`` when the candidate tree passed or was not given)."""
+
+    root: int
+    dirs: list[Direction]
+    splits: dict[int, Split] = field(default_factory=dict)
+    found: bool = True
+    stuck: int | None = None
+    failed_step: int | None = None
+    searched: bool = False  #: the greedy search ran (the candidate tree failed)
+
+
+def _options(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int, int]]:
+    """The ``(moved, sense)`` splits ``dirs[k]`` offers in ``mask``: each sink component (a
+    minimal free set) and the smallest free prefix holding half the parts, leaving along
+    ``dirs[k]``, and their complements leaving along its opposite; never the base."""
+    comps = rows.components(k, mask)
+    if len(comps) < 2:
+        return []
+    free, acc = [], 0
+    half = mask.bit_count() / 2
+    for c in comps[:-1]:
+        acc |= c
+        if acc.bit_count() >= half:
+            break
+    free.append(acc)
+    # sinks: components with no arc to another component of mask
+    free += [c for c in comps if all(rows.row(k, i) & mask & ~c == 0 for i in bits(c))]
+    out = {(s, 1) for s in free} | {(mask & ~s, -1) for s in free}
+    return sorted(o for o in out
+                  if 0 < o[0] != mask and (base is None or not o[0] >> base & 1))
+
+
+Chooser = Callable[[int, int, int, int], tuple]
+#: ``clearance(moved, rest, d)``: how far inside the directions that free ``moved`` locally
+#: ``d`` lies (e.g. the least ``-n . d`` over the contact normals ``n`` out of ``moved``
+#: into ``rest``; 0 when sliding along a contact): larger is preferred, as a designer lifts a
+#: part off a face rather than sliding it along the face.
+Clearance = Callable[[int, int, tuple[float, ...]], float]
+
+
+def chooser(strategy: str, connected: ConnectivityTest | None, used: set[int],
+            dirs: Sequence[Direction], clearance: Clearance | None = None) -> Chooser:
+    """The preference key of a proven split ``(mask, moved, k, sense)`` for ``strategy``: both
+    sides contact-connected first (when ``connected``), then the strategy's objective (one
+    part at a time for ``linear``, the most balanced split otherwise, directions already used
+    first for ``fewest-directions``), then natural directions before regions', the larger
+    ``clearance`` and the order of ``dirs``."""
+
+    def key(mask: int, moved: int, k: int, sense: int) -> tuple:
+        rest = mask & ~moved
+        apart = 0 if connected is None or (connected(moved) and connected(rest)) else 1
+        size = max(moved.bit_count(), rest.bit_count())
+        goal: tuple = ((moved.bit_count() > 1, size) if strategy == "linear" else
+                       (k not in used, size) if strategy == "fewest-directions" else (size,))
+        d = tuple(sense * x for x in dirs[k].vector)
+        room = 0.0 if clearance is None else -round(clearance(moved, rest, d), 9)
+        return (apart, *goal, SOURCES.index(dirs[k].source), room, k, -sense, moved)
+
+    return key
+
+
+def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
+           natural: int, used: set[int] | None = None) -> Outcome:
+    """Split ``root`` recursively along the directions of ``rows``: at each subassembly the
+    first ``natural`` directions are all tried and the best split by ``key`` is taken; only
+    when none splits it are the others tried, in order, up to the first that does. No
+    backtracking is needed (see the module docstring); ``used`` collects the directions used."""
+    out = Outcome(root, rows.dirs, searched=True)
+    used = set() if used is None else used
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        best = None
+        for k in range(len(rows.dirs)):
+            if k >= natural and best is not None:
+                break
+            if k >= natural and not rows.may_split(k, m):
+                continue
+            for s, sense in _options(rows, k, m, base):
+                cand = key(m, s, k, sense), Split(m, s, k, sense)
+                if best is None or cand[0] < best[0]:
+                    best = cand
+        if best is None:
+            out.found, out.stuck, out.splits = False, m, {}
+            return out
+        sp = best[1]
+        out.splits[m] = sp
+        used.add(sp.k)
+        stack.extend((sp.rest, sp.moved))
+    return out
+
+
+def prove_tree(rows: Rows, steps: Sequence[tuple[int, int, Sequence[float] | None]],
+               natural: int, clearance: Clearance | None = None
+               ) -> tuple[dict[int, Split], int | None]:
+    """Each candidate step ``(mask, moved, region direction)`` (in assembly order) proven
+    along a direction of ``rows``: among the first ``natural`` directions that free it, the
+    one of largest ``clearance``, then nearest the region's direction; else the first other
+    that does. Returns the splits and the first failing step (1-based), or ``None`` when all
+    pass."""
+    out: dict[int, Split] = {}
+    # direction-major, so each direction's view is made once for all steps
+    free = _free_along(rows, steps, natural)
+    for n_step, (mask, moved, near) in enumerate(steps, start=1):
+        rest = mask & ~moved
+        ok = free[n_step - 1]
+        if ok:
+            k = max(ok, key=lambda k, m=moved, r=rest, n=near: _score(rows, k, m, r, n,
+                                                                     clearance))
+        else:
+            # a region's direction frees moved (sense 1), or the rest (moved leaves along -d)
+            got = next(((k, sense) for k in range(natural, len(rows.dirs))
+                        for sense, a, b in ((1, moved, rest), (-1, rest, moved))
+                        if rows.may_free(k, a, mask) and rows.frees(k, a, b)), None)
+            if got is None:
+                return out, n_step
+            out[mask] = Split(mask, moved, *got)
+            continue
+        out[mask] = Split(mask, moved, k)
+    return out, None
+
+
+def _score(rows: Rows, k: int, moved: int, rest: int, near: Sequence[float] | None,
+           clearance: Clearance | None) -> tuple:
+    """:func:`prove_tree`'s preference among freeing directions (larger is better)."""
+    d = rows.dirs[k].vector
+    ref = np.zeros(len(d)) if near is None else np.asarray(near)
+    room = 0.0 if clearance is None else round(clearance(moved, rest, d), 9)
+    return room, round(float(np.dot(d, ref)), 9), -k
+
+
+def _free_along(rows: Rows, steps: Sequence[tuple[int, int, object]], natural: int
+                ) -> list[list[int]]:
+    """Per step ``(mask, moved, _)``, the first ``natural`` directions freeing it (computed
+    direction by direction)."""
+    out: list[list[int]] = [[] for _ in steps]
+    for k in range(natural):
+        for t, (mask, moved, _) in enumerate(steps):
+            if rows.frees(k, moved, mask & ~moved):
+                out[t].append(k)
+    return out
+
+
+def prove(rows: Rows, root: int, candidate: Sequence[tuple[int, int, Sequence[float] | None]],
+          *, natural: int, key: Chooser, base: int | None = None,
+          clearance: Clearance | None = None) -> Outcome:
+    """A proven tree of ``root``: the candidate tree's steps (:func:`prove_tree`) when each
+    has a freeing direction, else :func:`greedy`'s tree or the subassembly it stops at."""
+    if candidate:
+        splits, failed = prove_tree(rows, candidate, natural, clearance)
+        if failed is None:
+            return Outcome(root, rows.dirs, splits)
+    else:
+        failed = None
+    out = greedy(rows, root, base=base, key=key, natural=natural)
+    out.failed_step = failed
+    return out
+
+
+def why_stuck(rows: Rows, test: BlockingTest, nd: NDBG, stuck: int, limit: int = 12
+              ) -> list[dict]:
+    """Why subassembly ``stuck`` cannot be split: for each region of ``nd`` with a candidate
+    side in it (a minimal free set of the region's DBG, the smaller side first), the part pair
+    that blocks that side along the region's direction (snapped) and a point where it does,
+    found by ``test``. At most ``limit`` entries."""
+    out: list[dict] = []
+    seen: set[tuple[int, tuple[float, ...]]] = set()
+    for r, reg in enumerate(nd.regions):
+        if reg.direction is None:
+            continue
+        comps = tarjan(list(reg.dbg.succ), stuck)[0]
+        sinks = [c for c in comps if reg.dbg.is_free(c, stuck) and c != stuck]
+        d = snap(reg.direction)
+        for s in sinks:
+            if (s, d) in seen:
+                continue
+            seen.add((s, d))
+            v = np.asarray(d)
+            pair = next(((i, j) for i in bits(s) for j in bits(stuck & ~s)
+                         if test.blocked(i, j, v)), None)
+            if pair is None:
+                continue
+            out.append({"moved": s, "region": r, "direction": d, "pair": pair,
+                        "point": test.witness(pair[0], pair[1], v)})
+            if len(out) >= limit:
+                return out
+    return out
