@@ -710,6 +710,102 @@ on the top face: the bolt leaves only along +z.
 """, base="block")
 
 
+# -- 13. interferences of real CAD: a press fit, an overlap, a clash -----------------------
+
+#: Facets of the press-fit example's cylinders: fine enough that a 0.03 mm radial interference
+#: is thicker than the chord sag (r (1 - cos(pi / 96)) = 0.0054 mm at r 10).
+PRESS_SEGMENTS = 96
+
+
+def _fine_cylinder(r: float, z0: float, z1: float) -> Manifold:
+    return prism(circle(r, n=PRESS_SEGMENTS), z0, z1)
+
+
+def press_fit(out: Path) -> None:
+    """A bearing pressed into a housing bore and a shaft pressed into the bearing."""
+    solids = {
+        "housing": (box(-30, -30, 0, 30, 30, 20) - _fine_cylinder(10, 5, 21)
+                    - _fine_cylinder(6, -1, 6)),
+        "bearing": _fine_cylinder(10.05, 5, 20) - _fine_cylinder(5, 4, 21),
+        "shaft": _fine_cylinder(5.03, 0, 40),
+    }
+    expect = {
+        "parts": 3,
+        "interferences": [
+            {"pair": ["housing", "bearing"], "kind": "press_fit", "axis": [0, 0, 1],
+             "depth": 0.05, "radius": 10},
+            {"pair": ["bearing", "shaft"], "kind": "press_fit", "axis": [0, 0, 1],
+             "depth": 0.03, "radius": 5},
+        ],
+        "bearing_removal": [0, 0, 1],
+        "shaft_removal": [[0, 0, 1], [0, 0, -1]],
+        "press_steps": 2,
+    }
+    comment = """\
+Housing 60x60x20 with a bore r 10 from z 5 up (a shoulder at z 5) and a clearance hole r 6
+below it; a bearing (r 5 .. 10.05, z 5..20) pressed into the bore: radial interference
+0.05 mm; a shaft r 5.03 (z 0..40) pressed into the bearing's bore r 5: 0.03 mm, passing the
+clearance hole with 1 mm to spare. All cylinders have 96 facets (chord sag 0.0054 mm at r 10,
+below both interferences). Both fits are coaxial about z: each pair slides along z only.
+The shoulder stops the bearing going down: it leaves the housing along +z only; the shaft
+leaves the bearing along +z or -z (the hole below is wider). Both separations are presses.
+"""
+    mesh_assembly(out, "press-fit", "press-fitted bearing and shaft", solids, expect, comment,
+                  base="housing")
+
+
+def overlap(out: Path) -> None:
+    """A sheet-metal tray whose front and left walls overlap by 0.2 mm at their corner."""
+    solids = {
+        "floor": box(0, 0, 0, 100, 60, 3),
+        "front": box(0, 0, 3, 100, 3, 40),
+        "left": box(0, 2.8, 3, 3, 60, 40),
+        "right": box(97, 3, 3, 100, 60, 40),
+    }
+    expect = {
+        "parts": 4,
+        "interferences": [
+            {"pair": ["front", "left"], "kind": "overlap", "direction": [0, -1, 0],
+             "depth": 0.2},
+        ],
+        "free_up": ["front", "left", "right"],
+    }
+    comment = """\
+Floor 100x60x3; walls 3 thick and 37 high standing on it: front (y 0..3), left (x 0..3,
+y 2.8..60) and right (x 97..100, y 3..60). The left wall was modelled 0.2 mm too long: it
+overlaps the front wall in the slab x 0..3, y 2.8..3, z 3..40 (0.2 thick along y).
+Moving front by 0.2 along -y (or left along +y) ends the overlap: a shallow overlap whose
+separating direction for (front, left) is -y. Each wall alone lifts off the rest along +z
+(nothing above; the overlap slides along z).
+"""
+    mesh_assembly(out, "overlap", "sheet-metal walls overlapping at a corner", solids, expect,
+                  comment, base="floor")
+
+
+def clash(out: Path) -> None:
+    """A bracket modelled 3 mm into its plate (a clash), and a cover on the bracket."""
+    solids = {
+        "plate": box(-30, -20, 0, 30, 20, 5),
+        "bracket": box(-10, -10, 2, 10, 10, 20),
+        "cover": box(-10, -10, 20, 10, 10, 22),
+    }
+    expect = {
+        "parts": 3,
+        "interferences": [{"pair": ["plate", "bracket"], "kind": "clash"}],
+        "unit": ["plate", "bracket"],
+        "sequence": [["cover"]],
+        "cover_removal": [0, 0, 1],
+    }
+    comment = """\
+Plate 60x40x5; a bracket 20x20 from z 2 to 20, sunk 3 mm into the plate (a 20x20x3 block of
+overlap: neither a press fit nor shallow); a cover 20x20x2 on the bracket's top.
+The clash keeps plate and bracket together as one unit plate+bracket; the cover then lifts
+off along +z: a one-step plan.
+"""
+    mesh_assembly(out, "clash", "a bracket modelled into its plate", solids, expect, comment,
+                  base="plate")
+
+
 def build(out: Path = HERE) -> None:
     """Build every example into ``out`` (manifests) and ``out/meshes`` (STL files)."""
     out = Path(out)
@@ -727,6 +823,9 @@ def build(out: Path = HERE) -> None:
     slot37(out)
     hinge(out)
     bolts(out)
+    press_fit(out)
+    overlap(out)
+    clash(out)
 
 
 if __name__ == "__main__":

@@ -196,6 +196,7 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                 approx.append((asm.parts[a].id, asm.parts[b].id))
             if found is not None:
                 interferences.append(found)
+                contacts += fit_contacts(found)
         if found is None:
             i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
             count = len(i)
@@ -223,6 +224,33 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     })
     return ContactAnalysis(tuple(contacts), tuple(sorted(interferences, key=lambda x: (x.a, x.b))),
                            tol, ang, stats)
+
+
+#: Radial normals standing for a press fit's cylindrical contact (:func:`fit_contacts`).
+PRESS_NORMALS = 8
+
+
+def fit_contacts(found: Interference) -> list[Contact]:
+    """The contact a classified interference stands for (:mod:`ndbg_cli.contacts.fits`): a
+    press fit, a cylindrical contact about its axis (:data:`PRESS_NORMALS` radial normals:
+    only the axis is free); an overlap, a face contact whose normal (out of ``a`` into ``b``)
+    is opposite the separating direction; a clash, none (the pipeline keeps its parts
+    together)."""
+    fit = found.fit
+    if fit is None or fit.kind == "clash":
+        return []
+    if fit.kind == "press_fit":
+        axis, c = np.asarray(fit.axis), np.asarray(fit.center)
+        u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+        u /= np.linalg.norm(u)
+        v = np.cross(axis, u)
+        t = 2 * np.pi * np.arange(PRESS_NORMALS) / PRESS_NORMALS
+        n = np.cos(t)[:, None] * u + np.sin(t)[:, None] * v
+        return [Contact(found.a, found.b, "curved", n, c + fit.radius * n, n, 0.0,
+                        axis=axis, center=c, radius=fit.radius, surface="cylinder")]
+    n = -np.asarray(fit.direction, dtype=float)[None, :]
+    p = np.asarray(fit.center, dtype=float)[None, :]
+    return [Contact(found.a, found.b, "planar", n, p, n, 0.0)]
 
 
 def _check_entry(value):

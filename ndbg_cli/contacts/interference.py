@@ -18,7 +18,8 @@ import numpy as np
 
 from ..core.assembly import Assembly, Diagnostic, Part
 from ..core.errors import InterferenceError
-from .facets import PartGeometry, fcl_object, manifold_model
+from .facets import PartGeometry, fcl_model, fcl_object, manifold_model
+from .fits import Fit, classify_overlap, fcl_separates, manifold_separates
 
 #: Contacts fcl is asked for when approximating the interference of open meshes.
 FCL_MAX_CONTACTS = 2000
@@ -31,13 +32,19 @@ class Interference:
     """Two parts whose interiors overlap beyond the tolerance (``a < b``, indices in
     ``asm.parts``). ``volume`` in unit^3 (0 when approximate), ``depth`` in unit (mean
     thickness of the overlap, or the approximate penetration for open meshes); ``method`` is
-    ``"volume"`` (exact, manifold3d) or ``"fcl-depth"`` (approximate, open meshes)."""
+    ``"volume"`` (exact, manifold3d) or ``"fcl-depth"`` (approximate, open meshes); ``fit``
+    what it is (:mod:`ndbg_cli.contacts.fits`: press fit, overlap or clash)."""
 
     a: int
     b: int
     volume: float
     depth: float
     method: str = "volume"
+    fit: Fit | None = None
+
+    @property
+    def kind(self) -> str:
+        return "clash" if self.fit is None else self.fit.kind
 
 
 def meshes_intersect(pa: Part, pb: Part) -> bool:
@@ -59,7 +66,10 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
         area = float(overlap.surface_area())
         depth = 2.0 * vol / area if area > 0 else 0.0
         if depth > allowance:
-            return Interference(ia, ib, vol, depth, "volume"), False
+            m = overlap.to_mesh()
+            tri = np.asarray(m.vert_properties, dtype=float)[:, :3][np.asarray(m.tri_verts)]
+            fit = _classify(tri, depth, pa, pb, manifold_separates(ma, mb, vol, tol), tol, vol)
+            return Interference(ia, ib, vol, depth, "volume", fit), False
         return None, False
     req = fcl.CollisionRequest(num_max_contacts=FCL_MAX_CONTACTS, enable_contact=True)
     res = fcl.CollisionResult()
@@ -73,8 +83,24 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     depth = float(crossing_depth(ga.triangles[ids[:, 0]], ga.normals[ids[:, 0]],
                                  gb.triangles[ids[:, 1]], gb.normals[ids[:, 1]], tol).max())
     if depth > allowance:
-        return Interference(ia, ib, 0.0, depth, "fcl-depth"), True
+        tri = np.concatenate([ga.triangles[np.unique(ids[:, 0])],
+                              gb.triangles[np.unique(ids[:, 1])]])
+        fit = _classify(tri, depth, pa, pb,
+                        fcl_separates(fcl_model(pa), fcl_object(pb), tol), tol)
+        return Interference(ia, ib, 0.0, depth, "fcl-depth", fit), True
     return None, True
+
+
+def _classify(tri: np.ndarray, depth: float, pa: Part, pb: Part, separates, tol: float,
+              volume: float = 0.0) -> Fit:
+    """:func:`ndbg_cli.contacts.fits.classify_overlap` of the overlap surface ``tri``."""
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = np.linalg.norm(cross, axis=1)
+    keep = area > 0
+    normals = cross[keep] / area[keep, None]
+    size = min(float(np.linalg.norm(np.ptp(p.bounds, axis=0))) for p in (pa, pb))
+    return classify_overlap(tri[keep], normals, 0.5 * area[keep], depth, size, separates, tol,
+                            volume)
 
 
 def crossing_depth(ta: np.ndarray, na: np.ndarray, tb: np.ndarray, nb: np.ndarray,
@@ -95,17 +121,21 @@ def crossing_depth(ta: np.ndarray, na: np.ndarray, tb: np.ndarray, nb: np.ndarra
 def check_interference_policy(asm: Assembly, result, policy: str = "error") -> list[Diagnostic]:
     """Apply the ``interference`` policy to a :class:`ndbg_cli.contacts.contacts3d.ContactAnalysis`.
 
-    ``"error"``: raise :class:`InterferenceError` (exit code 2) naming every interfering pair;
-    ``"warn"``: return one warning :class:`Diagnostic` (code ``"interference"``) per pair;
-    ``"ignore"``: return ``[]``. Raises ``ValueError`` for an unknown policy.
+    Press fits and overlaps (:mod:`ndbg_cli.contacts.fits`) are contacts for planning, under
+    every policy (the report lists them). Clashes: ``"error"`` raises
+    :class:`InterferenceError` (exit code 2) naming every clashing pair; ``"warn"`` returns one
+    warning :class:`Diagnostic` (code ``"interference"``) per pair, whose parts the pipeline
+    keeps together as one unit; ``"ignore"`` keeps them together silently. Raises
+    ``ValueError`` for an unknown policy.
     """
     if policy not in POLICIES:
         raise ValueError(f"unknown interference policy {policy!r} (use {', '.join(POLICIES)})")
-    if policy == "ignore" or not result.interferences:
+    clashes = [it for it in result.interferences if it.kind == "clash"]
+    if policy == "ignore" or not clashes:
         return []
     unit = asm.units
     lines = []
-    for it in result.interferences:
+    for it in clashes:
         a, b = asm.parts[it.a].id, asm.parts[it.b].id
         how = (f"overlap volume {it.volume:.4g} {unit}^3, depth {it.depth:.4g} {unit}"
                if it.method == "volume" else
@@ -115,5 +145,6 @@ def check_interference_policy(asm: Assembly, result, policy: str = "error") -> l
         text = "; ".join(f"'{a}' and '{b}' interpenetrate ({how})" for a, b, how in lines)
         raise InterferenceError(f"interference: {text}", file=asm.source or None)
     return [Diagnostic("warning", "interference",
-                       f"parts '{a}' and '{b}' interpenetrate: {how}", part=a,
+                       f"parts '{a}' and '{b}' interpenetrate ({how}), neither a press fit "
+                       f"nor a shallow overlap: kept together as one unit", part=a,
                        file=asm.source or None) for a, b, how in lines]

@@ -377,7 +377,7 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     (2, True)
     """
     from ..planning.plans import plan
-    from ..report.plans import plan_section
+    from ..report.plans import mark_presses, plan_section
 
     clock = Clock(timings)
     budget = _budget(options)
@@ -427,6 +427,9 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                    + (" even infinitesimally" if chosen.ndbg.family == INFINITESIMAL else "")
                    + " (a proof: any plan would split it)"}}
     out = {"family": chosen.ndbg.family, **plan_section(chosen), **proof}
+    press = {frozenset((asm.ids[x.a], asm.ids[x.b]))
+             for x in getattr(contacts.analysis, "interferences", ()) if x.kind == "press_fit"}
+    mark_presses(out, press)
     return out
 
 
@@ -470,6 +473,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     contacts = find_contacts(asm, options, cache=cache, timings=timings)
     out: dict = dict(contacts.sections)
     warnings = list(contacts.warnings)
+    asm, contacts = _keep_clashes_together(asm, contacts, options, cache, timings, out)
     families: dict[str, Family] = {}
     inf = None
     for name in FAMILIES_OF[options.motion]:
@@ -491,6 +495,28 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     out["classes"], out["andor"] = measures.classes, measures.andor
     out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings)
     return out, warnings
+
+
+def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, cache: Any,
+                           timings: dict[str, float], out: dict) -> tuple[Assembly, Contacts]:
+    """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`)
+    and its contacts found again (the cache serves the other pairs); the report keeps the
+    first analysis's interferences, each clash naming its unit. Unchanged without clashes."""
+    from .units import clash_units, merge_units
+
+    found = getattr(contacts.analysis, "interferences", ())
+    units = clash_units(len(asm), [(x.a, x.b) for x in found if x.kind == "clash"])
+    if not units:
+        return asm, contacts
+    unit_of = {i: [asm.ids[k] for k in g] for g in units for i in g}
+    for rec, x in zip(out["interferences"], found):
+        if x.kind == "clash":
+            rec["unit"] = unit_of[x.a]
+    merged = merge_units(asm, units)
+    again = find_contacts(merged, options, cache=cache, timings=timings)
+    keep = {k: v for k, v in again.sections.items() if k != "interferences"}
+    out.update(keep)
+    return merged, again
 
 
 #: Strategies whose trees :func:`_prove` checks besides the reported plan's.

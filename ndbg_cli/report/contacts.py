@@ -33,8 +33,7 @@ def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
         "surface": c.surface, "axis": _vecs(c.axis), "center": _vecs(c.center),
         "radius": None if c.radius is None else _r(c.radius),
     } for c in result.contacts]
-    interferences = [{"a": ids[x.a], "b": ids[x.b], "volume": _r(x.volume),
-                      "depth": _r(x.depth), "method": x.method} for x in result.interferences]
+    interferences = [interference_record(ids, x) for x in result.interferences]
     s = result.stats
     stats = {
         "units": asm.units, "tolerance": _r(result.tolerance),
@@ -50,6 +49,19 @@ def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
                       for k in ("bvh_s", "broad_s", "narrow_s", "interference_s")},
     }
     return {"contacts": contacts, "interferences": interferences, "contact_stats": stats}
+
+
+def interference_record(ids: list[str], x) -> dict:
+    """One interference as the report states it, with its kind (:mod:`ndbg_cli.contacts.fits`)."""
+    out = {"a": ids[x.a], "b": ids[x.b], "volume": _r(x.volume), "depth": _r(x.depth),
+           "method": x.method, "kind": x.kind}
+    f = x.fit
+    if f is not None and f.kind == "press_fit":
+        out.update(axis=_vecs(f.axis), center=_vecs(f.center), radius=_r(f.radius),
+                   fit_depth=_r(f.depth))
+    elif f is not None and f.kind == "overlap":
+        out.update(direction=_vecs(f.direction), center=_vecs(f.center), fit_depth=_r(f.depth))
+    return out
 
 
 def contacts_text(asm: Assembly, result: ContactAnalysis) -> list[str]:

@@ -24,3 +24,25 @@ def plan_section(p: Plan) -> dict:
         "tree": tree_json(p) if p.found else None,
         "sequence": sequence_json(p),
     }
+
+
+def mark_presses(section: dict, press: set[frozenset[str]]) -> None:
+    """Mark with ``"press": true`` each step of a plan ``section`` (sequence and tree) that
+    separates a press-fitted pair (``press``: pairs of part ids,
+    :mod:`ndbg_cli.contacts.fits`): it slides along the fit's axis against the interference."""
+    if not press:
+        return
+
+    def presses(moved: list[str], rest: list[str]) -> bool:
+        return any(frozenset((a, b)) in press for a in moved for b in rest)
+
+    for step in section.get("sequence") or []:
+        if presses(step["moved"], step["onto"]):
+            step["press"] = True
+    stack = [section.get("tree")]
+    while stack:
+        node = stack.pop()
+        if node and "moved" in node:
+            if presses(node["moved"]["parts"], node["rest"]["parts"]):
+                node["press"] = True
+            stack += [node["moved"], node["rest"]]

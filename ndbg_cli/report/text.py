@@ -60,9 +60,22 @@ def contacts_lines(report: dict) -> list[str]:
     lines = ["", f"contacts: {len(stats.get('touching_pairs', []))} touching pairs, "
              f"{len(report['contacts'])} contacts ({by_kind})"]
     for x in report.get("interferences", []):
+        what = _fit_text(x)
         lines.append(f"  INTERFERENCE {x['a']} / {x['b']}: volume {_fmt(x['volume'])}, "
-                     f"depth {_fmt(x['depth'])}")
+                     f"depth {_fmt(x['depth'])}; {what}")
     return lines
+
+
+def _fit_text(x: dict) -> str:
+    """What an interference record's kind means (:mod:`ndbg_cli.contacts.fits`)."""
+    kind = x.get("kind", "clash")
+    if kind == "press_fit":
+        return (f"press fit about {_vec(x['axis'])}, radius {_fmt(x['radius'])}, radial "
+                f"interference {_fmt(x['fit_depth'])}: a cylindrical contact")
+    if kind == "overlap":
+        return (f"overlap {_fmt(x['fit_depth'])} thick, {x['a']} leaves along "
+                f"{_vec(x['direction'])}: a face contact")
+    return "clash" + (f": kept together as {'+'.join(x['unit'])}" if x.get("unit") else "")
 
 
 def classes_lines(report: dict) -> list[str]:
@@ -152,7 +165,12 @@ def plan_lines(report: dict) -> list[str]:
     if p is None:
         return []
     if not p.get("found"):
-        return ["", "assembly sequence: none found - " + "; ".join(p.get("notes", []))]
+        lines = ["", "assembly sequence: none found - " + "; ".join(p.get("notes", []))]
+        for b in p.get("blocked") or []:
+            at = "" if b.get("at") is None else f" at {_vec(b['at'])}"
+            lines.append(f"    {{{', '.join(b['moved'])}}} along {_vec(b['removal_direction'])}"
+                         f": {b['blocked_by'][0]} is blocked by {b['blocked_by'][1]}{at}")
+        return lines
     fam = (p.get("family") or "").replace("_", " ")
     exact = depth_note(p.get("exact", True), p.get("connected", False), p.get("strategy", ""))
     lines = ["", f"assembly sequence ({p['strategy']}, {fam}): {len(p['sequence'])} steps, "
@@ -165,11 +183,13 @@ def plan_lines(report: dict) -> list[str]:
             how = f"by reverse {m.get('type')} about {_vec(m.get('axis') or [])}"
         else:
             how = f"(region {s.get('region')})"
-        lines.append(f"  {s['step']:>3}. insert {{{', '.join(s['moved'])}}} into "
-                     f"{{{', '.join(s['onto'])}}} {how}")
+        verb = "press" if s.get("press") else "insert"
+        lines.append(f"  {s['step']:>3}. {verb} {{{', '.join(s['moved'])}}} into "
+                     f"{{{', '.join(s['onto'])}}} {how}"
+                     + (f" [{s['proof']['source']}]" if s.get("proof") else ""))
     v = p.get("verified")
     if v is not None:
-        lines.append(f"  verified: {'yes' if v['value'] else 'no'} - {v['why']}")
+        lines.append(f"  proven: {'yes' if v['value'] else 'no'} - {v['why']}")
     return lines
 
 
