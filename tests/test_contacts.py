@@ -209,20 +209,38 @@ def test_press_fit_is_an_interference_with_hand_computed_volume():
     shaft, block = shaft_and_block(10.1)
     asm = assemble(shaft, block)
     res = analyze_contacts(asm)
-    assert res.contacts == ()
     inter, = res.interferences
     want = 30.0 * (12 * 10.1**2 * np.sin(np.pi / 12) - 32 * 10.0**2 * np.sin(np.pi / 32))
     assert (inter.a, inter.b, inter.method) == (0, 1, "volume")
     assert inter.volume == pytest.approx(want, rel=1e-6)
     assert 0.0135 < inter.depth < 0.1  # between the thinnest and thickest overlap
+    # a press fit about the shaft's axis (z): planned as a cylindrical contact, the one
+    # contact of the pair (radial normals only: the axis alone is free)
+    assert inter.kind == "press_fit" and inter.fit.axis == pytest.approx((0, 0, 1))
+    assert 9.95 < inter.fit.radius < 10.1  # the facets' mean distance from the axis
+    contact, = res.contacts
+    assert contact.surface == "cylinder" and np.allclose(contact.normals[:, 2], 0.0)
+    # a press fit is no error under any policy; a clash is (see test_fits)
+    for policy in ("error", "warn", "ignore"):
+        assert check_interference_policy(asm, res, policy) == []
+    with pytest.raises(ValueError):
+        check_interference_policy(asm, res, "sometimes")
+
+
+def test_a_deep_overlap_is_a_clash_and_an_error_under_the_error_policy():
+    # shaft 20% oversize: a 2 mm radial interference (over 5% of the radius): a clash
+    shaft, block = shaft_and_block(12.0)
+    asm = assemble(shaft, block)
+    res = analyze_contacts(asm)
+    inter, = res.interferences
+    assert inter.kind == "clash" and res.contacts == ()
     with pytest.raises(InterferenceError) as err:
         check_interference_policy(asm, res, "error")
     assert err.value.exit_code == 2 and "p0" in str(err.value)
     warn, = check_interference_policy(asm, res, "warn")
     assert (warn.level, warn.code) == ("warning", "interference")
+    assert "kept together as one unit" in warn.message
     assert check_interference_policy(asm, res, "ignore") == []
-    with pytest.raises(ValueError):
-        check_interference_policy(asm, res, "sometimes")
 
 
 def test_conical_plug_in_conical_seat():

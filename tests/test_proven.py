@@ -182,3 +182,36 @@ def test_every_example_plan_is_proven_with_exact_directions(name):
         d = s["removal_direction"]
         # no near-zero noise: a component is either 0 exactly or clearly not
         assert all(x == 0.0 or abs(x) > 1e-6 for x in d), d
+
+
+def test_a_restricted_infinite_family_still_gives_a_proven_plan_and_decided_classes():
+    from ndbg_cli.core.options import Options
+
+    # --motion infinite with the exact family restricted to its free domain (budget 0)
+    report = ndbg_cli.analyze(ndbg_cli.load("assemblies/fig11-nonlinear.yaml"),
+                              Options(motion="infinite", infinite_budget=0))
+    assert report["ndbg"]["infinite_translation"]["domain"]["restricted"]
+    plan = report["plan"]
+    assert plan["family"] == "infinite_translation" and plan["verified"]["value"] is True
+    assert all(s["region"] is None and s["family"] == "infinite_translation"
+               for s in plan["sequence"])
+    inf = report["classes"]["infinite_translation"]
+    for key in ("one_handed_monotone", "prismatic"):
+        assert inf[key]["value"] is True and inf[key]["evidence"] == "proven"
+    d = inf["min_depth"]
+    # fig. 11 (by hand, its expect block): no linear plan, a tree of depth 2
+    assert load_expect("fig11-nonlinear")["linearizable"] is False
+    assert d["value"] == 2 and d["lower_bound"] == 2 and d["evidence"] == "proven"
+    assert inf["linearizable"]["value"] is False
+
+
+def load_expect(name):
+    return ndbg_cli.load(f"assemblies/{name}.yaml").expect
+
+
+def test_no_plan_is_a_proof_that_decides_the_classes_no():
+    report = ndbg_cli.analyze(ndbg_cli.load("assemblies/fig10-latch.yaml"))
+    plan = report["plan"]
+    assert not plan["found"] and plan["verified"]["proof_of_none"] is True
+    inf = report["classes"]["infinite_translation"]
+    assert inf["prismatic"]["value"] is False and inf["prismatic"]["evidence"] == "proven"

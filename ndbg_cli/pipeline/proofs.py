@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..core.assembly import Assembly
-from ..core.constants import INFINITESIMAL
+from ..core.constants import INFINITE, INFINITESIMAL
 from ..ndbg.model import NDBG, ConnectivityTest
 from ..planning.plans import Plan, Step, region_rank
 from ..planning.proven import (
@@ -234,3 +234,58 @@ def _other(rows: Rows, q: Plan, natural: int, room: Clearance) -> dict | None:
                           source=rows.dirs[sp.k].source) for m, sp in splits.items()}
     return {"strategy": q.strategy, "depth": q.depth(), "nonlinear_steps": q.nonlinear(),
             "directions": q.directions()}
+
+
+def proven_classes(plan: dict, candidates: dict) -> dict:
+    """The infinite-translation classes a proven plan (or a proof that none exists) decides,
+    for a report whose infinite NDBG was not computed over the whole sphere: ``plan`` is the
+    report's plan section, ``candidates`` the infinitesimal family's classes (their minima
+    are lower bounds: every proven tree is a candidate tree). Labelled as
+    :func:`ndbg_cli.planning.classes.label` does; ``{}`` when the plan decides nothing."""
+    from ..planning.classes import label
+
+    v = plan.get("verified") or {}
+    why_from = "witness: the proven plan" if plan.get("found") else "proof"
+    if plan.get("found") and v.get("value") is True:
+        tree = _tree_text(plan.get("tree"))
+        yes = f"{why_from}, tree {tree}"
+        out: dict = {"one_handed_monotone": {"value": True, "why": yes},
+                     "prismatic": {"value": True,
+                                   "why": "guaranteed 1-handed monotone 1-prismatic: " + yes}}
+        # every proven tree is a candidate tree: the candidates' least depth bounds it below
+        cand = candidates.get("min_depth") or {}
+        lows = [plan.get("depth_lower_bound") or 1]
+        if cand.get("value") is not None and cand.get("exact", False):
+            lows.append(cand["value"])
+        elif cand.get("lower_bound") is not None:
+            lows.append(cand["lower_bound"])
+        depth = min([plan["depth"]] + [t["depth"] for t in plan.get("proofs") or []])
+        lower = min(max(lows), depth)
+        out["min_depth"] = {"value": depth, "exact": lower == depth, "lower_bound": lower,
+                            "upper_bound": depth,
+                            "why": f"a proven tree of depth {depth}; no candidate tree is "
+                                   f"shallower than {lower}"}
+        linear = plan.get("nonlinear_steps") == 0 or any(
+            t.get("nonlinear_steps") == 0 for t in plan.get("proofs") or [])
+        cand_lin = (candidates.get("linearizable") or {}).get("value")
+        if linear:
+            out["linearizable"] = {"value": True, "why": "a proven tree adds one part at a time"}
+        elif cand_lin is False:
+            out["linearizable"] = {"value": False,
+                                   "why": "no candidate tree adds one part at a time"}
+    elif v.get("proof_of_none"):
+        out = {k: {"value": False, "why": "no 1-prismatic algorithm: " + v["why"]}
+               for k in ("one_handed_monotone", "prismatic", "linearizable")}
+        out["min_depth"] = {"value": None, "exact": True, "why": v["why"]}
+    else:
+        return {}
+    return {k: label(INFINITE, k, m) for k, m in sorted(out.items())}
+
+
+def _tree_text(node: dict | None) -> str:
+    """``(a | (b | c))`` for a plan section's tree."""
+    if not node:
+        return "()"
+    if "moved" not in node:
+        return ", ".join(node["parts"])
+    return f"({_tree_text(node['moved'])} | {_tree_text(node['rest'])})"

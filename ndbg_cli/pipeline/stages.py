@@ -340,7 +340,8 @@ def _budget(options: Options) -> Any:
 
 def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                   measures: Measures, options: Options = Options(), *,
-                  timings: dict[str, float] | None = None) -> dict:
+                  timings: dict[str, float] | None = None,
+                  proposer: NDBG | None = None) -> dict:
     """The report's ``plan`` section: the plan of the first family of :data:`PLAN_ORDER`
     that admits an assembly tree, with its translation steps checked by the direct sweep
     test (paper Fig. 1, sections 4.4 and 5.3).
@@ -359,6 +360,9 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
         What to compute (:class:`~ndbg_cli.core.options.Options`; the CLI's defaults).
     timings : dict, optional
         Receives the wall-clock seconds of each stage.
+    proposer : NDBG, optional
+        An infinitesimal NDBG proposing the splits of an infinite-translation plan when no
+        family of ``ndbgs`` can (``--motion infinite`` with the exact family restricted).
 
     Returns
     -------
@@ -387,14 +391,17 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     # falls back to any candidate split, reusing the classes' AND/OR graph.
     plan_conn = ConnectivityTest(contacts.neighbours)
     chosen = None
+    sources = dict(ndbgs)
+    if proposer is not None and not any(f in ndbgs for f in PLAN_ORDER):
+        sources[INFINITESIMAL] = proposer
     for fam in PLAN_ORDER:
-        if fam not in ndbgs:
+        if fam not in sources:
             continue
-        p = clock("plan_s", lambda nd=ndbgs[fam]: plan(
+        p = clock("plan_s", lambda nd=sources[fam]: plan(
             nd, options.strategy, base=base, connected=plan_conn, budget=budget))
         if not p.found:
             graph = measures.graphs.get(fam)
-            q = clock("plan_s", lambda nd=ndbgs[fam], g=graph: plan(
+            q = clock("plan_s", lambda nd=sources[fam], g=graph: plan(
                 nd, options.strategy, base=base, connected=None, budget=budget, graph=g))
             if q.found:
                 q.notes.append("no tree with connected subassemblies" + (
@@ -430,7 +437,43 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     press = {frozenset((asm.ids[x.a], asm.ids[x.b]))
              for x in getattr(contacts.analysis, "interferences", ()) if x.kind == "press_fit"}
     mark_presses(out, press)
+    if proposer is not None and chosen.ndbg is proposer:
+        _as_infinite(out)
     return out
+
+
+def _proposer_classes(asm: Assembly, proposer: NDBG | None) -> dict:
+    """What the proposing infinitesimal NDBG (not reported) says of linear trees: none among
+    its candidates proves that no proven tree is linear either."""
+    if proposer is None:
+        return {}
+    from ..planning.decompose import sink_decompose
+
+    base = asm.index(asm.base) if asm.base is not None else None
+    stuck = sink_decompose(proposer, (1 << proposer.n) - 1, base=base, linear=True)[1]
+    return {"linearizable": {"value": stuck is None}}
+
+
+def _as_infinite(section: dict) -> None:
+    """A plan proposed by an infinitesimal NDBG computed only for it, reported as what its
+    proofs make it: an infinite-translation plan (its regions are not reported: they are the
+    proposer's, not the restricted infinite NDBG's)."""
+    section["family"] = INFINITE
+    section["regions_used"] = []
+    section["notes"].append("splits proposed by the infinitesimal NDBG (computed for the plan "
+                            "only, the infinite NDBG being restricted), each step proven by "
+                            "the direct sweep test: exact for infinite translations")
+    nodes = list(section.get("sequence") or []) + list(
+        (section.get("candidate") or {}).get("sequence") or [])
+    stack = [section.get("tree")]
+    while stack:
+        node = stack.pop()
+        if node and "moved" in node:
+            nodes.append(node)
+            stack += [node["moved"], node["rest"]]
+    for node in nodes:
+        node["family"] = INFINITE
+        node["region"] = None
 
 
 def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
@@ -491,9 +534,23 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
             timings[f"cache_{stage}_misses"] = st["misses"]
     out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
     ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
+    proposer = None
+    if INFINITE in families and not families[INFINITE].usable and INFINITESIMAL not in ndbgs:
+        # the exact family restricted or skipped: the plan's splits are proposed by the
+        # infinitesimal NDBG (computed for that alone) and each proven by the sweep test
+        proposer = build_ndbg(asm, INFINITESIMAL, contacts, options, cache=cache,
+                              timings=timings).ndbg
     measures = measure(asm, contacts, ndbgs, options, timings=timings)
     out["classes"], out["andor"] = measures.classes, measures.andor
-    out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings)
+    out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
+                                proposer=proposer)
+    if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
+        from .proofs import proven_classes
+
+        cands = out["classes"].get(INFINITESIMAL) or _proposer_classes(asm, proposer)
+        got = proven_classes(out["plan"], cands)
+        if got:
+            out["classes"] = dict(sorted({**out["classes"], INFINITE: got}.items()))
     return out, warnings
 
 
