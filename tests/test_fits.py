@@ -7,7 +7,6 @@ import importlib.util
 
 import numpy as np
 import pytest
-from manifold3d import Manifold
 
 import ndbg_cli
 from ndbg_cli.core.assembly import Assembly
