@@ -10,6 +10,7 @@ cylinder axes: where a designer expects parts to move) and from the NDBG's regio
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -69,11 +70,13 @@ def _line(v: Any) -> tuple[float, ...]:
 
 def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                base: int | None, connected: ConnectivityTest,
-               others: list[Plan] | None = None, budget: int = 1_000_000) -> dict:
+               others: Callable[[], list[Plan]] | None = None, budget: int = 1_000_000
+               ) -> dict:
     """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
     proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
     proven tree exists along the directions tried. Returns the report's ``verified``,
-    ``proofs`` (``others`` trees that pass), and, when no proven tree was found, ``blocked``
+    ``proofs`` (the trees ``others()`` gives that pass, asked for only when ``chosen``'s own
+    steps all pass), and, when no proven tree was found, ``blocked``
     (why, :func:`ndbg_cli.planning.proven.why_stuck`) and ``candidate`` (the unproven tree's
     steps, kept for what they are)."""
     from ..ndbg.infinite.sweep import SweepChecker
@@ -113,8 +116,9 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
             chosen.exact = False
             chosen.notes.append(
                 f"the candidate tree's step {got.failed_step} is blocked further away along "
-                f"every direction tried; this proven tree was found by a greedy search, which "
-                f"needs no backtracking (any proven tree restricts to every subassembly)")
+                f"every direction tried; the subassemblies whose candidate steps fail are "
+                f"split by a greedy search instead, which needs no backtracking (any proven "
+                f"tree restricts to every subassembly)")
         out["verified"] = {"value": True, "steps": len(steps),
                            "directions_tried": len(rows.dirs),
                            "why": "every step is proven: its moved side leaves the rest by one "
@@ -123,7 +127,8 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                                   "1-prismatic algorithm"}
     else:
         out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
-    out["proofs"] = [_other(rows, q, n_nat, room) for q in others or []]
+    extra = others() if others is not None and got.found and not got.searched else []
+    out["proofs"] = [_other(rows, q, n_nat, room) for q in extra]
     out["proofs"] = [p for p in out["proofs"] if p is not None]
     return out
 

@@ -484,13 +484,17 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
     from ..planning.plans import plan
     from .proofs import prove_plan
 
-    others = []
-    if chosen.ndbg.family == INFINITESIMAL:
+    def others() -> list:
+        """The other strategies' candidate trees worth proving (asked for only when the
+        chosen candidate tree is proven: when it is not, theirs rarely are)."""
+        if chosen.ndbg.family != INFINITESIMAL:
+            return []
         classes = measures.classes.get(INFINITESIMAL) or {}
         graph = measures.graphs.get(INFINITESIMAL)
         least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
                  "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
         has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
+        out = []
         for strategy in PROOF_STRATEGIES:
             if strategy == options.strategy or least[strategy] is None \
                     or has[strategy] <= least[strategy]:
@@ -498,7 +502,9 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
             q = plan(chosen.ndbg, strategy, base=base, connected=None, budget=budget,
                      graph=graph)
             if q.found:
-                others.append(q)
+                out.append(q)
+        return out
+
     return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
                       connected=conn, others=others, budget=options.infinite_budget)
 

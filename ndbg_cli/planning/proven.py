@@ -219,18 +219,16 @@ class Outcome:
 
 def _options(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int, int]]:
     """The ``(moved, sense)`` splits ``dirs[k]`` offers in ``mask``: each sink component (a
-    minimal free set) and the smallest free prefix holding half the parts, leaving along
-    ``dirs[k]``, and their complements leaving along its opposite; never the base."""
+    minimal free set) and each proper prefix of its strong components in reverse topological
+    order, leaving along ``dirs[k]``, and their complements leaving along its opposite;
+    never the base."""
     comps = rows.components(k, mask)
     if len(comps) < 2:
         return []
     free, acc = [], 0
-    half = mask.bit_count() / 2
-    for c in comps[:-1]:
+    for c in comps[:-1]:  # every proper prefix (sinks first) is free
         acc |= c
-        if acc.bit_count() >= half:
-            break
-    free.append(acc)
+        free.append(acc)
     # sinks: components with no arc to another component of mask
     free += [c for c in comps if all(rows.row(k, i) & mask & ~c == 0 for i in bits(c))]
     out = {(s, 1) for s in free} | {(mask & ~s, -1) for s in free}
@@ -304,30 +302,34 @@ def prove_tree(rows: Rows, steps: Sequence[tuple[int, int, Sequence[float] | Non
                natural: int, clearance: Clearance | None = None
                ) -> tuple[dict[int, Split], int | None]:
     """Each candidate step ``(mask, moved, region direction)`` (in assembly order) proven
-    along a direction of ``rows``: among the first ``natural`` directions that free it, the
-    one of largest ``clearance``, then nearest the region's direction; else the first other
-    that does. Returns the splits and the first failing step (1-based), or ``None`` when all
-    pass."""
+    along a direction of ``rows`` (:func:`_prove_step`). Returns the splits proven and the
+    first failing step (1-based), or ``None`` when all pass."""
     out: dict[int, Split] = {}
     # direction-major, so each direction's view is made once for all steps
     free = _free_along(rows, steps, natural)
+    failed = None
     for n_step, (mask, moved, near) in enumerate(steps, start=1):
-        rest = mask & ~moved
-        ok = free[n_step - 1]
-        if ok:
-            k = max(ok, key=lambda k, m=moved, r=rest, n=near: _score(rows, k, m, r, n,
-                                                                     clearance))
+        sp = _prove_step(rows, mask, moved, near, free[n_step - 1], natural, clearance)
+        if sp is None:
+            failed = n_step if failed is None else failed
         else:
-            # a region's direction frees moved (sense 1), or the rest (moved leaves along -d)
-            got = next(((k, sense) for k in range(natural, len(rows.dirs))
-                        for sense, a, b in ((1, moved, rest), (-1, rest, moved))
-                        if rows.may_free(k, a, mask) and rows.frees(k, a, b)), None)
-            if got is None:
-                return out, n_step
-            out[mask] = Split(mask, moved, *got)
-            continue
-        out[mask] = Split(mask, moved, k)
-    return out, None
+            out[mask] = sp
+    return out, failed
+
+
+def _prove_step(rows: Rows, mask: int, moved: int, near: Sequence[float] | None,
+                ok: list[int], natural: int, clearance: Clearance | None) -> Split | None:
+    """A step proven: among the first ``natural`` directions that free it (``ok``), the one
+    of largest ``clearance``, then nearest the region's direction ``near``; else the first
+    other direction that frees it (or frees the rest: ``moved`` leaves along its opposite)."""
+    rest = mask & ~moved
+    if ok:
+        k = max(ok, key=lambda k: _score(rows, k, moved, rest, near, clearance))
+        return Split(mask, moved, k)
+    got = next(((k, sense) for k in range(natural, len(rows.dirs))
+                for sense, a, b in ((1, moved, rest), (-1, rest, moved))
+                if rows.may_free(k, a, mask) and rows.frees(k, a, b)), None)
+    return None if got is None else Split(mask, moved, *got)
 
 
 def _score(rows: Rows, k: int, moved: int, rest: int, near: Sequence[float] | None,
@@ -354,16 +356,30 @@ def _free_along(rows: Rows, steps: Sequence[tuple[int, int, object]], natural: i
 def prove(rows: Rows, root: int, candidate: Sequence[tuple[int, int, Sequence[float] | None]],
           *, natural: int, key: Chooser, base: int | None = None,
           clearance: Clearance | None = None) -> Outcome:
-    """A proven tree of ``root``: the candidate tree's steps (:func:`prove_tree`) when each
-    has a freeing direction, else :func:`greedy`'s tree or the subassembly it stops at."""
-    if candidate:
-        splits, failed = prove_tree(rows, candidate, natural, clearance)
-        if failed is None:
-            return Outcome(root, rows.dirs, splits)
-    else:
-        failed = None
-    out = greedy(rows, root, base=base, key=key, natural=natural)
-    out.failed_step = failed
+    """A proven tree of ``root``: the candidate tree, top down, each of its steps proven
+    (:func:`prove_tree`) kept, and each subassembly whose candidate step fails split by
+    :func:`greedy` instead (a subassembly of a product with a proven tree has one, its
+    restriction: the repair fails only where no proven tree exists); or the subassembly where
+    the search stops."""
+    splits, failed = prove_tree(rows, candidate, natural, clearance) if candidate else ({}, None)
+    if candidate and failed is None:
+        return Outcome(root, rows.dirs, splits)
+    out = Outcome(root, rows.dirs, searched=True, failed_step=failed)
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        sp = splits.get(m)
+        if sp is None:
+            sub = greedy(rows, m, base=base, key=key, natural=natural)
+            if not sub.found:
+                out.found, out.stuck, out.splits = False, sub.stuck, {}
+                return out
+            out.splits.update(sub.splits)
+            continue
+        out.splits[m] = sp
+        stack.extend((sp.rest, sp.moved))
     return out
 
 

@@ -101,7 +101,7 @@ def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
 
 
 @njit(cache=True)
-def _boxes(t: np.ndarray) -> np.ndarray:
+def boxes(t: np.ndarray) -> np.ndarray:
     """Per triangle ``(u_lo, v_lo, u_hi, v_hi, z_lo, z_hi)``."""
     out = np.empty((t.shape[0], 6))
     for k in range(t.shape[0]):
@@ -115,19 +115,18 @@ def _boxes(t: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
-def first_blocking(pi: np.ndarray, pj: np.ndarray, eps: float, amin: float, tiny: float
-                   ) -> tuple[int, int]:
+def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarray,
+                   eps: float, amin: float, tiny: float) -> tuple[int, int]:
     """The first triangle pair ``(k_i, k_j)`` (``(-1, -1)`` when none) of ``pi`` ``(a, 3, 3)``
     (the moved part's, facing the direction) and ``pj`` ``(b, 3, 3)`` (the blocker's, facing
-    against it), projected (u, v, z), that passes :func:`overlap_in_front` (``tau = 1e-3 eps``,
-    area ``eps^2``) after their boxes meet by more than ``tiny`` and ``t_j`` reaches in front
-    of ``t_i - eps``.
+    against it), projected (u, v, z), with their :func:`boxes` ``bi``, ``bj``, that passes
+    :func:`overlap_in_front` (``tau = 1e-3 eps``, area ``eps^2``) after their boxes meet by
+    more than ``tiny`` and ``t_j`` reaches in front of ``t_i - eps``.
 
     Only the triangles meeting the common box of both shadows are binned, on a grid of about
     one ``t_j`` per cell, so the cost follows the triangle pairs that really meet."""
     if pi.shape[0] == 0 or pj.shape[0] == 0:
         return -1, -1
-    bi, bj = _boxes(pi), _boxes(pj)
     lo_u = max(bi[:, 0].min(), bj[:, 0].min())
     lo_v = max(bi[:, 1].min(), bj[:, 1].min())
     hi_u = min(bi[:, 2].max(), bj[:, 2].max())

@@ -19,7 +19,7 @@ import numpy as np
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
-from ._sweep_kernels import first_blocking, overlap_centroid, plane
+from ._sweep_kernels import boxes, first_blocking, overlap_centroid, plane
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
@@ -45,14 +45,15 @@ class _View:
         self.zlo, self.zhi = c[:, :, 2].min(axis=1), c[:, :, 2].max(axis=1)
         self._facing: dict[tuple[int, int], np.ndarray] = {}
 
-    def facing(self, i: int, sense: int) -> np.ndarray:
+    def facing(self, i: int, sense: int) -> tuple[np.ndarray, np.ndarray]:
         """Part ``i``'s triangles facing along ``d`` (``sense`` 1) or against it (-1),
-        projected ``(a, 3, 3)`` (u, v, z)."""
+        projected ``(a, 3, 3)`` (u, v, z), and their boxes (:func:`_sweep_kernels.boxes`)."""
         key = (i, sense)
         if key not in self._facing:
             sd = self.checker.normals[i] @ self.frame[2]
             sel = sd > FACING_TOL if sense > 0 else sd < -FACING_TOL
-            self._facing[key] = self.checker.tris[i][sel] @ self.frame.T
+            t = np.ascontiguousarray(self.checker.tris[i][sel] @ self.frame.T)
+            self._facing[key] = (t, boxes(t))
         return self._facing[key]
 
 
@@ -115,11 +116,11 @@ class SweepChecker:
         if np.any(v.lo[i] >= v.hi[j]) or np.any(v.lo[j] >= v.hi[i]) \
                 or v.zhi[j] <= v.zlo[i] - self.eps:
             return None
-        pi = v.facing(i, 1)
-        pj = v.facing(j, -1)
+        pi, bi = v.facing(i, 1)
+        pj, bj = v.facing(j, -1)
         if not len(pi) or not len(pj):
             return None
-        ki, kj = first_blocking(pi, pj, self.eps, self._amin, self._tiny)
+        ki, kj = first_blocking(pi, pj, bi, bj, self.eps, self._amin, self._tiny)
         return None if ki < 0 else (pi[ki], pj[kj])
 
     def blockers(self, i: int, d: np.ndarray) -> int:
@@ -130,12 +131,13 @@ class SweepChecker:
                  | (v.zhi <= v.zlo[i] - self.eps))
         near[i] = False
         out = 0
-        pi = v.facing(i, 1)
+        pi, bi = v.facing(i, 1)
         if not len(pi):
             return 0
         for j in np.flatnonzero(near).tolist():
-            pj = v.facing(j, -1)
-            if len(pj) and first_blocking(pi, pj, self.eps, self._amin, self._tiny)[0] >= 0:
+            pj, bj = v.facing(j, -1)
+            if len(pj) and first_blocking(pi, pj, bi, bj, self.eps, self._amin,
+                                          self._tiny)[0] >= 0:
                 out |= 1 << j
         return out
 
