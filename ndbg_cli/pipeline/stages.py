@@ -636,7 +636,8 @@ def _infinite(asm: Assembly, options: Options, threaded: set, connected, cache=N
             "restricted": True, "area": nd.stats.get("domain_area"),
             "why": f"{_over_budget(asm, options)}; the regions are those inside "
                    "the domain (cut by its boundary), the whole assembly's partitionings "
-                   "are all of them, and the family is not used for plans or classes"}
+                   "are all of them; its regions make no plans or classes (the plan's steps are "
+                   "proposed by the infinitesimal NDBG and proven by the sweep test)"}
     if options.region_limit is not None and len(sec["region_list"]) > options.region_limit:
         sec["region_list"] = sec["region_list"][:options.region_limit]
         sec["region_list_truncated"] = True

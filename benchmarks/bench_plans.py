@@ -1,0 +1,92 @@
+"""Proven plans on real products: the whole process of the default ``ndbg analyze MODEL`` (a
+fresh interpreter, no cache), what its plan is, and the floor measured in the same run.
+
+Per model: ``whole_s`` (median of :data:`REPEAT` runs of the CLI), ``floor_s`` (a fresh
+interpreter importing ndbg and loading the model, median of :data:`REPEAT`), ``plan`` (1: every
+step proven; 0: a proof that no plan exists; -1: neither), ``depth`` and ``depth_lower``
+(every proven tree is a candidate tree, so the candidates' bound is the proven trees' too), and
+the time target where the issue sets one (``target_s``). Models: the four with targets, the
+engine, and every shipped example (one run each).
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from common import ROOT, SHARED  # noqa: E402
+
+#: Runs per timed figure of the targeted models (the median is reported).
+REPEAT = 3
+
+#: Whole-process targets (seconds) of the default analysis with its proven plan.
+TARGETS = {"rod": 10.0, "bell": 4.0, "as1": 6.0, "beam": 4.0}
+
+MODELS = {
+    "rod": SHARED / "rod" / "rod.3DXML",
+    "bell": ROOT / "assemblies" / "bell.yaml",
+    "as1": SHARED / "as1" / "as1-oc-214.stp",
+    "beam": SHARED / "beam" / "assembled",
+    "engine": SHARED / "engine" / "2CylinderEngine.glb",
+}
+
+
+def _timed(args: list[str]) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(args, check=False, capture_output=True, cwd=ROOT)
+    return time.perf_counter() - t0
+
+
+def _plan(path: Path) -> tuple[float, dict]:
+    """One CLI run: its wall-clock seconds and its report's plan section."""
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "r.json"
+        t = _timed([sys.executable, "-m", "ndbg_cli", "-q", "analyze", str(path), "--format",
+                    "json", "--no-cache", "--out", str(out)])
+        report = json.loads(out.read_text()) if out.exists() else {}
+    return t, report.get("plan") or {}
+
+
+def _verdict(plan: dict) -> int:
+    v = plan.get("verified") or {}
+    if plan.get("found") and v.get("value") is True:
+        return 1
+    return 0 if v.get("proof_of_none") else -1
+
+
+def run() -> list[tuple[str, float, str]]:
+    rows: list[tuple[str, float, str]] = []
+    models = dict(MODELS)
+    models.update({p.stem: p for p in sorted((ROOT / "assemblies").glob("*.yaml"))
+                   if p.stem not in models})
+    for name, path in models.items():
+        if not path.exists():
+            continue
+        repeat = REPEAT if name in TARGETS else 1
+        floor = statistics.median(_timed([sys.executable, "-c",
+                                          f"import ndbg_cli; ndbg_cli.load({str(path)!r})"])
+                                  for _ in range(repeat))
+        runs = [_plan(path) for _ in range(repeat)]
+        whole = statistics.median(t for t, _ in runs)
+        plan = runs[0][1]
+        rows += [(f"{name}.whole_s", whole, "s"), (f"{name}.floor_s", floor, "s"),
+                 (f"{name}.plan", _verdict(plan), "1 proven / 0 proof of none / -1 neither")]
+        if plan.get("found"):
+            rows += [(f"{name}.depth", plan.get("depth"), "steps"),
+                     (f"{name}.depth_lower", plan.get("depth_lower_bound"), "steps")]
+        if name in TARGETS:
+            rows.append((f"{name}.target_s", TARGETS[name],
+                         "s (met)" if whole <= TARGETS[name] else "s (MISSED)"))
+    return rows
+
+
+if __name__ == "__main__":
+    for fig, value, unit in run():
+        print(f"{fig:<40} {value:>12.4g} {unit}")
