@@ -10,8 +10,7 @@ cylinder axes: where a designer expects parts to move) and from the NDBG's regio
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
-from dataclasses import replace
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -21,14 +20,12 @@ from ..core.constants import INFINITE, INFINITESIMAL
 from ..ndbg.model import NDBG, ConnectivityTest
 from ..planning.plans import Plan, Step, region_rank
 from ..planning.proven import (
-    Clearance,
     Direction,
     Rows,
     chooser,
     directions,
     greedy,
     prove,
-    prove_tree,
     snap,
     why_stuck,
 )
@@ -70,13 +67,12 @@ def _line(v: Any) -> tuple[float, ...]:
 
 def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                base: int | None, connected: ConnectivityTest,
-               others: Callable[[], list[Plan]] | None = None, budget: int = 1_000_000
-               ) -> dict:
+               others: Sequence[str] = (), budget: int = 1_000_000) -> dict:
     """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
     proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
     proven tree exists along the directions tried. Returns the report's ``verified``,
-    ``proofs`` (the trees ``others()`` gives that pass, asked for only when ``chosen``'s own
-    steps all pass), and, when no proven tree was found, ``blocked``
+    ``proofs`` (the proven trees the greedy search finds for the strategies ``others``, when
+    ``chosen`` has a proven tree), and, when no proven tree was found, ``blocked``
     (why, :func:`ndbg_cli.planning.proven.why_stuck`) and ``candidate`` (the unproven tree's
     steps, kept for what they are)."""
     from ..ndbg.infinite.sweep import SweepChecker
@@ -127,9 +123,9 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                                   "1-prismatic algorithm"}
     else:
         out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
-    extra = others() if others is not None and got.found and not got.searched else []
-    out["proofs"] = [_other(rows, q, n_nat, room) for q in extra]
-    out["proofs"] = [p for p in out["proofs"] if p is not None]
+    out["proofs"] = [] if not got.found else [
+        _other(rows, chosen.root, s, n_nat, base, chooser(s, None, set(), dirs, room))
+        for s in others]
     return out
 
 
@@ -228,17 +224,26 @@ def _no_plan(rows: Rows, sweep: Any, nd: NDBG, chosen: Plan, stuck: int,
             "blocked": blocked, "candidate": candidate}
 
 
-def _other(rows: Rows, q: Plan, natural: int, room: Clearance) -> dict | None:
-    """Another strategy's candidate tree, when every step of it is proven."""
-    cand = [(s.mask, s.moved, None if s.region is None else q.ndbg.regions[s.region].direction)
-            for s in q.sequence()]
-    splits, failed = prove_tree(rows, cand, natural, room)
-    if failed is not None:
-        return None
-    q.steps = {m: replace(q.steps[m], stated=sp.vector(rows.dirs),
-                          source=rows.dirs[sp.k].source) for m, sp in splits.items()}
-    return {"strategy": q.strategy, "depth": q.depth(), "nonlinear_steps": q.nonlinear(),
-            "directions": q.directions()}
+def _other(rows: Rows, root: int, strategy: str, natural: int, base: int | None,
+           key: Any) -> dict:
+    """The proven tree the greedy search finds for ``strategy`` (its objective in ``key``):
+    its depth, nonlinear steps and directions, each an upper bound on the proven optimum."""
+    got = greedy(rows, root, base=base, key=key, natural=natural)
+    depth: dict[int, int] = {}
+
+    def height(m: int) -> int:
+        if m.bit_count() < 2:
+            return 0
+        if m not in depth:
+            sp = got.splits[m]
+            depth[m] = 1 + max(height(sp.moved), height(sp.rest))
+        return depth[m]
+
+    splits = got.splits.values()
+    return {"strategy": strategy, "depth": height(root),
+            "nonlinear_steps": sum(1 for sp in splits
+                                   if sp.moved.bit_count() > 1 and sp.rest.bit_count() > 1),
+            "directions": len({sp.vector(rows.dirs) for sp in splits})}
 
 
 def proven_classes(plan: dict, candidates: dict) -> dict:

@@ -478,33 +478,17 @@ def _as_infinite(section: dict) -> None:
 
 def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
            options: Options, base: int | None, budget: Any, conn: ConnectivityTest) -> dict:
-    """:func:`~ndbg_cli.pipeline.proofs.prove_plan` on the chosen plan, with the trees of the
-    :data:`PROOF_STRATEGIES` that could prove more than it (fewer directions, or a linear
-    tree, when the candidates' minimum allows it) as ``others``."""
-    from ..planning.plans import plan
+    """:func:`~ndbg_cli.pipeline.proofs.prove_plan` on the chosen plan, with the
+    :data:`PROOF_STRATEGIES` whose proven trees could prove more than it (fewer directions,
+    or a linear tree, when the candidates' minimum allows it) as ``others``."""
     from .proofs import prove_plan
 
-    def others() -> list:
-        """The other strategies' candidate trees worth proving (asked for only when the
-        chosen candidate tree is proven: when it is not, theirs rarely are)."""
-        if chosen.ndbg.family != INFINITESIMAL:
-            return []
-        classes = measures.classes.get(INFINITESIMAL) or {}
-        graph = measures.graphs.get(INFINITESIMAL)
-        least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
-                 "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
-        has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
-        out = []
-        for strategy in PROOF_STRATEGIES:
-            if strategy == options.strategy or least[strategy] is None \
-                    or has[strategy] <= least[strategy]:
-                continue
-            q = plan(chosen.ndbg, strategy, base=base, connected=None, budget=budget,
-                     graph=graph)
-            if q.found:
-                out.append(q)
-        return out
-
+    classes = measures.classes.get(chosen.ndbg.family) or {}
+    least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
+             "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
+    has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
+    others = [s for s in PROOF_STRATEGIES if s != options.strategy
+              and least[s] is not None and has[s] > least[s]]
     return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
                       connected=conn, others=others, budget=options.infinite_budget)
 

@@ -305,11 +305,9 @@ def prove_tree(rows: Rows, steps: Sequence[tuple[int, int, Sequence[float] | Non
     along a direction of ``rows`` (:func:`_prove_step`). Returns the splits proven and the
     first failing step (1-based), or ``None`` when all pass."""
     out: dict[int, Split] = {}
-    # direction-major, so each direction's view is made once for all steps
-    free = _free_along(rows, steps, natural)
     failed = None
     for n_step, (mask, moved, near) in enumerate(steps, start=1):
-        sp = _prove_step(rows, mask, moved, near, free[n_step - 1], natural, clearance)
+        sp = _prove_step(rows, mask, moved, near, natural, clearance)
         if sp is None:
             failed = n_step if failed is None else failed
         else:
@@ -318,13 +316,16 @@ def prove_tree(rows: Rows, steps: Sequence[tuple[int, int, Sequence[float] | Non
 
 
 def _prove_step(rows: Rows, mask: int, moved: int, near: Sequence[float] | None,
-                ok: list[int], natural: int, clearance: Clearance | None) -> Split | None:
-    """A step proven: among the first ``natural`` directions that free it (``ok``), the one
-    of largest ``clearance``, then nearest the region's direction ``near``; else the first
-    other direction that frees it (or frees the rest: ``moved`` leaves along its opposite)."""
+                natural: int, clearance: Clearance | None) -> Split | None:
+    """A step proven: the first ``natural`` directions in the order of :func:`_score` (largest
+    ``clearance``, then nearest the region's direction ``near``), the first that frees it;
+    else the first other direction that frees it (or frees the rest: ``moved`` leaves along
+    its opposite). Only the directions tried are tested."""
     rest = mask & ~moved
-    if ok:
-        k = max(ok, key=lambda k: _score(rows, k, moved, rest, near, clearance))
+    order = sorted(range(natural), key=lambda k: _score(rows, k, moved, rest, near, clearance),
+                   reverse=True)
+    k = next((k for k in order if rows.frees(k, moved, rest)), None)
+    if k is not None:
         return Split(mask, moved, k)
     got = next(((k, sense) for k in range(natural, len(rows.dirs))
                 for sense, a, b in ((1, moved, rest), (-1, rest, moved))
@@ -339,18 +340,6 @@ def _score(rows: Rows, k: int, moved: int, rest: int, near: Sequence[float] | No
     ref = np.zeros(len(d)) if near is None else np.asarray(near)
     room = 0.0 if clearance is None else round(clearance(moved, rest, d), 9)
     return room, round(float(np.dot(d, ref)), 9), -k
-
-
-def _free_along(rows: Rows, steps: Sequence[tuple[int, int, object]], natural: int
-                ) -> list[list[int]]:
-    """Per step ``(mask, moved, _)``, the first ``natural`` directions freeing it (computed
-    direction by direction)."""
-    out: list[list[int]] = [[] for _ in steps]
-    for k in range(natural):
-        for t, (mask, moved, _) in enumerate(steps):
-            if rows.frees(k, moved, mask & ~moved):
-                out[t].append(k)
-    return out
 
 
 def prove(rows: Rows, root: int, candidate: Sequence[tuple[int, int, Sequence[float] | None]],

@@ -23,6 +23,8 @@ from ._sweep_kernels import boxes, first_blocking, overlap_centroid, plane
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
+#: Directions whose views (projected facing triangles) a :class:`SweepChecker` keeps.
+VIEWS_KEPT = 8
 
 
 def _frame(d: np.ndarray) -> np.ndarray:
@@ -76,21 +78,25 @@ class SweepChecker:
             corners.append([[(lo, hi)[a][0], (lo, hi)[b][1], (lo, hi)[c][2]]
                             for a in (0, 1) for b in (0, 1) for c in (0, 1)])
         self._corners = np.array(corners, dtype=float).reshape(-1, 8, 3)
-        self._view: tuple[tuple[float, ...], _View] | None = None
+        self._views: dict[tuple[float, ...], _View] = {}
         diag = max(asm.diagonal, 1e-300)
         # overlaps below these are edges or points touching (areas: the test's resolution)
         self._amin, self._tiny = (1e-6 * diag) ** 2, 1e-9 * diag
 
     def view(self, d: np.ndarray) -> _View:
-        """The :class:`_View` along ``d`` (a 3-vector, or a 2-vector in the plane), kept
-        for the next call with the same direction (its frame, boxes and facing triangles
-        serve the next part pair)."""
+        """The :class:`_View` along ``d`` (a 3-vector, or a 2-vector in the plane); the
+        :data:`VIEWS_KEPT` most recently used are kept (their frames, boxes and facing
+        triangles serve the next part pairs along the same directions)."""
         d = np.asarray(d, dtype=float)
         d3 = d[:3] if len(d) == 3 else np.array([d[0], d[1], 0.0])
         key = tuple(d3.tolist())
-        if self._view is None or self._view[0] != key:
-            self._view = (key, _View(self, d3))
-        return self._view[1]
+        got = self._views.pop(key, None)
+        if got is None:
+            got = _View(self, d3)
+            if len(self._views) >= VIEWS_KEPT:
+                self._views.pop(next(iter(self._views)))
+        self._views[key] = got  # most recently used last
+        return got
 
     def blocked(self, i: int, j: int, d: np.ndarray) -> bool:
         """Whether part ``j`` blocks the infinite translation of part ``i`` along ``d``."""
