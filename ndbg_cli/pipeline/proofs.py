@@ -36,6 +36,9 @@ from ..planning.proven import (
 NATURAL_LIMIT = 32
 #: Stuck subassemblies whose own infinite NDBG is computed before the search gives up.
 EXACT_ROUNDS = 3
+#: A stuck subassembly's infinite NDBG is computed restricted to its free domain up to this
+#: many times ``--infinite-budget`` facing triangle pairs (pelikan: 3 million, 2 s).
+EXACT_RESTRICTED = 20
 
 
 def natural_directions(analysis: Any, dimension: int) -> list[tuple[tuple[float, ...], str]]:
@@ -166,24 +169,43 @@ def _step(nd: NDBG, mask: int, moved: int, d: tuple[float, ...], source: str) ->
 def _exact_split(asm: Assembly, nd: NDBG, stuck: int, budget: int
                  ) -> tuple[str, list[Direction]]:
     """Whether any translation splits subassembly ``stuck``, from its own infinite-translation
-    NDBG over the whole sphere (paper 5.3, the arrangement of
-    :mod:`ndbg_cli.ndbg.infinite.build`, with the whole assembly's length tolerance):
-    ``("none", [])`` (a proof), ``("some", its partitionings' region directions)`` or
-    ``("over budget", [])`` when it has more than ``budget`` facing triangle pairs."""
+    NDBG (paper 5.3, the arrangement of :mod:`ndbg_cli.ndbg.infinite.build`, with the whole
+    assembly's length tolerance): over the whole sphere within ``budget`` facing triangle
+    pairs; up to :data:`EXACT_RESTRICTED` times that, restricted to its free domain (the
+    directions where its own infinitesimal NDBG frees something: every partitioning of it
+    lies there, :mod:`ndbg_cli.ndbg.infinite.domain`). ``("none", [])`` (a proof),
+    ``("some", its partitionings' region directions)`` or ``("over budget", [])``."""
     from ..ndbg.infinite.blocked_sets import triangle_pairs
     from ..ndbg.infinite.build import build_infinite
     from ..ndbg.model import partitionings
 
     sub = asm.subset(nd.names(stuck)).replace(tolerance=asm.length_tolerance)
-    if triangle_pairs(sub) > budget:
+    pairs = triangle_pairs(sub)
+    if pairs <= budget:
+        inf = build_infinite(sub)
+    elif sub.dimension == 3 and pairs <= EXACT_RESTRICTED * budget:
+        domain = _own_domain(sub)
+        if domain is None:  # something is free in every direction: no proof to be had here
+            return "over budget", []
+        inf = build_infinite(sub, domain=domain)
+    else:
         return "over budget", []
-    inf = build_infinite(sub)
     parts, _ = partitionings(inf)
     if not parts:
         return "none", []
     regs = sorted({r for p in parts for r in p.regions}, key=lambda r: region_rank(inf, r))
     return "some", [Direction(snap(inf.regions[r].direction), "region") for r in regs
                     if inf.regions[r].direction is not None]
+
+
+def _own_domain(sub: Assembly):
+    """The free domain of ``sub`` from its own contacts (:func:`free_domain`)."""
+    from ..contacts.contacts3d import analyze_contacts
+    from ..ndbg.infinite.domain import free_domain
+    from ..ndbg.infinitesimal.build import contact_pairs
+
+    ca = analyze_contacts(sub)
+    return free_domain(len(sub.parts), contact_pairs(sub, ca), float(ca.angle_tolerance))
 
 
 def _no_plan(rows: Rows, sweep: Any, nd: NDBG, chosen: Plan, stuck: int,
@@ -204,8 +226,9 @@ def _no_plan(rows: Rows, sweep: Any, nd: NDBG, chosen: Plan, stuck: int,
                             f"part of {{{names}}} even infinitesimally (a proof)")
     elif exact == "none":
         proof, why = True, (f"no plan of single translations exists: the infinite-translation "
-                            f"NDBG of {{{names}}}, computed over every direction, has no "
-                            f"partitioning of it (a proof)")
+                            f"NDBG of {{{names}}}, computed over every direction that moves "
+                            f"some part of it even infinitesimally, has no partitioning of it "
+                            f"(a proof)")
     else:
         proof, why = False, (
             f"no proven plan along the {tried} directions tried: no direction among them "
