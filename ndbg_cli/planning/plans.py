@@ -32,6 +32,10 @@ from .decompose import min_depth_search, min_directions, sink_decompose
 
 STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
 
+#: Share of the node budget the ``shortest`` plan's iterative deepening may expand when the
+#: AND/OR graph is cut (rod: 2,000 nodes cost 2.3 s and 1,000 give the same bounds, 5 to 7).
+DEEPENING_SHARE = 0.5
+
 
 @dataclass(frozen=True)
 class Step:
@@ -253,7 +257,10 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
                 stack.extend((s.rest, s.moved))
             return out
         if strategy == "shortest":
-            r = min_depth_search(ndbg, root, base=base, connected=connected, budget=budget,
+            # the deepening proposes a tree that is proven afterwards (planning.proven, which
+            # repairs the steps that fail): half the node budget is enough for its bounds
+            deep = replace(budget, max_nodes=max(1, int(budget.max_nodes * DEEPENING_SHARE)))
+            r = min_depth_search(ndbg, root, base=base, connected=connected, budget=deep,
                                  graph=g)
             if r.upper is not None:
                 out.exact = r.exact

@@ -46,6 +46,10 @@ __all__ = ["BlockingTest", "Direction", "directions", "snap", "Rows", "greedy", 
 #: ``(0, 0, 1)``. The snapped direction is the one proven, so snapping costs no soundness.
 SNAP_TOL = 1e-6
 
+#: Natural directions :func:`greedy` compares at every subassembly (the axes and the three
+#: most shared contact lines, both ways); the others are tried only while none splits it.
+GREEDY_WIDE = 12
+
 #: Source ranks: the order in which directions are tried and preferred.
 SOURCES = ("axis", "contact normal", "cylinder axis", "region")
 
@@ -268,8 +272,9 @@ def chooser(strategy: str, connected: ConnectivityTest | None, used: set[int],
 def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
            natural: int, used: set[int] | None = None) -> Outcome:
     """Split ``root`` recursively along the directions of ``rows``: at each subassembly the
-    first ``natural`` directions are all tried and the best split by ``key`` is taken; only
-    when none splits it are the others tried, in order, up to the first that does. No
+    first ``natural`` directions (at most :data:`GREEDY_WIDE`) are all tried and the best
+    split by ``key`` is taken; only when none splits it are the others tried, in order, up to
+    the first that does. No
     backtracking is needed (see the module docstring); ``used`` collects the directions used."""
     out = Outcome(root, rows.dirs, searched=True)
     used = set() if used is None else used
@@ -280,7 +285,7 @@ def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
             continue
         best = None
         for k in range(len(rows.dirs)):
-            if k >= natural and best is not None:
+            if k >= min(natural, GREEDY_WIDE) and best is not None:
                 break
             if k >= natural and not rows.may_split(k, m):
                 continue
