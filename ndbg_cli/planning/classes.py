@@ -175,7 +175,7 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
         out["prismatic"] = {"value": False if not ohm else None,
                             "why": ("not 1-handed monotone prismatic: " + why) if not ohm else
                             "undecided by infinitesimal translations (candidates exist); see "
-                            "the infinite_translation NDBG"}
+                            "the infinite_translation classes"}
     else:
         out["prismatic"] = {"value": None, "why": "not decided by generalized motions"}
 
