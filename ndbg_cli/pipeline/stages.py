@@ -487,8 +487,10 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
     least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
              "linear": 0 if (classes.get("linearizable") or {}).get("value") else None}
     has = {"fewest-directions": chosen.directions(), "linear": chosen.nonlinear()}
+    # without the family's classes (a plan proposed for a restricted infinite family) every
+    # other strategy is tried: its proven trees are cheap, over rows already computed
     others = [s for s in PROOF_STRATEGIES if s != options.strategy
-              and least[s] is not None and has[s] > least[s]]
+              and (not classes or (least[s] is not None and has[s] > least[s]))]
     return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
                       connected=conn, others=others, budget=options.infinite_budget)
 
