@@ -22,6 +22,7 @@ from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
+from ..geometry.vectors import plane_basis
 from .facets import (
     PartGeometry,
     box_pairs,
@@ -241,9 +242,7 @@ def fit_contacts(found: Interference) -> list[Contact]:
         return []
     if fit.kind == "press_fit":
         axis, c = np.asarray(fit.axis), np.asarray(fit.center)
-        u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-        u /= np.linalg.norm(u)
-        v = np.cross(axis, u)
+        u, v = plane_basis(axis)
         t = 2 * np.pi * np.arange(PRESS_NORMALS) / PRESS_NORMALS
         n = np.cos(t)[:, None] * u + np.sin(t)[:, None] * v
         return [Contact(found.a, found.b, "curved", n, c + fit.radius * n, n, 0.0,

@@ -29,6 +29,8 @@ from dataclasses import dataclass
 import fcl
 import numpy as np
 
+from ..geometry.vectors import line_direction, plane_basis, unit
+
 __all__ = ["Fit", "classify_overlap", "PRESS_AXIAL", "PRESS_SPREAD", "PRESS_DEPTH",
            "SLAB_SHARE", "SLAB_DEPTH"]
 
@@ -69,9 +71,7 @@ def _scatter(normals: np.ndarray, areas: np.ndarray) -> tuple[np.ndarray, np.nda
 def _circle(points: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float]:
     """Least-squares circle (Kasa) of ``points`` projected on the plane normal to ``axis``:
     its centre (3D, on the plane through the points' mean) and radius."""
-    u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-    u /= np.linalg.norm(u)
-    v = np.cross(axis, u)
+    u, v = plane_basis(axis)
     x, y = points @ u, points @ v
     a = np.column_stack([x, y, np.ones_like(x)])
     sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
@@ -83,10 +83,9 @@ def _circle(points: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def _line(v: np.ndarray) -> tuple[float, ...]:
-    v = v / np.linalg.norm(v)
-    first = next(x for x in v if abs(x) > 1e-12)
-    v = v if first > 0 else -v
-    return tuple(float(x) + 0.0 for x in np.where(np.abs(v) < 1e-12, 0.0, v))
+    """The line along ``v`` (:func:`line_direction`), components below 1e-12 set to 0 first."""
+    u = unit(v)
+    return tuple(float(x) for x in line_direction(np.where(np.abs(u) < 1e-12, 0.0, u)))
 
 
 def _sheets_removed(triangles: np.ndarray, normals: np.ndarray, areas: np.ndarray,

@@ -1,5 +1,6 @@
-"""Small vector helpers shared by every stage: unit vectors, a plane's orthonormal basis, the
-distinct rows of an array and the pairs of points within a distance.
+"""Small vector helpers shared by every stage: unit vectors, a line's sign-fixed direction, a
+plane's orthonormal basis, the distinct rows of an array and the pairs of points within a
+distance.
 
 Lowest of the geometry modules (numpy and scipy only): the clusterings of normals, contacts,
 the NDBG builders and planning import these instead of writing their own.
@@ -22,6 +23,18 @@ def unit(v: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+
+
+def line_direction(v: np.ndarray) -> np.ndarray:
+    """The unit vector of the line along ``v`` ``(k,)`` with its sign fixed: first nonzero
+    component positive (``v`` and ``-v`` give the same result; a zero vector stays zero).
+
+    >>> line_direction(np.array([0.0, -3.0, 4.0])).tolist()
+    [0.0, 0.6, -0.8]
+    """
+    u = unit(v)
+    nz = np.flatnonzero(u)
+    return (-u if len(nz) and u[nz[0]] < 0 else u) + 0.0
 
 
 def plane_basis(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

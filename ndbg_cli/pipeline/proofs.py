@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.assembly import Assembly
 from ..core.constants import INFINITE, INFINITESIMAL
+from ..geometry.vectors import line_direction
 from ..ndbg.model import NDBG, ConnectivityTest
 from ..planning.plans import Plan, Step, region_rank
 from ..planning.proven import (
@@ -62,10 +63,9 @@ def natural_directions(analysis: Any, dimension: int) -> list[tuple[tuple[float,
 
 
 def _line(v: Any) -> tuple[float, ...]:
-    """``v`` snapped, with its sign fixed (first nonzero component positive): a line's key."""
-    u = snap(v)
-    first = next(x for x in u if x != 0.0)
-    return tuple(round(x if first > 0 else -x, 12) + 0.0 for x in u)
+    """``v`` snapped (:func:`~ndbg_cli.planning.proven.snap`), as a line
+    (:func:`~ndbg_cli.geometry.vectors.line_direction`): a line's key."""
+    return tuple(round(x, 12) + 0.0 for x in line_direction(np.asarray(snap(v))))
 
 
 def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,

@@ -463,14 +463,11 @@ def _as_infinite(section: dict) -> None:
     section["notes"].append("splits proposed by the infinitesimal NDBG (computed for the plan "
                             "only, the infinite NDBG being restricted), each step proven by "
                             "the direct sweep test: exact for infinite translations")
-    nodes = list(section.get("sequence") or []) + list(
-        (section.get("candidate") or {}).get("sequence") or [])
-    stack = [section.get("tree")]
-    while stack:
-        node = stack.pop()
-        if node and "moved" in node:
-            nodes.append(node)
-            stack += [node["moved"], node["rest"]]
+    from ..report.plans import split_nodes
+
+    nodes = (list(section.get("sequence") or [])
+             + list((section.get("candidate") or {}).get("sequence") or [])
+             + split_nodes(section.get("tree")))
     for node in nodes:
         node["family"] = INFINITE
         node["region"] = None

@@ -38,8 +38,9 @@ import numpy as np
 from ..ndbg.dbg import bits, tarjan
 from ..ndbg.model import NDBG, ConnectivityTest
 
-__all__ = ["BlockingTest", "Direction", "directions", "snap", "Rows", "greedy", "prove_tree",
-           "Outcome", "prove", "SNAP_TOL"]
+__all__ = ["BlockingTest", "Direction", "directions", "snap", "Rows", "Split", "Outcome",
+           "Chooser", "Clearance", "chooser", "greedy", "prove_tree", "prove", "why_stuck",
+           "SNAP_TOL", "GREEDY_WIDE", "SOURCES"]
 
 #: Components of a candidate direction below this (unit vector) are set to zero before it is
 #: tested: a region's representative ``(1.6e-08, -6.2e-10, 1)`` is tested, and reported, as
@@ -92,6 +93,11 @@ def snap(d: Sequence[float], tol: float = SNAP_TOL) -> tuple[float, ...]:
     return tuple(float(x) + 0.0 for x in v)
 
 
+def _key(v: Sequence[float]) -> tuple[float, ...]:
+    """A direction's identity in ``D``: its components rounded to 1e-9."""
+    return tuple(round(x, 9) + 0.0 for x in v)
+
+
 def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
                regions: Sequence[tuple[int, Sequence[float]]]) -> list[Direction]:
     """The candidate set ``D``: the ``2 dimension`` coordinate axes, then ``natural``
@@ -113,9 +119,8 @@ def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
     def add(v: Sequence[float], source: str, signs=(1.0, -1.0), region=None) -> None:
         for s in signs:
             u = snap([s * x for x in v])
-            key = tuple(round(x, 9) + 0.0 for x in u)
-            if key not in seen:
-                seen.add(key)
+            if _key(u) not in seen:
+                seen.add(_key(u))
                 out.append(Direction(u, source, region))
 
     for k in range(dimension):
@@ -146,12 +151,11 @@ class Rows:
     def extend(self, more: Sequence[Direction]) -> int:
         """Append the directions of ``more`` not already in ``dirs`` (equal after rounding to
         1e-9); returns how many were added."""
-        have = {tuple(round(x, 9) + 0.0 for x in d.vector) for d in self.dirs}
+        have = {_key(d.vector) for d in self.dirs}
         added = 0
         for d in more:
-            key = tuple(round(x, 9) + 0.0 for x in d.vector)
-            if key not in have:
-                have.add(key)
+            if _key(d.vector) not in have:
+                have.add(_key(d.vector))
                 self.dirs.append(d)
                 self._vec.append(np.asarray(d.vector, dtype=float))
                 added += 1

@@ -26,6 +26,17 @@ def plan_section(p: Plan) -> dict:
     }
 
 
+def split_nodes(tree: dict | None) -> list[dict]:
+    """The internal nodes (the splits) of a plan section's ``tree``, parents first."""
+    out, stack = [], [tree]
+    while stack:
+        node = stack.pop()
+        if node and "moved" in node:
+            out.append(node)
+            stack += [node["rest"], node["moved"]]
+    return out
+
+
 def mark_presses(section: dict, press: set[frozenset[str]]) -> None:
     """Mark with ``"press": true`` each step of a plan ``section`` (sequence and tree) that
     separates a press-fitted pair (``press``: pairs of part ids,
@@ -39,10 +50,6 @@ def mark_presses(section: dict, press: set[frozenset[str]]) -> None:
     for step in section.get("sequence") or []:
         if presses(step["moved"], step["onto"]):
             step["press"] = True
-    stack = [section.get("tree")]
-    while stack:
-        node = stack.pop()
-        if node and "moved" in node:
-            if presses(node["moved"]["parts"], node["rest"]["parts"]):
-                node["press"] = True
-            stack += [node["moved"], node["rest"]]
+    for node in split_nodes(section.get("tree")):
+        if presses(node["moved"]["parts"], node["rest"]["parts"]):
+            node["press"] = True
