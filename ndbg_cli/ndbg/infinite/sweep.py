@@ -118,10 +118,20 @@ class SweepChecker:
     def _first(self, i: int, j: int, d: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
         """The first blocking pair of projected triangles of ``i`` and ``j`` along ``d``."""
         v = self.view(d)
-        # the parts' boxes seen along d: apart (or j wholly behind i), no ray meets both
-        if np.any(v.lo[i] >= v.hi[j]) or np.any(v.lo[j] >= v.hi[i]) \
-                or v.zhi[j] <= v.zlo[i] - self.eps:
-            return None
+        return self._pair(v, i, j) if self._near(v, i)[j] else None
+
+    @staticmethod
+    def _near(v: _View, i: int) -> np.ndarray:
+        """Which parts may block part ``i`` in view ``v`` (bool per part, ``i`` itself not):
+        seen along ``d`` their boxes meet ``i``'s and do not lie wholly behind it (else no ray
+        meets both)."""
+        near = ~((v.lo[i] >= v.hi).any(axis=1) | (v.lo >= v.hi[i]).any(axis=1)
+                 | (v.zhi <= v.zlo[i] - v.checker.eps))
+        near[i] = False
+        return near
+
+    def _pair(self, v: _View, i: int, j: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """The kernel on ``i``'s triangles facing ``d`` and ``j``'s facing against it."""
         pi, bi = v.facing(i, 1)
         pj, bj = v.facing(j, -1)
         if not len(pi) or not len(pj):
@@ -130,34 +140,25 @@ class SweepChecker:
         return None if ki < 0 else (pi[ki], pj[kj])
 
     def blockers(self, i: int, d: np.ndarray) -> int:
-        """The bitmask of the parts that block part ``i`` along ``d`` (all parts at once: the
-        box culls of :meth:`blocked` for every ``j`` in one array operation)."""
+        """The bitmask of the parts that block part ``i`` along ``d`` (the box culls of every
+        ``j`` in one array operation)."""
         v = self.view(d)
-        near = ~((v.lo[i] >= v.hi).any(axis=1) | (v.lo >= v.hi[i]).any(axis=1)
-                 | (v.zhi <= v.zlo[i] - self.eps))
-        near[i] = False
-        out = 0
-        pi, bi = v.facing(i, 1)
-        if not len(pi):
-            return 0
-        for j in np.flatnonzero(near).tolist():
-            pj, bj = v.facing(j, -1)
-            if len(pj) and first_blocking(pi, pj, bi, bj, self.eps, self._amin,
-                                          self._tiny)[0] >= 0:
-                out |= 1 << j
-        return out
+        return sum(1 << j for j in np.flatnonzero(self._near(v, i)).tolist()
+                   if self._pair(v, i, j) is not None)
 
     def frees(self, moved: int, rest: int, d: np.ndarray) -> bool:
         """Whether the parts of bitmask ``moved`` translate to infinity along ``d`` without
         meeting the interior of any part of bitmask ``rest``."""
-        rs = list(bits(rest))
-        return not any(self.blocked(i, j, d) for i in bits(moved) for j in rs)
+        v = self.view(d)
+        for i in bits(moved):
+            near = self._near(v, i)
+            if any(near[j] and self._pair(v, i, j) is not None for j in bits(rest)):
+                return False
+        return True
 
     def dbg(self, d: np.ndarray) -> DBG:
         """The DBG for infinite translation along ``d``: arc ``i -> j`` iff ``j`` blocks ``i``."""
-        n = len(self.tris)
-        return DBG.from_arcs(n, [(i, j) for i in range(n) for j in range(n)
-                                 if i != j and self.blocked(i, j, d)])
+        return DBG(tuple(self.blockers(i, d) for i in range(len(self.tris))))
 
 
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
