@@ -27,6 +27,12 @@ from ..core.assembly import Part
 #: hexagons, chamfers) have dihedral angles of 45 degrees or more.
 SMOOTH_DIHEDRAL_MAX = np.radians(31.0)
 
+#: Smallest dihedral angle (radians) of a smooth edge between two facets: below it the two
+#: triangles are one plane however the facets were cut (a flat face whose triangles were split
+#: from a drifting facet by :func:`_facet_planes`). Far below any facet angle a CAD exporter
+#: produces (0.01 degree: 36,000 segments per turn).
+SMOOTH_DIHEDRAL_MIN = np.radians(0.01)
+
 _FCL_CACHE: dict[str, Any] = {}
 _MANIFOLD_CACHE: dict[str, Any] = {}
 _GEOMETRY_CACHE: dict[tuple[str, float, float], PartGeometry] = {}
@@ -137,18 +143,10 @@ def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
     smooth = np.zeros(nf)
     sag = np.zeros(nf)
     keep = np.zeros(len(adj), dtype=bool)
+    angles = np.zeros(len(adj))
     if len(adj):
         angles = np.asarray(mesh.face_adjacency_angles, dtype=np.float64)
-        edges = np.asarray(mesh.face_adjacency_edges)
         verts = np.asarray(mesh.vertices, dtype=np.float64)
-        length = np.linalg.norm(verts[edges[:, 0]] - verts[edges[:, 1]], axis=1)
-        is_smooth = (angles > ang) & (angles <= SMOOTH_DIHEDRAL_MAX)
-        for side in (0, 1):
-            f = adj[:, side]
-            h = 2.0 * areas[f] / np.maximum(length, 1e-300)
-            s = np.where(is_smooth, 0.5 * h * np.tan(angles / 4.0), 0.0)
-            np.maximum.at(sag, f, s)
-            np.maximum.at(smooth, f, np.where(is_smooth, angles, 0.0))
         # coplanar neighbours: normals within the angular tolerance and each triangle's far
         # vertex within the length tolerance of the other's plane
         unshared = np.asarray(mesh.face_adjacency_unshared)
@@ -159,6 +157,22 @@ def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
         keep = (angles <= ang) & (d0 <= tol) & (d1 <= tol)
     facet = _components(nf, adj[keep])
     facet, fn, fd = _facet_planes(tri, normals, areas, facet, tol)
+    if len(adj):
+        # A smooth edge joins two facets at a small dihedral angle. Judged after the facets
+        # are fitted, not by the angle alone: a surface tessellated finer than the angular
+        # tolerance (a cylinder of a fine STEP export, facet angle below 1 degree) passes the
+        # local coplanarity test edge by edge, but its facet drifts off any plane and is split
+        # back (``_facet_planes``): its triangles are then curved, as at a coarser tessellation.
+        is_smooth = ((facet[adj[:, 0]] != facet[adj[:, 1]]) & (angles > SMOOTH_DIHEDRAL_MIN)
+                     & (angles <= SMOOTH_DIHEDRAL_MAX))
+        edges = np.asarray(mesh.face_adjacency_edges)
+        length = np.linalg.norm(verts[edges[:, 0]] - verts[edges[:, 1]], axis=1)
+        for side in (0, 1):
+            f = adj[:, side]
+            h = 2.0 * areas[f] / np.maximum(length, 1e-300)
+            s = np.where(is_smooth, 0.5 * h * np.tan(angles / 4.0), 0.0)
+            np.maximum.at(sag, f, s)
+            np.maximum.at(smooth, f, np.where(is_smooth, angles, 0.0))
     lo, hi = tri.min(axis=1), tri.max(axis=1)
     return PartGeometry(triangles=tri, faces=np.asarray(mesh.faces, dtype=np.int64),
                         vertices=np.asarray(mesh.vertices, dtype=np.float64), normals=normals,
