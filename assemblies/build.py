@@ -806,6 +806,87 @@ off along +z: a one-step plan.
                   base="plate")
 
 
+# -- 14. a gearbox, at any tessellation ----------------------------------------------------
+
+def _ring(r: float, n: int, cx: float = 0.0, cy: float = 0.0) -> np.ndarray:
+    """:func:`circle` with ``n`` facets (a hole is cut with more facets than the peg in it, as
+    two CAD faces are tessellated independently)."""
+    return circle(r, cx, cy, n=n)
+
+
+def _gear_profile(r_root: float, r_tip: float, teeth: int, n: int) -> np.ndarray:
+    """Counter-clockwise outline of a spur gear: ``teeth`` trapezoidal teeth between the root
+    and tip circles, each arc cut into ``max(2, n // (4 teeth))`` pieces."""
+    k = max(2, n // (4 * teeth))
+    pts = []
+    pitch = 2 * np.pi / teeth
+    for t in range(teeth):
+        a0 = t * pitch
+        for a, r in ((np.linspace(a0, a0 + 0.4 * pitch, k, endpoint=False), r_root),
+                     (np.linspace(a0 + 0.5 * pitch, a0 + 0.8 * pitch, k, endpoint=False), r_tip)):
+            pts.extend(zip(r * np.cos(a), r * np.sin(a)))
+    return np.round(np.asarray(pts) / GRID) * GRID
+
+
+GEARBOX_BOLTS = ((30, 30), (-30, 30), (-30, -30), (30, -30))
+
+
+def gearbox_solids(n: int) -> dict[str, Manifold]:
+    """The 11 solids of :func:`gearbox` with ``n`` facets on the pegs (``n + n // 4`` on
+    the holes)."""
+    h = n + n // 4
+
+    def cyl(r, z0, z1, cx=0.0, cy=0.0, m=n):
+        # a hole's polygon circumscribes its circle: the peg's vertices (on the circle) touch
+        # its facets at most, never cut into them
+        return prism(_ring(r if m == n else r / math.cos(math.pi / m), m, cx, cy), z0, z1)
+
+    housing = (box(-40, -40, 0, 40, 40, 40) - cyl(20, 10, 41, m=h) - cyl(9, -1, 11, m=h))
+    cover = box(-40, -40, 40, 40, 40, 45) - cyl(10, 39, 46, m=h)
+    for x, y in GEARBOX_BOLTS:
+        housing = housing - cyl(3, 25, 41, x, y, m=h)
+        cover = cover - cyl(3, 39, 46, x, y, m=h)
+    solids = {
+        "housing": housing,
+        "bearing_low": cyl(20, 10, 20) - cyl(8, 9, 21, m=h),
+        "bearing_up": cyl(20, 30, 38) - cyl(8, 29, 39, m=h),
+        "spacer": cyl(20, 38, 40) - cyl(12, 37, 41, m=h),
+        "cover": cover,
+        "shaft": cyl(8, 0, 50) + cyl(12, 20, 30) + cyl(6, 50, 70),
+        "gear": prism(_gear_profile(26, 30, 40, 4 * n), 50, 60) - cyl(6, 49, 61, m=h),
+    }
+    for k, (x, y) in enumerate(GEARBOX_BOLTS):
+        solids[f"bolt_{k + 1}"] = cyl(5, 45, 49, x, y) + cyl(3, 25, 45, x, y)
+    return solids
+
+
+def gearbox(out: Path, n: int = 48, name: str = "gearbox") -> None:
+    """An 11-part gearbox along z; ``n`` facets per cylinder (the shipped example: 48; the
+    benchmark's heavy product: thousands)."""
+    expect = {
+        "parts": 11,
+        "removal_directions": [[0, 0, 1]],
+        "sequence": ["bolt_1", "bolt_2", "bolt_3", "bolt_4", "gear", "cover", "spacer",
+                     "bearing_up", "shaft", "bearing_low"],
+        "plan_directions": [[0, 0, 1]],
+    }
+    comment = f"""\
+Housing 80x80x40 (the base) with a bore r 20 from z 10 up (a shoulder at z 10), a hole r 9
+below it and four blind bolt holes r 3 (z 25..40) at (+-30, +-30). In the bore, from the
+shoulder up: bearing_low (r 8 .. 20, z 10..20), the shaft's collar (r 12, z 20..30),
+bearing_up (z 30..38) and a spacer (r 12 .. 20, z 38..40). A cover (z 40..45, a hole r 10
+for the shaft) is held by four bolts (head r 5 z 45..49, shank r 3 z 25..45). The shaft (r 8,
+z 0..50; r 6, z 50..70) carries a 40-tooth gear (r 26 .. 30, z 50..60) on its shoulder.
+Pegs have {n} facets and the holes {n + n // 4} (their polygons circumscribe the circles): the
+pegs' vertices touch the holes' facets, with gaps below the chord sag elsewhere.
+By construction everything comes apart along +z only, top down: each bolt, the gear, the
+cover, the spacer, bearing_up, then the shaft (its collar stops it going down and is held
+by bearing_up going up), bearing_low; the housing stays. One direction suffices.
+"""
+    mesh_assembly(out, name, f"an 11-part gearbox, {n} facets per cylinder",
+                  gearbox_solids(n), expect, comment, base="housing")
+
+
 def build(out: Path = HERE) -> None:
     """Build every example into ``out`` (manifests) and ``out/meshes`` (STL files)."""
     out = Path(out)
@@ -826,6 +907,7 @@ def build(out: Path = HERE) -> None:
     press_fit(out)
     overlap(out)
     clash(out)
+    gearbox(out)
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ COLLIDE_MM3 = 1e-3  #: a blocked motion must sweep at least this much volume int
 EXPECTED_NAMES = {
     "bell", "fig3-2d", "fig2-sandwich-5", "fig2-sandwich-8", "fig5-rotation", "fig10-latch",
     "fig11-nonlinear", "stack", "peg-37", "peg-blind", "hover", "hover-shifted", "slot-37",
-    "hinge", "bolt-screw", "bolt-plain", "press-fit", "overlap", "clash",
+    "hinge", "bolt-screw", "bolt-plain", "press-fit", "overlap", "clash", "gearbox",
 }
 
 

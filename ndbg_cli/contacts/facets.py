@@ -156,7 +156,7 @@ def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
                               verts[unshared[:, 0]] - tri[adj[:, 1], 0]))
         keep = (angles <= ang) & (d0 <= tol) & (d1 <= tol)
     facet = _components(nf, adj[keep])
-    facet, fn, fd = _facet_planes(tri, normals, areas, facet, tol)
+    facet, fn, fd = _facet_planes(tri, normals, areas, facet, tol, ang)
     if len(adj):
         # A smooth edge joins two facets at a small dihedral angle. Judged after the facets
         # are fitted, not by the angle alone: a surface tessellated finer than the angular
@@ -204,9 +204,11 @@ def _components(n: int, edges: np.ndarray) -> np.ndarray:
 
 
 def _facet_planes(tri: np.ndarray, normals: np.ndarray, areas: np.ndarray, facet: np.ndarray,
-                  tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  tol: float, ang: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Area-weighted plane of each facet; a facet that drifts off its plane by more than ``tol``
-    (a finely tessellated curve grown edge by edge) is split back into single triangles."""
+    or whose triangles turn more than ``ang`` from its normal (a finely tessellated curve grown
+    edge by edge; a whole ring of a fine hole, whose normals sum to nothing) is split back into
+    single triangles."""
     for _ in range(2):
         _, facet = np.unique(facet, return_inverse=True)
         nfac = int(facet.max()) + 1
@@ -223,7 +225,10 @@ def _facet_planes(tri: np.ndarray, normals: np.ndarray, areas: np.ndarray, facet
         dev = np.abs(np.einsum("ikj,ij->ik", tri, fn[facet]) - fd[facet][:, None]).max(axis=1)
         worst = np.zeros(nfac)
         np.maximum.at(worst, facet, dev)
-        bad = worst[facet] > tol
+        turned = np.zeros(nfac, dtype=bool)
+        np.logical_or.at(turned, facet, np.einsum("ij,ij->i", normals, fn[facet]) < np.cos(ang))
+        bad = (worst > tol)[facet] | (turned[facet] & (np.bincount(facet, minlength=nfac)
+                                                        > 1)[facet])
         if not bad.any():
             break
         facet = np.where(bad, nfac + np.arange(len(tri)), facet)

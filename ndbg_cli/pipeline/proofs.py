@@ -26,6 +26,7 @@ from ..planning.proven import (
     chooser,
     directions,
     greedy,
+    measures,
     prove,
     snap,
     why_stuck,
@@ -91,8 +92,10 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     cand = [(s.mask, s.moved, None if s.region is None else nd.regions[s.region].direction)
             for s in chosen.sequence()]
     room = _Clearance(analysis, nd.space_dimension)
-    key = chooser(strategy, connected, set(), dirs, room)
-    got = prove(rows, chosen.root, cand, natural=n_nat, key=key, base=base, clearance=room)
+    used: set[int] = set()  # read by the key (fewest-directions), filled by the search
+    key = chooser(strategy, connected, used, dirs, room)
+    got = prove(rows, chosen.root, cand, natural=n_nat, key=key, base=base, clearance=room,
+                used=used, objective=strategy)
     exact: dict[int, str] = {}
     for _ in range(EXACT_ROUNDS):
         if got.found or got.stuck in exact:
@@ -104,7 +107,8 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
         if verdict != "some" or not rows.extend(more):
             break
         failed = got.failed_step
-        got = greedy(rows, chosen.root, base=base, key=key, natural=n_nat)
+        used.clear()
+        got = greedy(rows, chosen.root, base=base, key=key, natural=n_nat, used=used)
         got.failed_step = failed
     out: dict = {}
     if got.found:
@@ -115,9 +119,13 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
             chosen.exact = False
             chosen.notes.append(
                 f"the candidate tree's step {got.failed_step} is blocked further away along "
-                f"every direction tried; the subassemblies whose candidate steps fail are "
-                f"split by a greedy search instead, which needs no backtracking (any proven "
-                f"tree restricts to every subassembly)")
+                f"every direction tried; " + (
+                    f"a greedy search from the whole product found a proven tree better for "
+                    f"'{strategy}' than the candidate tree repaired" if got.restarted else
+                    "the subassemblies whose candidate steps fail are split by a greedy "
+                    "search instead") +
+                ", which needs no backtracking (any proven tree restricts to every "
+                "subassembly)")
         out["verified"] = {"value": True, "steps": len(steps),
                            "directions_tried": len(rows.dirs),
                            "why": "every step is proven: its moved side leaves the rest by one "
@@ -127,8 +135,8 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     else:
         out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
     out["proofs"] = [] if not got.found else [
-        _other(rows, chosen.root, s, n_nat, base, chooser(s, None, set(), dirs, room))
-        for s in others]
+        _other(rows, chosen.root, s, n_nat, base, chooser(s, None, fresh, dirs, room), fresh)
+        for s in others for fresh in [set()]]
     return out
 
 
@@ -248,28 +256,14 @@ def _no_plan(rows: Rows, sweep: Any, nd: NDBG, chosen: Plan, stuck: int,
 
 
 def _other(rows: Rows, root: int, strategy: str, natural: int, base: int | None,
-           key: Any) -> dict:
+           key: Any, used: set[int]) -> dict:
     """The proven tree the greedy search finds for ``strategy`` (its objective in ``key``):
     its depth, nonlinear steps and directions, each an upper bound on the proven optimum."""
-    got = greedy(rows, root, base=base, key=key, natural=natural)
-    depth: dict[int, int] = {}
-
-    def height(m: int) -> int:
-        if m.bit_count() < 2:
-            return 0
-        if m not in depth:
-            sp = got.splits[m]
-            depth[m] = 1 + max(height(sp.moved), height(sp.rest))
-        return depth[m]
-
-    splits = got.splits.values()
-    return {"strategy": strategy, "depth": height(root),
-            "nonlinear_steps": sum(1 for sp in splits
-                                   if sp.moved.bit_count() > 1 and sp.rest.bit_count() > 1),
-            "directions": len({sp.vector(rows.dirs) for sp in splits})}
+    got = greedy(rows, root, base=base, key=key, natural=natural, used=used)
+    return {"strategy": strategy, **measures(rows, root, got.splits)}
 
 
-def proven_classes(plan: dict, candidates: dict) -> dict:
+def proven_classes(plan: dict, candidates: dict, base: str | None = None) -> dict:
     """The infinite-translation classes a proven plan (or a proof that none exists) decides,
     for a report whose infinite NDBG was not computed over the whole sphere: ``plan`` is the
     report's plan section, ``candidates`` the infinitesimal family's classes (their minima
@@ -298,6 +292,7 @@ def proven_classes(plan: dict, candidates: dict) -> dict:
                             "upper_bound": depth,
                             "why": f"a proven tree of depth {depth}; no candidate tree is "
                                    f"shallower than {lower}"}
+        out.update(_directions_classes(plan, candidates, base))
         linear = plan.get("nonlinear_steps") == 0 or any(
             t.get("nonlinear_steps") == 0 for t in plan.get("proofs") or [])
         cand_lin = (candidates.get("linearizable") or {}).get("value")
@@ -308,11 +303,48 @@ def proven_classes(plan: dict, candidates: dict) -> dict:
                                    "why": "no candidate tree adds one part at a time"}
     elif v.get("proof_of_none"):
         out = {k: {"value": False, "why": "no 1-prismatic algorithm: " + v["why"]}
-               for k in ("one_handed_monotone", "prismatic", "linearizable")}
-        out["min_depth"] = {"value": None, "exact": True, "why": v["why"]}
+               for k in ("one_handed_monotone", "prismatic", "linearizable", "stack_product")}
+        for k in ("min_depth", "min_directions"):
+            out[k] = {"value": None, "exact": True, "why": v["why"]}
     else:
         return {}
     return {k: label(INFINITE, k, m) for k, m in sorted(out.items())}
+
+
+def _directions_classes(plan: dict, candidates: dict, base: str | None) -> dict:
+    """``min_directions`` and ``stack_product`` from the proven trees of a plan section (the
+    greedy proofs' counts of distinct removal directions; their moved sides never hold the
+    base, the classes' convention). Every proven tree is a candidate tree whose steps lie in
+    at most as many regions as it has directions, so the candidates' exact minimum bounds the
+    count below (the plan itself counts when its moved sides never hold ``base``); a proven
+    tree along one direction is a stack product (paper 7.1: every
+    instruction along that direction); and each infinite-translation DBG holds the
+    infinitesimal one of its direction, so no candidate stack product means none at all."""
+    counts = [t["directions"] for t in plan.get("proofs") or [] if "directions" in t]
+    steps = plan.get("sequence") or []
+    if steps and all(s.get("removal_direction") is not None and base not in s["moved"]
+                     for s in steps):
+        counts.append(len({tuple(s["removal_direction"]) for s in steps}))
+    out: dict = {}
+    cand = candidates.get("min_directions") or {}
+    low = cand.get("value") if cand.get("exact", False) else cand.get("lower_bound")
+    if counts:
+        best = min(counts)
+        lower = best if low is None else min(int(low), best)
+        out["min_directions"] = {
+            "value": best, "exact": lower == best, "lower_bound": lower, "upper_bound": best,
+            "why": f"a proven tree along {best} direction(s); no candidate tree uses fewer "
+                   f"than {lower} region(s)"}
+        if best == 1:
+            out["stack_product"] = {"value": True,
+                                    "why": "a proven tree moves every side without the base "
+                                           "along one direction"}
+    if "stack_product" not in out and (candidates.get("stack_product") or {}).get(
+            "value") is False:
+        out["stack_product"] = {"value": False,
+                                "why": "no single direction's DBG decomposes the product even "
+                                       "for infinitesimal translations"}
+    return out
 
 
 def _tree_text(node: dict | None) -> str:

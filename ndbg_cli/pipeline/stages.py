@@ -537,7 +537,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
         from .proofs import proven_classes
 
         cands = out["classes"].get(INFINITESIMAL) or _proposer_classes(asm, proposer)
-        got = proven_classes(out["plan"], cands)
+        got = proven_classes(out["plan"], cands, asm.base)
         if got:
             out["classes"] = dict(sorted({**out["classes"], INFINITE: got}.items()))
     return out, warnings

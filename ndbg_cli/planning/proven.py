@@ -39,7 +39,8 @@ from ..ndbg.dbg import bits, tarjan
 from ..ndbg.model import NDBG, ConnectivityTest
 
 __all__ = ["BlockingTest", "Direction", "directions", "snap", "Rows", "Split", "Outcome",
-           "Chooser", "Clearance", "chooser", "greedy", "prove_tree", "prove", "why_stuck",
+           "Chooser", "Clearance", "chooser", "greedy", "prove_tree", "prove", "measures",
+           "why_stuck",
            "SNAP_TOL", "GREEDY_WIDE", "SOURCES"]
 
 #: Components of a candidate direction below this (unit vector) are set to zero before it is
@@ -223,6 +224,9 @@ class Outcome:
     stuck: int | None = None
     failed_step: int | None = None
     searched: bool = False  #: the greedy search ran (the candidate tree failed)
+    #: the tree is the greedy search's from the root, better for the strategy than the
+    #: candidate tree repaired (:func:`prove`)
+    restarted: bool = False
 
 
 def _options(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int, int]]:
@@ -353,14 +357,20 @@ def _score(rows: Rows, k: int, moved: int, rest: int, near: Sequence[float] | No
 
 def prove(rows: Rows, root: int, candidate: Sequence[tuple[int, int, Sequence[float] | None]],
           *, natural: int, key: Chooser, base: int | None = None,
-          clearance: Clearance | None = None) -> Outcome:
+          clearance: Clearance | None = None, used: set[int] | None = None,
+          objective: str | None = None) -> Outcome:
     """A proven tree of ``root``: the candidate tree, top down, each of its steps proven
     (:func:`prove_tree`) kept, and each subassembly whose candidate step fails split by
     :func:`greedy` instead (a subassembly of a product with a proven tree has one, its
     restriction: the repair fails only where no proven tree exists); or the subassembly where
-    the search stops."""
+    the search stops. ``used``: the directions the tree uses (shared with ``key`` for
+    ``fewest-directions``). When the candidate tree was repaired, the tree :func:`greedy`
+    finds from the root is taken instead where it is better for ``objective`` (a strategy,
+    :func:`measures`): a repair keeps the candidate's proven steps, not its optimality."""
+    used = set() if used is None else used
     splits, failed = prove_tree(rows, candidate, natural, clearance) if candidate else ({}, None)
     if candidate and failed is None:
+        used.update(sp.k for sp in splits.values())
         return Outcome(root, rows.dirs, splits)
     out = Outcome(root, rows.dirs, searched=True, failed_step=failed)
     stack = [root]
@@ -370,15 +380,54 @@ def prove(rows: Rows, root: int, candidate: Sequence[tuple[int, int, Sequence[fl
             continue
         sp = splits.get(m)
         if sp is None:
-            sub = greedy(rows, m, base=base, key=key, natural=natural)
+            sub = greedy(rows, m, base=base, key=key, natural=natural, used=used)
             if not sub.found:
                 out.found, out.stuck, out.splits = False, sub.stuck, {}
                 return out
             out.splits.update(sub.splits)
             continue
         out.splits[m] = sp
+        used.add(sp.k)
         stack.extend((sp.rest, sp.moved))
+    if objective is not None and candidate:
+        kept = set(used)
+        used.clear()  # the key reads it: the fresh search starts with no direction used
+        fresh = greedy(rows, root, base=base, key=key, natural=natural, used=used)
+        if fresh.found and _goal(objective, measures(rows, root, fresh.splits)) < _goal(
+                objective, measures(rows, root, out.splits)):
+            fresh.failed_step, fresh.restarted = failed, True
+            return fresh
+        used.clear()
+        used.update(kept)
     return out
+
+
+def measures(rows: Rows, root: int, splits: dict[int, Split]) -> dict[str, int]:
+    """A proven tree's ``depth``, ``nonlinear_steps`` (steps whose both sides have more than
+    one part) and ``directions`` (distinct removal vectors, as proven)."""
+    depth: dict[int, int] = {}
+
+    def height(m: int) -> int:
+        if m.bit_count() < 2:
+            return 0
+        if m not in depth:
+            sp = splits[m]
+            depth[m] = 1 + max(height(sp.moved), height(sp.rest))
+        return depth[m]
+
+    return {"depth": height(root),
+            "nonlinear_steps": sum(1 for sp in splits.values()
+                                   if sp.moved.bit_count() > 1 and sp.rest.bit_count() > 1),
+            "directions": len({sp.vector(rows.dirs) for sp in splits.values()})}
+
+
+def _goal(strategy: str, m: dict[str, int]) -> tuple[int, ...]:
+    """What ``strategy`` minimises over proven trees, from :func:`measures`."""
+    if strategy == "linear":
+        return m["nonlinear_steps"], m["depth"]
+    if strategy == "fewest-directions":
+        return m["directions"], m["depth"]
+    return m["depth"], m["nonlinear_steps"]
 
 
 def why_stuck(rows: Rows, test: BlockingTest, nd: NDBG, stuck: int, limit: int = 12
