@@ -268,3 +268,26 @@ def test_the_gearbox_comes_apart_along_z_at_any_tessellation(tmp_path, segments)
     for pid, d in (("shaft", (0, 0, 1)), ("shaft", (0, 0, -1)), ("cover", (0, 0, 1))):
         m = 1 << asm.index(pid)
         assert not s.frees(m, ((1 << len(asm)) - 1) & ~m, np.array(d, float)), pid
+
+
+def test_a_contact_proof_of_none_is_cross_checked_by_the_exact_test():
+    """The infinitesimal NDBG's "no plan" rests on the contacts; the sweep test is exact. Given
+    an NDBG that (wrongly) blocks every part in every direction, the pocket's real geometry
+    still comes apart (by hand: the bridge first, then the block, both along +z), so the
+    plan is the proven tree and the contradiction is noted, not a false proof of none."""
+    from ndbg_cli.core.constants import INFINITESIMAL
+    from ndbg_cli.pipeline.stages import find_contacts, measure, plan_assembly
+
+    asm = _pocket_under_bridge()
+    contacts = find_contacts(asm)
+    n = len(asm)
+    locked = DBG.from_arcs(n, [(i, j) for i in range(n) for j in range(n) if i != j])
+    wrong = NDBG(INFINITESIMAL, asm.ids, (Region(2, (0.0, 0.0, 1.0), locked),), 3)
+    ndbgs = {INFINITESIMAL: wrong}
+    plan = plan_assembly(asm, contacts, ndbgs, measure(asm, contacts, ndbgs))
+    assert plan["found"] and plan["verified"]["value"] is True
+    assert any("yet the direct sweep test proves this tree" in x for x in plan["notes"])
+    order = [s["moved"] for s in plan["sequence"]]
+    assert order.index(["block"]) < order.index(["bridge"])  # assembly order: block first
+    for s in plan["sequence"]:
+        assert _moves_apart(asm, s["moved"], s["onto"], s["removal_direction"])

@@ -26,6 +26,7 @@ from ..geometry.vectors import plane_basis
 from .facets import (
     PartGeometry,
     box_pairs,
+    box_tree,
     fcl_model,
     fcl_object,
     manifold_model,
@@ -34,7 +35,13 @@ from .facets import (
     part_geometry,
     sat_gap,
 )
-from .features import classify_pairs, curved_contacts, edge_point_contacts, planar_contacts
+from .features import (
+    classify_pairs,
+    coplanar_facets,
+    curved_contacts,
+    edge_point_contacts,
+    planar_contacts,
+)
 from .interference import Interference, interference, meshes_intersect
 
 __all__ = ["Contact", "ContactAnalysis", "analyze_contacts"]
@@ -199,11 +206,13 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                 interferences.append(found)
                 contacts += fit_contacts(found)
         if found is None:
-            i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol), tol)
+            faces, skip_a, skip_b = coplanar_facets(ga, gb, tol, ang)
+            i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol, skip_a,
+                                                                        skip_b), tol)
             count = len(i)
             tri_pairs += count
-            if len(i):
-                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang, offsets)
+            if len(i) or faces:
+                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang, offsets, faces)
         if key is not None:
             cache.put("contacts", key, (found, approximate, contacts[before:], count))
     ti = time.perf_counter()
@@ -315,7 +324,8 @@ def _apart(ga: PartGeometry, gb: PartGeometry, box_b: tuple[np.ndarray, np.ndarr
     return len(_near_box(gb, lo - gap, hi + gap)) == 0
 
 
-def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float
+def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
+                         skip_a: np.ndarray | None = None, skip_b: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:
     """Triangle pairs ``(i, j)`` whose boxes, inflated by the largest possible gap allowance,
     overlap: each part's triangles near the other's box, the fewer of them querying the other
@@ -330,6 +340,10 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float
     (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
     sa = _near_box(ga, lo_b - reach, hi_b + reach)
     sb = _near_box(gb, lo_a - reach, hi_a + reach)
+    if skip_a is not None:  # triangles of facets already in contact (coplanar_facets)
+        sa = sa[~skip_a[sa]]
+    if skip_b is not None:
+        sb = sb[~skip_b[sb]]
     if len(sa) == 0 or len(sb) == 0:
         return sa[:0], sb[:0]
     swap = len(sa) > len(sb)
@@ -339,7 +353,15 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float
         qi, ti = box_pairs(q.lo[qs] - reach, q.hi[qs] + reach, t.lo[ts], t.hi[ts])
         rows, cols = qs[qi], ts[ti]
     else:
-        ids, counts = t.tree.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+        skip_t = skip_a if swap else skip_b
+        if skip_t is not None and skip_t.any():
+            # the part's R-tree holds the skipped triangles too (slivers whose boxes meet
+            # every query): a tree of the others instead
+            sub = box_tree(t.lo[ts], t.hi[ts])
+            ids, counts = sub.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+            ids = ts[np.asarray(ids, dtype=np.int64)]
+        else:
+            ids, counts = t.tree.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
         rows, cols = np.repeat(qs, np.asarray(counts, dtype=np.int64)), np.asarray(ids)
     rows, cols = rows.astype(np.int64), cols.astype(np.int64)
     return (cols, rows) if swap else (rows, cols)
@@ -444,14 +466,17 @@ def _nested(asm: Assembly, nested: list[tuple[int, int]], tol: float) -> list[In
 
 def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.ndarray,
                    j: np.ndarray, tol: float, ang: float,
-                   offsets: tuple[np.ndarray, np.ndarray] | None = None) -> list[Contact]:
+                   offsets: tuple[np.ndarray, np.ndarray] | None = None,
+                   faces: list[dict] | None = None) -> list[Contact]:
     """The contact features between parts ``a`` and ``b`` from their candidate triangle pairs
     (those passing :func:`_plane_filter`, with the plane offsets it measured). Facing pairs go
     to the planar and curved features as they are (their polygons are intersected exactly; for
     them the plane test is the separation test); the others must also pass the full
-    separating-axis test."""
+    separating-axis test. ``faces``: the planar contacts found facet by facet, whose
+    triangles are not among the pairs (:func:`ndbg_cli.contacts.features.coplanar_facets`)."""
     planar, curved = classify_pairs(ga, gb, i, j, tol, ang, offsets)
     feats, used = planar_contacts(ga, gb, i[planar], j[planar], tol, ang)
+    feats = list(faces or []) + feats  # the facet-level planar contacts (coplanar_facets)
     planar_used = np.zeros(len(i), dtype=bool)
     planar_used[np.nonzero(planar)[0][used]] = True
     feats += curved_contacts(ga, gb, i[curved], j[curved], ang, tol)

@@ -71,14 +71,17 @@ def _line(v: Any) -> tuple[float, ...]:
 
 def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                base: int | None, connected: ConnectivityTest,
-               others: Sequence[str] = (), budget: int = 1_000_000) -> dict:
+               others: Sequence[str] = (), budget: int = 1_000_000,
+               exact_rounds: int = EXACT_ROUNDS) -> dict:
     """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
     proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
     proven tree exists along the directions tried. Returns the report's ``verified``,
     ``proofs`` (the proven trees the greedy search finds for the strategies ``others``, when
     ``chosen`` has a proven tree), and, when no proven tree was found, ``blocked``
     (why, :func:`ndbg_cli.planning.proven.why_stuck`) and ``candidate`` (the unproven tree's
-    steps, kept for what they are)."""
+    steps, kept for what they are). ``chosen`` may have no tree (``found`` False): the
+    search then starts from nothing. ``exact_rounds``: stuck subassemblies whose own infinite
+    NDBG may be computed (:data:`EXACT_ROUNDS`)."""
     from ..ndbg.infinite.sweep import SweepChecker
 
     nd = chosen.ndbg
@@ -97,7 +100,7 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     got = prove(rows, chosen.root, cand, natural=n_nat, key=key, base=base, clearance=room,
                 used=used, objective=strategy)
     exact: dict[int, str] = {}
-    for _ in range(EXACT_ROUNDS):
+    for _ in range(exact_rounds):
         if got.found or got.stuck in exact:
             break
         # the stuck subassembly's own infinite NDBG over the whole sphere, when small enough:
@@ -114,8 +117,8 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     if got.found:
         steps = {m: _step(nd, sp.mask, sp.moved, sp.vector(dirs), dirs[sp.k].source)
                  for m, sp in got.splits.items()}
-        chosen.steps = steps
-        if got.searched:
+        chosen.steps, chosen.found, chosen.stuck = steps, True, None
+        if got.searched and cand:
             chosen.exact = False
             chosen.notes.append(
                 f"the candidate tree's step {got.failed_step} is blocked further away along "
@@ -138,6 +141,20 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
         _other(rows, chosen.root, s, n_nat, base, chooser(s, None, fresh, dirs, room), fresh)
         for s in others for fresh in [set()]]
     return out
+
+
+def splits_somewhere(asm: Assembly, analysis: Any, nd: NDBG, mask: int
+                     ) -> tuple[float, ...] | None:
+    """A natural direction (the axes, the contacts' normals and cylinder axes, at most
+    :data:`NATURAL_LIMIT`) along which the direct sweep test splits subassembly ``mask``, or
+    ``None``: a cheap check of a contact-based proof that nothing splits it."""
+    from ..ndbg.infinite.sweep import SweepChecker
+
+    natural = natural_directions(analysis, nd.space_dimension)[:NATURAL_LIMIT]
+    dirs = directions(nd.space_dimension, natural, [])
+    rows = Rows(SweepChecker(asm), nd.n, dirs, nd)
+    return next((dirs[k].vector for k in range(len(dirs))
+                 if len(rows.components(k, mask)) > 1), None)
 
 
 class _Clearance:
