@@ -15,7 +15,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: setup
-	$(BIN)/ndbg analyze assemblies/bell.yaml
+	$(BIN)/ndbg analyze assemblies/bell.yaml --html build/bell.html
+	@echo "HTML report (opens offline in a browser): $(abspath build/bell.html)"
 
 test: setup
 	$(BIN)/python -m pytest -q -n auto

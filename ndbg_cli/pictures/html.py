@@ -87,7 +87,7 @@ def _view(meshes: list[DisplayMesh], offsets: np.ndarray, moves) -> dict:
               "scene": {"aspectmode": "manual",
                         "aspectratio": {"x": _r(ratio[0]), "y": _r(ratio[1]),
                                         "z": _r(ratio[2])},
-                        "camera": {"eye": {"x": 1.4, "y": -1.6, "z": 1.1}},
+                        "camera": {"eye": {"x": 0.95, "y": -1.1, "z": 0.75}},
                         **{f"{c}axis": {**axis, "range": [_r(lo[k]), _r(hi[k])]}
                            for k, c in enumerate("xyz")}}}
     index = {m.id: k for k, m in enumerate(meshes)}

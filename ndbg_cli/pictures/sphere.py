@@ -132,13 +132,14 @@ def _sample_dbgs(report: dict, section: dict, directions: np.ndarray,
     listed = [frozenset(map(tuple, g["arcs"])) for g in section.get("dbgs") or []]
     common = frozenset.intersection(*listed) if listed else frozenset()
     lookup = {g: k for k, g in enumerate(listed)}
-    out = np.full(len(directions), -1, dtype=np.int64)
-    # samples with the same blocking pattern share one lookup
-    patterns, inverse = np.unique(arcs, axis=0, return_inverse=True)
-    for p, row in enumerate(patterns):
-        g = frozenset(names[i] for i in np.flatnonzero(row)) | common
-        out[inverse.reshape(-1) == p] = lookup.get(g, -1)
-    return out
+    # samples with the same blocking pattern share one lookup (patterns packed to bytes:
+    # a row of bits is one comparable key)
+    packed = np.packbits(arcs, axis=1)
+    keys = packed.view(np.dtype((np.void, packed.shape[1]))).reshape(-1)
+    _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    table = np.array([lookup.get(frozenset(names[i] for i in np.flatnonzero(arcs[f])) | common,
+                                 -1) for f in first], dtype=np.int64)
+    return table[inverse.reshape(-1)]
 
 
 def _icosphere() -> tuple[np.ndarray, np.ndarray]:

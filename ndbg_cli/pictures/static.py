@@ -93,8 +93,9 @@ def sphere_figure(report: dict, m: SphereMap):
     colours = [distinct_colour(k) for k in drawn]
     if m.mode == "regions" and len(m.faces):
         grid = dbg_grid(report, m)
-        slot = {k: s for s, k in enumerate(drawn)}
-        idx = np.vectorize(lambda k: slot.get(int(k), len(drawn)))(grid)
+        slot = np.full(max(drawn, default=0) + 2, len(drawn))  # -1 (none listed): last
+        slot[drawn] = np.arange(len(drawn))
+        idx = slot[grid]
         cmap = ListedColormap(colours + ["#bbbbbb"])
         ax.imshow(idx, cmap=cmap, vmin=-0.5, vmax=len(drawn) + 0.5, interpolation="nearest",
                   extent=(-180, 180, -90, 90), aspect="auto")
