@@ -217,3 +217,18 @@ def test_plain_runs_do_not_import_the_picture_libraries():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == ""
+
+
+def test_the_andor_graph_is_drawn_when_small_with_the_report_s_counts(hover, bell):
+    from ndbg_cli.pictures.andor import andor_svg
+
+    report, _ = hover
+    for family in ("infinitesimal_translation", "infinite_translation"):
+        svg, caption = andor_svg(report, family)
+        g = report["andor"][family]
+        assert svg is not None, caption
+        assert svg.count("<rect") == g["nodes"] and svg.count("<circle") == g["hyperarcs"]
+    # the plan's steps are red in its own family's graph
+    assert 'stroke="#d62728"' in andor_svg(report, report["plan"]["family"])[0]
+    svg, caption = andor_svg(bell[0], "infinitesimal_translation")
+    assert svg is None and "cut" in caption

@@ -29,6 +29,7 @@ from ._scene import (
     pose_bounds,
     poses,
 )
+from .andor import andor_svg
 from .sphere import SphereMap, sphere_maps
 from .tree import tree_layout, tree_svg
 
@@ -256,18 +257,24 @@ def _spheres_html(maps: list[SphereMap], report: dict) -> str:
 
 
 def _tree_html(report: dict, meshes: list[DisplayMesh]) -> str:
+    """The plan's tree, then each family's AND/OR graph where it is small enough."""
     layout = tree_layout(report)
-    head = '<h2 id="tree">Assembly tree of the plan</h2>'
+    out = ['<h2 id="tree">Assembly tree of the plan</h2>']
     if layout is None:
-        return head + "<p>No plan: no tree.</p>"
-    svg = tree_svg(layout, {m.id: m.colour for m in meshes})
-    andor = "; ".join(f"{fam.replace('_', ' ')}: {g.get('nodes')} subassemblies, "
-                      f"{g.get('hyperarcs')} partitionings"
-                      for fam, g in sorted((report.get("andor") or {}).items()))
-    return (head + '<p class="note">Each circle is an assembly step joining its two '
-            "children; red: the side inserted. Hover a node for its step. AND/OR graphs "
-            f"(not drawn: the report keeps only their sizes): {escape(andor or 'none')}.</p>"
-            f'<div class="treebox">{svg}</div>')
+        out.append("<p>No plan: no tree.</p>")
+    else:
+        svg = tree_svg(layout, {m.id: m.colour for m in meshes})
+        out.append('<p class="note">Each circle is an assembly step joining its two '
+                   "children; red: the side inserted. Hover a node for its step.</p>"
+                   f'<div class="treebox">{svg}</div>')
+    out.append('<h2 id="andor">AND/OR graphs (paper section 7.2)</h2>')
+    for family in sorted(report.get("andor") or {}):
+        svg, caption = andor_svg(report, family)
+        out.append(f"<h3>{escape(family.replace('_', ' '))}</h3>"
+                   f'<p class="note">{"" if svg else "not drawn: "}{escape(caption)}.</p>')
+        if svg:
+            out.append(f'<div class="treebox">{svg}</div>')
+    return "\n".join(out)
 
 
 def render_html(report: dict, asm: Assembly) -> str:
