@@ -226,6 +226,7 @@ def _plan_html(report: dict, moves) -> str:
     plan = report.get("plan") or {}
     items = "\n".join(f"<li>{escape(mv.text.split(': ', 1)[1])}</li>" for mv in moves)
     proof = (plan.get("verified") or {}).get("why", "")
+    proof = proof[:1].upper() + proof[1:]
     notes = "; ".join(plan.get("notes") or [])
     return f"""<h2 id="plan">The plan, taken apart</h2>
 <p class="note">The assembly sequence played backwards: each disassembly step moves the
@@ -266,14 +267,14 @@ def _tree_html(report: dict, meshes: list[DisplayMesh]) -> str:
         svg = tree_svg(layout, {m.id: m.colour for m in meshes})
         out.append('<p class="note">Each circle is an assembly step joining its two '
                    "children; red: the side inserted. Hover a node for its step.</p>"
-                   f'<div class="treebox">{svg}</div>')
+                   f'<div class="treebox" id="ndbg-tree">{svg}</div>')
     out.append('<h2 id="andor">AND/OR graphs (paper section 7.2)</h2>')
     for family in sorted(report.get("andor") or {}):
         svg, caption = andor_svg(report, family)
         out.append(f"<h3>{escape(family.replace('_', ' '))}</h3>"
                    f'<p class="note">{"" if svg else "not drawn: "}{escape(caption)}.</p>')
         if svg:
-            out.append(f'<div class="treebox">{svg}</div>')
+            out.append(f'<div class="treebox" id="ndbg-andor-{family}">{svg}</div>')
     return "\n".join(out)
 
 

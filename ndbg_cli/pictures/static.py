@@ -66,7 +66,9 @@ def plan_strip(meshes: list[DisplayMesh], moves: list[Move], offsets: np.ndarray
         for k, m in enumerate(meshes):
             tris = (m.vertices + offsets[j, k])[m.faces]
             colour = m.colour if movers is None or m.id in movers else pale(m.colour)
+            # rasterized: an SVG strip of vector triangles is megabytes
             ax.add_collection3d(Poly3DCollection(tris, facecolors=colour, linewidths=0,
+                                                 rasterized=True,
                                                  shade=True))
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
