@@ -233,3 +233,17 @@ def test_the_andor_graph_is_drawn_when_small_with_the_report_s_counts(hover, bel
     assert 'stroke="#d62728"' in andor_svg(report, report["plan"]["family"])[0]
     svg, caption = andor_svg(bell[0], "infinitesimal_translation")
     assert svg is None and "cut" in caption
+
+
+def test_display_meshes_are_coarsened_to_the_budget_the_same_way_each_time(bell):
+    from ndbg_cli.pictures._scene import display_meshes
+
+    _, asm = bell
+    full = display_meshes(asm)
+    assert sum(len(m.faces) for m in full) == sum(p.check.triangles for p in asm.parts)
+    coarse = display_meshes(asm, max_triangles=2000)
+    assert sum(len(m.faces) for m in coarse) <= 2000
+    again = display_meshes(asm, max_triangles=2000)
+    assert all(np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+               for a, b in zip(coarse, again))
+    assert [m.id for m in coarse] == asm.ids and all(len(m.faces) for m in coarse)

@@ -102,7 +102,7 @@ def _view(meshes: list[DisplayMesh], offsets: np.ndarray, moves) -> dict:
                       for mv in moves]}
 
 
-def _dbg_colour(m: SphereMap, k: int) -> str:
+def _dbg_colour(k: int) -> str:
     return distinct_colour(k) if k >= 0 else UNMATCHED
 
 
@@ -116,7 +116,7 @@ def _sphere_traces(m: SphereMap) -> list[dict]:
                        "y": [_r(x, 4) for x in v[:, 1]], "z": [_r(x, 4) for x in v[:, 2]],
                        "i": m.faces[:, 0].tolist(), "j": m.faces[:, 1].tolist(),
                        "k": m.faces[:, 2].tolist(), "flatshading": True,
-                       "facecolor": [_dbg_colour(m, int(k)) for k in m.face_dbg],
+                       "facecolor": [_dbg_colour(int(k)) for k in m.face_dbg],
                        "hoverinfo": "skip", "showlegend": False, "name": "regions",
                        "lighting": {"ambient": 0.9, "diffuse": 0.2}})
     else:
@@ -132,7 +132,7 @@ def _sphere_traces(m: SphereMap) -> list[dict]:
                        "meta": {"dbg": info.index},
                        "x": [_r(x, 4) for x in xyz[:, 0]], "y": [_r(x, 4) for x in xyz[:, 1]],
                        "z": [_r(x, 4) for x in xyz[:, 2]],
-                       "marker": {"size": sizes, "color": _dbg_colour(m, info.index),
+                       "marker": {"size": sizes, "color": _dbg_colour(info.index),
                                   "line": {"width": 0}},
                        "hovertext": info.label(), "hoverinfo": "text"})
     traces.extend(_plan_traces(m))

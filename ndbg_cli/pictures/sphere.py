@@ -19,6 +19,7 @@ What the report allows, family by family:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from html import escape
 
 import numpy as np
 
@@ -43,11 +44,12 @@ class DbgInfo:
     regions: dict[int, int]
 
     def label(self) -> str:
-        """One hover line: the DBG, its regions and its free sets."""
+        """The hover text (HTML, part names escaped): the DBG, its regions, its free sets."""
         dims = ", ".join(f"{n} of dim {d}" for d, n in sorted(self.regions.items()))
-        arcs = "; ".join(f"{a}->{b}" for a, b in self.arcs[:12])
+        arcs = "; ".join(f"{escape(a)}->{escape(b)}" for a, b in self.arcs[:12])
         more = f" (+{len(self.arcs) - 12} arcs)" if len(self.arcs) > 12 else ""
-        free = ", ".join("{" + ", ".join(s) + "}" for s in self.free_sets[:MAX_FREE_SETS])
+        free = ", ".join("{" + escape(", ".join(s)) + "}"
+                         for s in self.free_sets[:MAX_FREE_SETS])
         if len(self.free_sets) > MAX_FREE_SETS:
             free += f", ... ({len(self.free_sets)} in all)"
         return (f"DBG {self.index} - regions: {dims or 'none listed'}<br>"
