@@ -13,10 +13,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..core.files import write_atomic
 from ..core.options import Options
 from ._app import cannot_write, check_writable
+
+if TYPE_CHECKING:  # the CLI starts without numpy (tests/test_architecture.py)
+    from ..core.assembly import Assembly
 
 
 @dataclass
@@ -30,6 +34,12 @@ class Pictures:
     svg: str | None = None
     batch: bool = False
     pages: list[tuple[dict, str | None]] = field(default_factory=list)
+    #: assemblies loaded by the analysis in this process, by path, until their pictures
+    loaded: dict[Path, Assembly] = field(default_factory=dict)
+
+    def keep(self, path: Path, asm: Assembly) -> None:
+        """Keep an assembly the analysis loaded here, for its pictures (``on_loaded``)."""
+        self.loaded[path] = asm
 
     @property
     def wanted(self) -> bool:
@@ -47,15 +57,10 @@ class Pictures:
         if not self.wanted:
             return
         if "error" in report:
+            self.loaded.pop(target, None)
             self.pages.append((report, None))
             return
-        from ..io.loaders import load
-
-        # the report keeps no meshes: the assembly is read again, the same way
-        asm = load(target, units=options.units, tolerance=options.tolerance,
-                   allow_outside_paths=options.allow_outside_paths,
-                   mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
-                   load_memory=options.load_memory)
+        asm = self.loaded.pop(target, None) or _load(target, options)
         if self.html:
             from ..pictures.html import render_html
 
@@ -83,6 +88,17 @@ class Pictures:
             from ..pictures.html import index_html
 
             _write(self.html, Path(self.html) / "index.html", index_html(self.pages))
+
+
+def _load(target: Path, options: Options) -> Assembly:
+    """The assembly of ``target`` read again, the way the analysis read it (the report keeps
+    no meshes; an assembly analysed in a worker process is not sent back)."""
+    from ..io.loaders import load
+
+    return load(target, units=options.units, tolerance=options.tolerance,
+                allow_outside_paths=options.allow_outside_paths,
+                mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
+                load_memory=options.load_memory)
 
 
 def _write(where: str, path: Path, data: str | bytes) -> None:

@@ -160,7 +160,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     if scheduler:
         stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
     else:
-        stream = run_batch(targets, options, jobs, debug=STATE.debug)
+        stream = run_batch(targets, options, jobs, debug=STATE.debug,
+                           on_loaded=pictures.keep if pictures.wanted else None)
     # the warnings are in a text report on stdout; elsewhere a human would not see them
     summary = not STATE.quiet and (out_dir is not None or out_file is not None or fmt != "text")
     try:
