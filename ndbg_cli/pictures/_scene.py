@@ -160,6 +160,17 @@ def _fmt_vec(v) -> str:
     return "(" + ", ".join(f"{x:+.3g}" for x in v) + ")"
 
 
+#: Part names spelt out in a step's text; a larger side is shortened (the tree has them all).
+MAX_NAMES = 6
+
+
+def _names(parts: list[str]) -> str:
+    """``{a, b, c}``, or ``{a, b, c, ... (12 parts)}`` past :data:`MAX_NAMES`."""
+    if len(parts) <= MAX_NAMES:
+        return "{" + ", ".join(parts) + "}"
+    return "{" + ", ".join(parts[:MAX_NAMES - 2]) + f", ... ({len(parts)} parts)}}"
+
+
 def _step_direction(step: dict, centres: dict[str, np.ndarray]) -> tuple[np.ndarray, str]:
     """The direction a step's moved side leaves along, and how the step says it moved: a
     translation's removal direction; for a rotation or a screw (generalized motions), the
@@ -198,9 +209,8 @@ def disassembly(report: dict, meshes: list[DisplayMesh]) -> list[Move]:
         rest = np.vstack([by_id[p].vertices for p in s["onto"]]) @ d
         clear = max(float(rest.max() - moved.min()), 0.0)
         verb = "press" if s.get("press") else "insert"
-        text = (f"{j}/{len(seq)}: remove {{{', '.join(s['moved'])}}} from "
-                f"{{{', '.join(s['onto'])}}} along {_fmt_vec(d)} (undoes assembly step "
-                f"{s['step']}: {verb} it {how})")
+        text = (f"{j}/{len(seq)}: remove {_names(s['moved'])} from {_names(s['onto'])} "
+                f"along {_fmt_vec(d)} (undoes assembly step {s['step']}: {verb} it {how})")
         moves.append(Move(j, int(s["step"]), tuple(s["moved"]), tuple(s["onto"]),
                           (float(d[0]), float(d[1]), float(d[2])),
                           clear + MOVE_MARGIN * diag, text))
