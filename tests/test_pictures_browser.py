@@ -124,7 +124,7 @@ def check_page(browser, report: dict, page_path: Path, tmp_path: Path, name: str
     page.eval_on_selector("#ndbg-step", "e => { e.value = 0; "
                           "e.dispatchEvent(new Event('input')); }")
     page.click("#ndbg-play")
-    page.wait_for_function("document.getElementById('ndbg-step').value > 0", timeout=10_000)
+    page.wait_for_function("document.getElementById('ndbg-step').value > 0", timeout=90_000)
     page.click("#ndbg-play")  # pause
 
     for family, sec in report["ndbg"].items():

@@ -73,19 +73,22 @@
     li.addEventListener("click", function () { stop(); slider.value = i + 1; pose(i + 1); });
   });
 
-  // play: apart step by step, then back together; a step takes SECONDS_PER_STEP
-  var SECONDS_PER_STEP = 0.9, playing = null, button = document.getElementById("ndbg-play");
+  // play: apart step by step, then back together; a step takes SECONDS_PER_STEP, and a
+  // frame advances MAX_FRAME_STEP at most (where drawing is slow, it plays slower instead of
+  // skipping steps)
+  var SECONDS_PER_STEP = 0.9, MAX_FRAME_STEP = 0.25, playing = null;
+  var button = document.getElementById("ndbg-play");
   function stop() { if (playing) { cancelAnimationFrame(playing.frame); playing = null; button.textContent = "Play"; } }
   button.addEventListener("click", function () {
     if (playing) { stop(); return; }
     if (!n) return;
-    var t0 = null, start = Number(slider.value), total = 2 * n;
+    var last = null, u = Number(slider.value), total = 2 * n;  // u in 0..2n: apart, back
     playing = {frame: 0};
     button.textContent = "Pause";
     function frame(ts) {
       if (!playing) return;
-      if (t0 === null) t0 = ts;
-      var u = start + (ts - t0) / 1000 / SECONDS_PER_STEP;   // 0..2n: apart, then back
+      if (last !== null) u += Math.min((ts - last) / 1000 / SECONDS_PER_STEP, MAX_FRAME_STEP);
+      last = ts;
       if (u >= total) { pose(0); slider.value = 0; stop(); return; }
       var t = u <= n ? u : total - u;
       pose(t);
