@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test lint bench clean
+.PHONY: setup browser demo test lint bench clean
 
 setup: $(STAMP)
 
@@ -15,9 +15,17 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: setup
-	$(BIN)/ndbg analyze assemblies/bell.yaml
+	$(BIN)/ndbg analyze assemblies/bell.yaml --html build/bell.html
+	@echo "HTML report (opens offline in a browser): $(abspath build/bell.html)"
 
-test: setup
+# the HTML report's browser tests use Debian's chromium: installed here when missing (as root;
+# elsewhere, or without apt, those tests skip and say why)
+browser:
+	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 \
+	  || (apt-get update -qq && apt-get install -y -qq --no-install-recommends chromium) \
+	  || echo "make: chromium not installed: the browser tests will skip"
+
+test: setup browser
 	$(BIN)/python -m pytest -q -n auto
 
 lint: setup

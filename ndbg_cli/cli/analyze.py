@@ -28,6 +28,7 @@ from ._app import (
     fail,
     range_type,
 )
+from ._pictures import Pictures
 
 
 @cli.command(context_settings=CONTEXT)
@@ -86,13 +87,26 @@ from ._app import (
               default=DEFAULTS.infinite_budget,
               show_default=True, help="Facing triangle pairs beyond which the infinite-"
               "translation NDBG is skipped (with a warning).")
+@click.option("--html", type=click.Path(), help="Also write the HTML report: one "
+              "self-contained page (opens offline) with the 3D view, the plan played as a "
+              "disassembly, the direction spheres, the tree and the tables. A file for one "
+              "assembly; in a batch (several assemblies or --out-dir) a folder: NAME.html "
+              "each (NAME as the report's JSON file) plus index.html listing the verdicts.")
+@click.option("--glb", type=click.Path(), help="Also write the exploded assembly as glTF "
+              "binary: one node per part, the plan as animations (the whole disassembly, "
+              "and each step's pose). A file for one assembly, a folder (NAME.glb) in a "
+              "batch.")
+@click.option("--png", type=click.Path(file_okay=False), help="Also write images into this "
+              "folder: plan.png (exploded-view strip), sphere-FAMILY.png, tree.png; in a "
+              "batch one subfolder NAME/ each.")
+@click.option("--svg", type=click.Path(file_okay=False), help="As --png, as SVG.")
 @common_load_options
 @cache_options
 @click.pass_context
 def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
             strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
-            time_limit, infinite_budget, units, tolerance, allow_outside_paths, mesh_tolerance,
-            load_timeout, load_memory) -> None:
+            time_limit, infinite_budget, html, glb, png, svg, units, tolerance,
+            allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
     A folder holding manifests is a batch (one report each); a folder holding only meshes is
@@ -101,6 +115,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     \b
     Examples:
       ndbg analyze assemblies/bell.yaml --format json
+      ndbg analyze assemblies/bell.yaml --html bell.html --glb bell.glb --png pictures/
+      ndbg analyze assemblies/ --out-dir reports/ --html reports/
       ndbg analyze assemblies/ --format jsonl --scheduler tcp://10.0.0.5:8786
     """
     from ..io.formats import prestart_reader
@@ -129,6 +145,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         targets.extend(discover(p))
     batch = len(targets) > 1 or any(Path(p).is_dir() and discover(p) != [Path(p)] for p in paths)
     out_dir, out_file, where = _outputs(out, out_dir, batch)
+    pictures = Pictures(html, glb, png, svg, batch=batch or out_dir is not None)
+    pictures.check()
     if out_file is not None and ctx.get_parameter_source("fmt").name == "DEFAULT":
         # --out report.json means JSON (a text report under that name was a trap)
         fmt = {".json": "json", ".jsonl": "jsonl"}.get(out_file.suffix.lower(), fmt)
@@ -142,21 +160,24 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     if scheduler:
         stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
     else:
-        stream = run_batch(targets, options, jobs, debug=STATE.debug)
+        stream = run_batch(targets, options, jobs, debug=STATE.debug,
+                           on_loaded=pictures.keep if pictures.wanted else None)
     # the warnings are in a text report on stdout; elsewhere a human would not see them
     summary = not STATE.quiet and (out_dir is not None or out_file is not None or fmt != "text")
     try:
         if out_dir is not None:  # once the run can start (a dask scheduler was reached)
             _drop_index(where, out_dir, inputs)
-        for r in progress(stream, len(targets), "analyzing", quiet=STATE.quiet):
+        for k, r in enumerate(progress(stream, len(targets), "analyzing", quiet=STATE.quiet)):
             code = max(code, _exit_code(r))
+            stem = _report_name(r, names)
+            pictures.write(r, targets[k], stem, options)
             if "error" in r:
                 _note(f"ndbg: error: {r['error']['message']}")
             elif summary:
                 for line in _warning_lines(r):
                     _note(line)
             if out_dir is not None:
-                path = out_dir / f"{_report_name(r, names)}.json"
+                path = out_dir / f"{stem}.json"
                 _refuse_input(where, path, inputs | _part_files(r))
                 _write(where, path, dumps(r))
                 reports.append(_index_entry(r, path.name))
@@ -170,6 +191,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         sys.exit(143)
     finally:  # an error writing a report: the workers are ended now, not at exit
         stream.close()
+    pictures.finish()
     if out_dir is not None:
         _refuse_input(where, out_dir / "index.json", inputs)
         _write(where, out_dir / "index.json", dumps(_batch_doc(reports)))

@@ -8,6 +8,7 @@ into an error record, which is what a batch needs.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from .._version import __version__
@@ -83,9 +84,12 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     return report
 
 
-def analyze_path(path: str | Path, options: Options = Options()) -> dict:
+def analyze_path(path: str | Path, options: Options = Options(),
+                 on_loaded: Callable[[Path, Assembly], None] | None = None) -> dict:
     """Load ``path`` and analyse it. An input error becomes an error record (never raised),
-    so one bad assembly in a batch does not stop the others."""
+    so one bad assembly in a batch does not stop the others. ``on_loaded(path, assembly)``
+    is called with the loaded assembly (the pictures of ``ndbg analyze --html`` draw its
+    meshes without reading the model again)."""
     t0 = time.perf_counter()
     try:
         asm = load(path, units=options.units, tolerance=options.tolerance,
@@ -95,6 +99,8 @@ def analyze_path(path: str | Path, options: Options = Options()) -> dict:
     except NdbgError as exc:
         return error_record(path, exc)
     t_load = time.perf_counter() - t0
+    if on_loaded is not None:
+        on_loaded(Path(path), asm)
     try:
         report = analyze(asm, options)
     except NdbgError as exc:

@@ -18,11 +18,12 @@ import multiprocessing
 import os
 import signal
 import traceback
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
+from ..core.assembly import Assembly
 from ..core.errors import InputError, NdbgError
 from ..core.options import Options
 from ..core.pools import end_pool
@@ -33,10 +34,12 @@ class Interrupted(Exception):
     """The batch was stopped by SIGTERM."""
 
 
-def analyze_one(target: Path, options: Options, debug: bool = False) -> dict:
-    """Analyse one target; never raises: a bug becomes an error record (exit code 3)."""
+def analyze_one(target: Path, options: Options, debug: bool = False,
+                on_loaded: Callable[[Path, Assembly], None] | None = None) -> dict:
+    """Analyse one target; never raises: a bug becomes an error record (exit code 3).
+    ``on_loaded``: as for :func:`~ndbg_cli.pipeline.analysis.analyze_path`."""
     try:
-        return analyze_path(target, options)
+        return analyze_path(target, options, on_loaded)
     except Exception as exc:  # a bug: record it and let the batch go on
         if debug:
             traceback.print_exc()
@@ -109,7 +112,8 @@ def _exitcodes(procs: dict | None) -> dict[int, int | None] | None:
 
 
 def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
-              debug: bool = False) -> Iterator[dict]:
+              debug: bool = False,
+              on_loaded: Callable[[Path, Assembly], None] | None = None) -> Iterator[dict]:
     """Yield one report or error record per target, in the order of ``targets``. A single
     target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
     (``Options.workers``; same report).
@@ -117,7 +121,11 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
     A worker process that dies (SIGKILL from the out-of-memory killer, a segfault in a
     native library) breaks its pool: the assembly it was analysing gets an error record
     (exit code 3), a new pool is started, and the assemblies the old one had not finished
-    (including those under way in the workers it ended) are analysed again there."""
+    (including those under way in the workers it ended) are analysed again there.
+
+    ``on_loaded(path, assembly)`` is called with each assembly loaded in this process (one
+    target, or ``jobs`` 1), before its report is yielded; not for those of worker
+    processes."""
     # one target: its pairs in ``jobs`` processes; several: one process each (never nested),
     # and the batch's own progress bar only
     one = len(targets) == 1
@@ -125,7 +133,7 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
                                   progress=options.progress and one)
     if jobs <= 1 or len(targets) <= 1:
         for t in targets:
-            yield analyze_one(t, options, debug)
+            yield analyze_one(t, options, debug, on_loaded)
         return
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     try:
