@@ -35,14 +35,9 @@ from .facets import (
     part_geometry,
     sat_gap,
 )
-from .features import (
-    classify_pairs,
-    coplanar_facets,
-    curved_contacts,
-    edge_point_contacts,
-    planar_contacts,
-)
+from .features import classify_pairs, curved_contacts, edge_point_contacts
 from .interference import Interference, interference, meshes_intersect
+from .planar import coplanar_facets, planar_contacts
 
 __all__ = ["Contact", "ContactAnalysis", "analyze_contacts"]
 
@@ -473,7 +468,7 @@ def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.nda
     to the planar and curved features as they are (their polygons are intersected exactly; for
     them the plane test is the separation test); the others must also pass the full
     separating-axis test. ``faces``: the planar contacts found facet by facet, whose
-    triangles are not among the pairs (:func:`ndbg_cli.contacts.features.coplanar_facets`)."""
+    triangles are not among the pairs (:func:`ndbg_cli.contacts.planar.coplanar_facets`)."""
     planar, curved = classify_pairs(ga, gb, i, j, tol, ang, offsets)
     feats, used = planar_contacts(ga, gb, i[planar], j[planar], tol, ang)
     feats = list(faces or []) + feats  # the facet-level planar contacts (coplanar_facets)

@@ -434,8 +434,11 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                    + (" even infinitesimally" if chosen.ndbg.family == INFINITESIMAL else "")
                    + " (a proof: any plan would split it)"}}
         if chosen.ndbg.family == INFINITESIMAL:
-            proof = clock("verify_s", lambda: _cross_check(
-                asm, contacts, chosen, options, base, plan_conn, proof))
+            from .proofs import cross_check
+
+            proof = clock("verify_s", lambda: cross_check(
+                asm, contacts.analysis, chosen, proof, strategy=options.strategy, base=base,
+                connected=plan_conn, budget=options.infinite_budget))
     out = {"family": chosen.ndbg.family, **plan_section(chosen), **proof}
     press = {frozenset((asm.ids[x.a], asm.ids[x.b]))
              for x in getattr(contacts.analysis, "interferences", ()) if x.kind == "press_fit"}
@@ -443,41 +446,6 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     if proposer is not None and chosen.ndbg is proposer:
         _as_infinite(out)
     return out
-
-
-def _cross_check(asm: Assembly, contacts: Contacts, chosen: Any, options: Options,
-                 base: int | None, conn: ConnectivityTest, proof: dict) -> dict:
-    """The infinitesimal NDBG's proof that no plan exists rests on the contact analysis and
-    its tolerances; the direct sweep test is exact for each direction it tests. So the stuck
-    subassembly is tested along the natural directions; where one splits it, ``proof`` does
-    not stand, and (up to :data:`CROSS_SEARCH_PARTS` parts) the proven search runs: a proven
-    tree it finds is presented, the contradiction noted."""
-    from .proofs import prove_plan, splits_somewhere
-
-    stuck, notes = chosen.stuck, list(chosen.notes)
-    d = splits_somewhere(asm, contacts.analysis, chosen.ndbg, stuck)
-    if d is None:
-        return proof  # the exact test agrees along every natural direction: no search
-    names = ", ".join(chosen.ndbg.names(stuck))
-    doubt = {"verified": {
-        "value": False, "steps": 0, "proof_of_none": False,
-        "why": f"no candidate tree: the contacts let no direction split {{{names}}} even "
-               f"infinitesimally, but the direct sweep test splits it along "
-               f"({', '.join(f'{x:g}' for x in d)}): the contact analysis reports blocking "
-               f"the exact test does not find, so this is not a proof"}}
-    if len(asm) > CROSS_SEARCH_PARTS:
-        return doubt
-    got = prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
-                     connected=conn, budget=options.infinite_budget, exact_rounds=0)
-    if (got.get("verified") or {}).get("value") is not True:
-        chosen.found, chosen.stuck, chosen.steps, chosen.notes = False, stuck, {}, notes
-        return doubt
-    chosen.notes.append(
-        f"the infinitesimal NDBG has no candidate tree ({{{', '.join(chosen.ndbg.names(stuck))}}} "
-        f"has no candidate partitioning), yet the direct sweep test proves this tree step by "
-        f"step: the contact analysis reports blocking that the exact test does not find "
-        f"(a contact within the tolerances, e.g. of a coarse or overlapping tessellation)")
-    return got
 
 
 def _proposer_classes(asm: Assembly, proposer: NDBG | None) -> dict:
@@ -605,10 +573,6 @@ def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, 
 
 #: Strategies whose trees :func:`_prove` checks besides the reported plan's.
 PROOF_STRATEGIES = ("fewest-directions", "linear")
-#: Largest product for which a contradicted proof of none (:func:`_cross_check`) starts the
-#: proven search from scratch: its rows cost a sweep per part and direction (the 115-part
-#: engine, 121,000 triangles: over 6 minutes).
-CROSS_SEARCH_PARTS = 40
 
 
 def _over_budget(asm: Assembly, options: Options) -> str:
