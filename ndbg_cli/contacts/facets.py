@@ -156,7 +156,7 @@ def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
                               verts[unshared[:, 0]] - tri[adj[:, 1], 0]))
         keep = (angles <= ang) & (d0 <= tol) & (d1 <= tol)
     facet = _components(nf, adj[keep])
-    facet, fn, fd = _facet_planes(tri, normals, areas, facet, tol, ang)
+    facet, fn, fd, split = _facet_planes(tri, normals, areas, facet, tol, ang)
     if len(adj):
         # A smooth edge joins two facets at a small dihedral angle. Judged after the facets
         # are fitted, not by the angle alone: a surface tessellated finer than the angular
@@ -173,6 +173,12 @@ def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
             s = np.where(is_smooth, 0.5 * h * np.tan(angles / 4.0), 0.0)
             np.maximum.at(sag, f, s)
             np.maximum.at(smooth, f, np.where(is_smooth, angles, 0.0))
+        # a triangle of a split facet is curved however its own edges read: at thousands of
+        # facets per turn, rounding (float32 files, a 2^-16 mm grid) tilts some edges of a
+        # fine ring below SMOOTH_DIHEDRAL_MIN, and a flat-read facet there would pair as
+        # planar with its hole's, cutting the curved contact into pieces
+        smooth = np.where(split & (smooth == 0.0) & (np.bincount(adj.ravel(), minlength=nf)
+                                                     > 0), SMOOTH_DIHEDRAL_MIN, smooth)
     lo, hi = tri.min(axis=1), tri.max(axis=1)
     return PartGeometry(triangles=tri, faces=np.asarray(mesh.faces, dtype=np.int64),
                         vertices=np.asarray(mesh.vertices, dtype=np.float64), normals=normals,
@@ -204,11 +210,13 @@ def _components(n: int, edges: np.ndarray) -> np.ndarray:
 
 
 def _facet_planes(tri: np.ndarray, normals: np.ndarray, areas: np.ndarray, facet: np.ndarray,
-                  tol: float, ang: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  tol: float, ang: float
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Area-weighted plane of each facet; a facet that drifts off its plane by more than ``tol``
     or whose triangles turn more than ``ang`` from its normal (a finely tessellated curve grown
     edge by edge; a whole ring of a fine hole, whose normals sum to nothing) is split back into
     single triangles."""
+    split = np.zeros(len(tri), dtype=bool)
     for _ in range(2):
         _, facet = np.unique(facet, return_inverse=True)
         nfac = int(facet.max()) + 1
@@ -232,7 +240,8 @@ def _facet_planes(tri: np.ndarray, normals: np.ndarray, areas: np.ndarray, facet
         if not bad.any():
             break
         facet = np.where(bad, nfac + np.arange(len(tri)), facet)
-    return facet, fn, fd
+        split |= bad
+    return facet, fn, fd, split
 
 
 # -- vectorised triangle predicates ---------------------------------------------------------
