@@ -38,13 +38,17 @@ def _clusters(points: np.ndarray, radius: float) -> np.ndarray:
     p, q = close_pairs(r[first], radius)
     graph = coo_matrix((np.ones(len(p)), (p, q)), shape=(m, m))
     _, labels = connected_components(graph, directed=False)
-    labels = labels[inv]
-    # Relabel in order of first appearance, for determinism.
-    _, first = np.unique(labels, return_index=True)
+    return _first_seen(labels[inv])
+
+
+def _first_seen(labels: np.ndarray) -> np.ndarray:
+    """``labels`` (any integers) renumbered 0, 1, ... in order of first appearance (for
+    determinism)."""
+    _, first, inv = np.unique(labels, return_index=True, return_inverse=True)
     order = np.argsort(first)
-    remap = np.empty_like(order)
-    remap[order] = np.arange(len(order))
-    return remap[labels]
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rank[inv.reshape(-1)]
 
 
 def chord(angle: float) -> float:
@@ -79,13 +83,9 @@ def merge_directions(normals: np.ndarray, tol: float = ANGLE_TOL_RAD, *,
         graph = coo_matrix((np.ones(m), (labels[:m], labels[m:])),
                            shape=(labels.max() + 1,) * 2)
         _, circle = connected_components(graph, directed=False)
-        lab = circle[labels[:m]]
-        _, first = np.unique(lab, return_index=True)
-        order = np.argsort(first)
-        remap = np.empty_like(order)
-        remap[order] = np.arange(len(order))
-        index = remap[lab]
-        ref = n[first[order]]  # first member of each circle fixes its orientation
+        index = _first_seen(circle[labels[:m]])
+        _, first = np.unique(index, return_index=True)
+        ref = n[first]  # first member of each circle fixes its orientation
         sign = np.where(np.einsum("ij,ij->i", n, ref[index]) >= 0, 1, -1)
     else:
         index = labels
@@ -122,22 +122,14 @@ def _unchain(n: np.ndarray, index: np.ndarray, sign: np.ndarray, tol: float) -> 
     for c in np.flatnonzero(wide).tolist():
         rows = np.flatnonzero(index == c)
         left = np.ones(len(rows), dtype=bool)
-        first = True
         while left.any():
-            seed = rows[np.flatnonzero(left)[0]]
-            take = left & (np.abs(n[rows] @ n[seed]) >= cos)
-            take[np.flatnonzero(left)[0]] = True
-            if not first:
-                out[rows[take]] = nxt
-                nxt += 1
-            first = False
+            at = np.flatnonzero(left)[0]
+            take = left & (np.abs(n[rows] @ n[rows[at]]) >= cos)
+            take[at] = True
+            out[rows[take]] = nxt  # every piece a new label; relabelled below
+            nxt += 1
             left &= ~take
-    # relabel in order of first appearance, as the clusters are
-    _, firsts = np.unique(out, return_index=True)
-    order = np.argsort(firsts)
-    remap = np.empty_like(order)
-    remap[order] = np.arange(len(order))
-    return remap[out]
+    return _first_seen(out)
 
 
 def signs(directions: np.ndarray, normals: np.ndarray, tol: float = ANGLE_TOL_RAD

@@ -36,7 +36,7 @@ from ..planning.proven import (
 #: greedy search tries in full at every subassembly; further ones are tried only when these
 #: fail (:func:`ndbg_cli.planning.proven.greedy`).
 NATURAL_LIMIT = 32
-#: Largest product for which a contradicted proof of none (:func:`_cross_check`) starts the
+#: Largest product for which a contradicted proof of none (:func:`cross_check`) starts the
 #: proven search from scratch: its rows cost a sweep per part and direction (the 115-part
 #: engine, 121,000 triangles: over 6 minutes).
 CROSS_SEARCH_PARTS = 40
@@ -142,8 +142,7 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     else:
         out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
     out["proofs"] = [] if not got.found else [
-        _other(rows, chosen.root, s, n_nat, base, chooser(s, None, fresh, dirs, room), fresh)
-        for s in others for fresh in [set()]]
+        _other(rows, chosen.root, s, n_nat, base, room) for s in others]
     return out
 
 
@@ -312,10 +311,13 @@ def _no_plan(rows: Rows, sweep: Any, nd: NDBG, chosen: Plan, stuck: int,
 
 
 def _other(rows: Rows, root: int, strategy: str, natural: int, base: int | None,
-           key: Any, used: set[int]) -> dict:
-    """The proven tree the greedy search finds for ``strategy`` (its objective in ``key``):
-    its depth, nonlinear steps and directions, each an upper bound on the proven optimum."""
-    got = greedy(rows, root, base=base, key=key, natural=natural, used=used)
+           room: _Clearance) -> dict:
+    """The proven tree the greedy search finds for ``strategy`` (its objective in
+    :func:`~ndbg_cli.planning.proven.chooser`'s key): its depth, nonlinear steps and
+    directions, each an upper bound on the proven optimum."""
+    used: set[int] = set()  # read by the key (fewest-directions), filled by the search
+    got = greedy(rows, root, base=base, key=chooser(strategy, None, used, rows.dirs, room),
+                 natural=natural, used=used)
     return {"strategy": strategy, **measures(rows, root, got.splits)}
 
 
