@@ -14,6 +14,7 @@ from ndbg_cli.ndbg.infinite._sweep_kernels import (
     plane,
     polygon_area,
 )
+from ndbg_cli.ndbg.infinite.build import build_infinite
 from ndbg_cli.ndbg.infinite.sweep import SweepChecker
 
 
@@ -98,3 +99,33 @@ def test_triangle_pair_test_matches_shapely_on_random_pairs():
         seen["in_front"] += front > 0
         seen["partly"] += 0 < front < ref.area - 1e-9
     assert seen["overlap"] > 50 and seen["partly"] > 20
+
+
+@pytest.mark.parametrize("inverted", [False, True])
+def test_an_open_cup_over_a_boss_is_blocked_sideways_whichever_way_it_is_wound(inverted):
+    # A cup given as an open shell (a 16-sided tube of radius 1.2 with a top and no bottom:
+    # a surface export), standing over a closed boss of radius 1 and height 2. By
+    # construction the cup comes off upwards only: sideways or down its wall, or its top,
+    # meets the boss. An open shell has no outside, so the test must not depend on the way
+    # its triangles are wound (the engine's pins, in ../shared/data/engine, are such cups;
+    # the test used to free them sideways through their bosses).
+    boss = trimesh.creation.cylinder(radius=1.0, height=2.0, sections=16)
+    boss.apply_translation([0, 0, 1.0])
+    shell = trimesh.creation.cylinder(radius=1.2, height=2.4, sections=16)
+    shell.apply_translation([0, 0, 1.2])
+    keep = shell.triangles_center[:, 2] > 1e-6  # drop the bottom cap: an open cup
+    faces = shell.faces[keep][:, ::-1] if inverted else shell.faces[keep]
+    cup, diags = make_part("cup", shell.vertices, faces)
+    assert not cup.check.watertight and any(d.code == "not-watertight" for d in diags)
+    asm = Assembly("cup", (make_part("boss", boss.vertices, boss.faces)[0], cup))
+    s = SweepChecker(asm)
+    assert not s.blocked(1, 0, np.array([0, 0, 1.0]))
+    for d in ([1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, -0.6, 0.8], [0, 0, -1.0]):
+        assert s.blocked(1, 0, np.array(d)), d
+        assert s.blocked(0, 1, -np.array(d)), d  # and the boss, moved the other way
+    # the arrangement (paper 5.3) sees the same shell: the cup is free in one region only,
+    # about +z (the clearance of 0.2 lets it tilt a little)
+    nd = build_infinite(asm)
+    free = [reg.direction for reg in nd.regions
+            if reg.direction is not None and reg.dbg.is_free(0b10, 0b11)]
+    assert len(free) == 1 and free[0][2] > 0.95

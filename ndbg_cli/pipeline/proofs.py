@@ -18,6 +18,7 @@ import numpy as np
 from ..core.assembly import Assembly
 from ..core.constants import INFINITE, INFINITESIMAL
 from ..geometry.vectors import line_direction
+from ..ndbg.dbg import bits
 from ..ndbg.model import NDBG, ConnectivityTest
 from ..planning.plans import Plan, Step, region_rank
 from ..planning.proven import (
@@ -40,6 +41,8 @@ NATURAL_LIMIT = 32
 #: proven search from scratch: its rows cost a sweep per part and direction (the 115-part
 #: engine, 121,000 triangles: over 6 minutes).
 CROSS_SEARCH_PARTS = 40
+#: ``blocked`` entries given with a proof that no plan exists (:func:`splits_somewhere`).
+WITNESSES = 12
 #: Stuck subassemblies whose own infinite NDBG is computed before the search gives up.
 EXACT_ROUNDS = 3
 #: A stuck subassembly's infinite NDBG is computed restricted to its free domain up to this
@@ -147,17 +150,36 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
 
 
 def splits_somewhere(asm: Assembly, analysis: Any, nd: NDBG, mask: int
-                     ) -> tuple[float, ...] | None:
+                     ) -> tuple[tuple[float, ...] | None, list[dict]]:
     """A natural direction (the axes, the contacts' normals and cylinder axes, at most
     :data:`NATURAL_LIMIT`) along which the direct sweep test splits subassembly ``mask``, or
-    ``None``: a cheap check of a contact-based proof that nothing splits it."""
+    ``None``: a cheap check of a contact-based proof that nothing splits it. With ``None``,
+    the report's ``blocked`` entries for it: along those directions, each part of ``mask``
+    (the axes first) with a part of ``mask`` that blocks it and where (at most
+    :data:`WITNESSES`)."""
     from ..ndbg.infinite.sweep import SweepChecker
 
     natural = natural_directions(analysis, nd.space_dimension)[:NATURAL_LIMIT]
     dirs = directions(nd.space_dimension, natural, [])
-    rows = Rows(SweepChecker(asm), nd.n, dirs, nd)
-    return next((dirs[k].vector for k in range(len(dirs))
-                 if len(rows.components(k, mask)) > 1), None)
+    sweep = SweepChecker(asm)
+    rows = Rows(sweep, nd.n, dirs, nd)
+    d = next((dirs[k].vector for k in range(len(dirs))
+              if len(rows.components(k, mask)) > 1), None)
+    if d is not None:
+        return d, []
+    out: list[dict] = []
+    for k, i in ((k, i) for k in range(len(dirs)) for i in bits(mask)):
+        j = next(iter(bits(rows.row(k, i) & mask & ~(1 << i))), None)
+        if j is None:
+            continue
+        at = sweep.witness(i, j, np.asarray(dirs[k].vector))
+        out.append({"moved": nd.names(1 << i), "region": None,
+                    "removal_direction": list(dirs[k].vector),
+                    "blocked_by": [nd.ids[i], nd.ids[j]],
+                    "at": None if at is None else [float(x) for x in at]})
+        if len(out) == WITNESSES:
+            break
+    return None, out
 
 
 def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, strategy: str,
@@ -170,9 +192,9 @@ def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, stra
     not stand, and (up to :data:`CROSS_SEARCH_PARTS` parts) the proven search runs: a proven
     tree it finds is presented, the contradiction noted."""
     stuck, notes = chosen.stuck, list(chosen.notes)
-    d = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
-    if d is None:
-        return proof  # the exact test agrees along every natural direction: no search
+    d, blocked = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
+    if d is None:  # the exact test agrees along every natural direction: no search
+        return {**proof, "blocked": blocked}
     names = ", ".join(chosen.ndbg.names(stuck))
     doubt = {"verified": {
         "value": False, "steps": 0, "proof_of_none": False,

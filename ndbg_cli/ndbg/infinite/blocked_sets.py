@@ -240,8 +240,10 @@ def triangle_pairs(asm: Assembly) -> int:
     :data:`CONVEX_PAIR_COST` plus one per :data:`CONVEX_DIFFERENCES_PER_PAIR` difference
     vectors. The CLI skips the NDBG with a warning above
     ``--infinite-budget`` (example counts in benchmarks/NOTES.md)."""
-    t = np.array([p.check.triangles if asm.dimension == 3 else 4 * p.check.vertices
-                  for p in asm.parts], dtype=float)
+    # open shells count twice: their triangles face both ways (part_triangles)
+    t = np.array([p.check.triangles * (1 if closed else 2) if asm.dimension == 3
+                  else 4 * p.check.vertices
+                  for p, closed in zip(asm.parts, closed_parts(asm))], dtype=float)
     total = t.sum() ** 2 - (t ** 2).sum()
     if asm.dimension == 3 and len(t) > 1:
         verts, pairs = far_convex(part_triangles(asm), closed_parts(asm),

@@ -34,7 +34,13 @@ CHUNK = 20000
 
 def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per part: triangles ``(t, 3, 3)`` and unit outward normals ``(t, 3)``, in the assembly
-    frame (2D parts are extruded to prisms of height ``diagonal``)."""
+    frame (2D parts are extruded to prisms of height ``diagonal``).
+
+    A part whose mesh is not closed and consistently wound (an open shell: a cup, a sheet, a
+    surface export) has no outside: its triangles are listed twice, once reversed, so that
+    each is a face on both sides. The facing tests above then see the shell's hidden side
+    too, and the sweep of a cup over a boss is blocked by the boss, as the solid the shell
+    stands for would be (the engine's pins, ``../shared/data/engine``)."""
     out = []
     h = max(asm.diagonal, 1e-9)
     for p in asm.parts:
@@ -47,7 +53,11 @@ def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
         nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         ln = np.linalg.norm(nrm, axis=1, keepdims=True)
         ok = ln[:, 0] > 0
-        out.append((tri[ok], nrm[ok] / ln[ok]))
+        tri, nrm = tri[ok], nrm[ok] / ln[ok]
+        if asm.dimension == 3 and not (p.check.watertight and p.check.winding_consistent):
+            tri = np.concatenate([tri, tri[:, ::-1]])
+            nrm = np.concatenate([nrm, -nrm])
+        out.append((tri, nrm))
     return out
 
 
