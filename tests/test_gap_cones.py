@@ -406,6 +406,7 @@ def test_the_engine_and_the_beam_analyse_end_to_end(tmp_path):
         stuck = set(plan["stuck"])
         assert plan["blocked"] and all(set(b["blocked_by"]) <= stuck and b["at"]
                                        for b in plan["blocked"])
+        assert "confirmed without the contacts" in plan["verified"]["why"]
     r = run_cli("analyze", shared("beam", "assembled"), "--format", "json", "--no-cache",
                 "-q", "--out", tmp_path / "beam.json")
     assert r.returncode == 0, r.stderr[-2000:]

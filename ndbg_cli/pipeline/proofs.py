@@ -190,16 +190,29 @@ def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, stra
     while the direct sweep test is exact for each direction it tests. So the stuck
     subassembly is tested along the natural directions; where one splits it, ``proof`` does
     not stand, and (up to :data:`CROSS_SEARCH_PARTS` parts) the proven search runs: a proven
-    tree it finds is presented, the contradiction noted."""
+    tree it finds is presented, the contradiction noted. When the sweep agrees, the stuck
+    subassembly's own infinite-translation NDBG over the whole sphere (which uses no contact),
+    within :data:`EXACT_RESTRICTED` times ``budget``, makes the proof independent of the
+    contacts, or finds the split they hide."""
     stuck, notes = chosen.stuck, list(chosen.notes)
-    d, blocked = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
-    if d is None:  # the exact test agrees along every natural direction: no search
-        return {**proof, "blocked": blocked}
     names = ", ".join(chosen.ndbg.names(stuck))
+    d, blocked = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
+    by = "the direct sweep test"
+    if d is None:  # the exact test agrees along every natural direction
+        verdict, more = _exact_split(asm, chosen.ndbg, stuck, EXACT_RESTRICTED * budget,
+                                     whole_sphere=True)
+        if verdict != "some":
+            if verdict == "none":
+                v = proof["verified"]
+                proof = {**proof, "verified": {**v, "why": v["why"] + (
+                    f"; confirmed without the contacts: the infinite-translation NDBG of "
+                    f"{{{names}}} over the whole sphere has no partitioning")}}
+            return {**proof, "blocked": blocked}
+        d, by = more[0].vector, f"the infinite-translation NDBG of {{{names}}}"
     doubt = {"verified": {
         "value": False, "steps": 0, "proof_of_none": False,
         "why": f"no candidate tree: the contacts let no direction split {{{names}}} even "
-               f"infinitesimally, but the direct sweep test splits it along "
+               f"infinitesimally, but {by} splits it along "
                f"({', '.join(f'{x:g}' for x in d)}): the contact analysis reports blocking "
                f"the exact test does not find, so this is not a proof"}}
     if len(asm) > CROSS_SEARCH_PARTS:
@@ -251,7 +264,7 @@ def _step(nd: NDBG, mask: int, moved: int, d: tuple[float, ...], source: str) ->
                 source=source)
 
 
-def _exact_split(asm: Assembly, nd: NDBG, stuck: int, budget: int
+def _exact_split(asm: Assembly, nd: NDBG, stuck: int, budget: int, whole_sphere: bool = False
                  ) -> tuple[str, list[Direction]]:
     """Whether any translation splits subassembly ``stuck``, from its own infinite-translation
     NDBG (paper 5.3, the arrangement of :mod:`ndbg_cli.ndbg.infinite.build`, with the whole
@@ -259,7 +272,8 @@ def _exact_split(asm: Assembly, nd: NDBG, stuck: int, budget: int
     pairs; up to :data:`EXACT_RESTRICTED` times that, restricted to its free domain (the
     directions where its own infinitesimal NDBG frees something: every partitioning of it
     lies there, :mod:`ndbg_cli.ndbg.infinite.domain`). ``("none", [])`` (a proof),
-    ``("some", its partitionings' region directions)`` or ``("over budget", [])``."""
+    ``("some", its partitionings' region directions)`` or ``("over budget", [])``.
+    ``whole_sphere``: never restricted (the free domain comes from the contacts)."""
     from ..ndbg.infinite.blocked_sets import triangle_pairs
     from ..ndbg.infinite.build import build_infinite
     from ..ndbg.model import partitionings
@@ -268,7 +282,7 @@ def _exact_split(asm: Assembly, nd: NDBG, stuck: int, budget: int
     pairs = triangle_pairs(sub)
     if pairs <= budget:
         inf = build_infinite(sub)
-    elif sub.dimension == 3 and pairs <= EXACT_RESTRICTED * budget:
+    elif sub.dimension == 3 and not whole_sphere and pairs <= EXACT_RESTRICTED * budget:
         domain = _own_domain(sub)
         if domain is None:  # something is free in every direction: no proof to be had here
             return "over budget", []

@@ -7,17 +7,20 @@ import numpy as np
 import shapely
 
 from ..core.assembly import Assembly
+from ..core.constants import CONTACT_ANGLE_TOL_RAD
+from ..geometry.normals import cluster_labels
 
 
 def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
     """Candidate finger placements for the form-closure grasp: for every part, each distinct
-    outward face normal (3D: triangle normals rounded to ``digits``; 2D: edge normals) with a
-    point on a face of that orientation that no other part covers: the centroid of the
-    largest such triangle (2D: the midpoint of the longest such edge) whose point just
-    outside, ``2 eps`` along the normal, is not next to another part (:func:`covered`; at
-    most :data:`FINGER_TRIES` faces tried per orientation, and none kept if all are covered:
-    a finger cannot touch a face another part lies on; a part that interpenetrates the face
-    deeply is not seen, interferences are reported apart)."""
+    outward face orientation (3D: triangle normals within the contact angle tolerance
+    (:func:`~ndbg_cli.geometry.normals.cluster_labels`), each face's own normal rounded to
+    ``digits``; 2D: edge normals) with a point on a face of that orientation that no other
+    part covers: the centroid of the largest such triangle (2D: the midpoint of the longest
+    such edge) whose point just outside, ``2 eps`` along the normal, is not next to another
+    part (:func:`covered`; at most :data:`FINGER_TRIES` faces tried per orientation, and none
+    kept if all are covered: a finger cannot touch a face another part lies on; a part that
+    interpenetrates the face deeply is not seen, interferences are reported apart)."""
     gap = 2.0 * asm.length_tolerance
     # (part, normal key, point, outward unit normal), each orientation's faces largest first
     groups: list[list[tuple[int, list[float], list[float], np.ndarray]]] = []
@@ -41,15 +44,17 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
         mesh = part.mesh
         unit = np.asarray(mesh.face_normals)
         areas = np.asarray(mesh.area_faces)
-        centers = np.asarray(mesh.triangles_center)
-        keys, inverse = np.unique(np.round(unit, digits), axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
+        # one orientation: normals within the contact angle tolerance (a finely tessellated
+        # curved face is not thousands of orientations; a finger blocks the same directions
+        # on any of them, up to that tolerance), each face keeping its own normal
+        inverse = cluster_labels(unit, CONTACT_ANGLE_TOL_RAD)
         # each orientation's faces, largest first (ties: lower index first)
         order = np.lexsort((np.arange(len(areas)), -areas, inverse)).tolist()
-        ends = np.cumsum(np.bincount(inverse, minlength=len(keys))).tolist()
-        key_list, center_list = keys.tolist(), centers.tolist()
-        for q, (lo, hi) in enumerate(zip([0] + ends[:-1], ends)):
-            groups.append([(k, key_list[q], center_list[f], unit[f])
+        ends = np.cumsum(np.bincount(inverse)).tolist()
+        keys = np.round(unit, digits).tolist()
+        centers = np.asarray(mesh.triangles_center).tolist()
+        for lo, hi in zip([0] + ends[:-1], ends):
+            groups.append([(k, keys[f], centers[f], unit[f])
                            for f in order[lo:min(hi, lo + FINGER_TRIES)]])
     # round r tries the r-th face of every orientation still without an exposed one
     chosen: list[tuple | None] = [None] * len(groups)
