@@ -80,22 +80,6 @@ def _merge_clusters(n: np.ndarray, w: np.ndarray, cos: float,
     return out[np.lexsort(np.round(out, 9).T[::-1])]
 
 
-def cluster_labels(normals: np.ndarray, angle_tol: float) -> np.ndarray:
-    """Each row's cluster ``(n,)`` in the greedy clustering of :func:`cluster_normals` (rows
-    equal after rounding to 1e-9 share one; clusters numbered in the order the greedy pass
-    opens them).
-
-    >>> cluster_labels(np.array([[0, 0, 1.0], [0, 0.001, 1.0], [1.0, 0, 0]]), 0.01).tolist()
-    [0, 0, 1]
-    """
-    n = np.asarray(normals, dtype=float).reshape(-1, 3)
-    if len(n) == 0:
-        return np.zeros(0, dtype=np.int64)
-    r = np.round(n, 9)
-    first, inv = unique_rows(r)
-    return _greedy_clusters(r[first], np.cos(angle_tol))[1][inv]
-
-
 def one_cluster(normals: np.ndarray, angle_tol: float) -> bool:
     """Whether :func:`cluster_normals` gives ``normals`` ``(n, 3)`` a single cluster: all the
     distinct normals lie within ``angle_tol`` (radians) of the lexicographically first, its

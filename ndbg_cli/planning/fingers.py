@@ -8,14 +8,14 @@ import shapely
 
 from ..core.assembly import Assembly
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
-from ..geometry.normals import cluster_labels
+from ..geometry.vectors import unique_rows
 
 
 def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
     """Candidate finger placements for the form-closure grasp: for every part, each distinct
-    outward face orientation (3D: triangle normals within the contact angle tolerance
-    (:func:`~ndbg_cli.geometry.normals.cluster_labels`), each face's own normal rounded to
-    ``digits``; 2D: edge normals) with a point on a face of that orientation that no other
+    outward face orientation (3D: triangle normals in one cell of a grid of the contact angle
+    tolerance's side, each face keeping its own normal rounded to ``digits``; 2D: edge
+    normals) with a point on a face of that orientation that no other
     part covers: the centroid of the largest such triangle (2D: the midpoint of the longest
     such edge) whose point just outside, ``2 eps`` along the normal, is not next to another
     part (:func:`covered`; at most :data:`FINGER_TRIES` faces tried per orientation, and none
@@ -44,18 +44,22 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
         mesh = part.mesh
         unit = np.asarray(mesh.face_normals)
         areas = np.asarray(mesh.area_faces)
-        # one orientation: normals within the contact angle tolerance (a finely tessellated
-        # curved face is not thousands of orientations; a finger blocks the same directions
-        # on any of them, up to that tolerance), each face keeping its own normal
-        inverse = cluster_labels(unit, CONTACT_ANGLE_TOL_RAD)
+        # one orientation: normals in one grid cell of the contact angle tolerance's side (a
+        # finely tessellated curved face is not thousands of orientations: a finger blocks
+        # the same directions on any of them, up to that tolerance)
+        inverse = unique_rows(np.round(unit / CONTACT_ANGLE_TOL_RAD))[1]
         # each orientation's faces, largest first (ties: lower index first)
-        order = np.lexsort((np.arange(len(areas)), -areas, inverse)).tolist()
-        ends = np.cumsum(np.bincount(inverse)).tolist()
-        keys = np.round(unit, digits).tolist()
-        centers = np.asarray(mesh.triangles_center).tolist()
+        order = np.lexsort((np.arange(len(areas)), -areas, inverse))
+        # the first FINGER_TRIES faces of each orientation, in that order
+        counts = np.bincount(inverse)
+        starts = np.cumsum(counts) - counts
+        rank = np.arange(len(order)) - np.repeat(starts, counts)
+        tried = order[rank < FINGER_TRIES]
+        keys = np.round(unit[tried], digits).tolist()
+        centers = np.asarray(mesh.triangles_center)[tried].tolist()
+        ends = np.cumsum(np.minimum(counts, FINGER_TRIES)).tolist()
         for lo, hi in zip([0] + ends[:-1], ends):
-            groups.append([(k, keys[f], centers[f], unit[f])
-                           for f in order[lo:min(hi, lo + FINGER_TRIES)]])
+            groups.append([(k, keys[x], centers[x], unit[tried[x]]) for x in range(lo, hi)])
     # round r tries the r-th face of every orientation still without an exposed one
     chosen: list[tuple | None] = [None] * len(groups)
     todo = list(range(len(groups)))
