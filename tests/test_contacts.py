@@ -276,6 +276,39 @@ def test_ball_in_spherical_socket():
     assert c.normals[:, 2].min() < -0.99  # straight down is blocked
 
 
+def test_the_slab_pretest_skips_only_pairs_that_cannot_interfere():
+    """``thin_slab`` (which spares the overlap boolean) against answers by hand, with the
+    allowance 0.01. A cube on a slab (top face = bottom face): the planes z = 0 separate
+    them, width 0. The same cube sunk 0.5 into the slab, side faces flush (no triangle of
+    one crosses the other's): width 0.5 along z and more along x and y, so the boolean runs
+    and finds the overlap 1 x 1 x 0.5 (mean thickness 2V/S = 1 / (2 + 4 x 0.5) = 0.25). The cube
+    sunk 0.005: width 0.005 <= 0.01, skipped, and the boolean agrees (2V/S < 0.01). A peg
+    in a hole: no slab along any direction (the hole's walls lie on all sides)."""
+    from ndbg_cli.contacts.interference import interference, thin_slab
+
+    slab = box((3, 3, 1), (0, 0, -0.5))
+
+    def pair(sink):
+        asm = assemble(slab, box((1, 1, 1), (0, 0, 0.5 - sink)))
+        ga, gb = (part_geometry(p, 1e-4, CONTACT_ANGLE_TOL_RAD) for p in asm.parts)
+        return asm, ga, gb
+
+    asm, ga, gb = pair(0.0)
+    assert thin_slab(ga, gb, 0.01) and thin_slab(gb, ga, 0.0)
+    asm, ga, gb = pair(0.5)
+    assert not thin_slab(ga, gb, 0.01) and not thin_slab(ga, gb, 0.49)
+    found, _ = interference(0, 1, *asm.parts, ga, gb, 0.01, 1e-4)
+    assert found.volume == pytest.approx(0.5) and found.depth == pytest.approx(0.25)
+    asm, ga, gb = pair(0.005)
+    assert thin_slab(ga, gb, 0.01) and not thin_slab(ga, gb, 0.004)
+    found, _ = interference(0, 1, *asm.parts, ga, gb, 0.01, 1e-4)
+    assert found is None
+    shaft, block = shaft_and_block(10.0)
+    asm = assemble(shaft, block)
+    ga, gb = (part_geometry(p, 1e-4, CONTACT_ANGLE_TOL_RAD) for p in asm.parts)
+    assert not thin_slab(ga, gb, 1.0)
+
+
 def test_part_wholly_inside_another_is_an_interference():
     # a 2 x 2 x 2 box inside a 10 x 10 x 10 box: the surfaces never meet, the overlap is the
     # small box, volume 8, mean thickness 2V/S = 16/24

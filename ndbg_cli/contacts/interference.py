@@ -61,6 +61,8 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     part's largest chord sag."""
     ma, mb = manifold_model(pa), manifold_model(pb)
     if ma is not None and mb is not None:
+        if thin_slab(ga, gb, allowance):
+            return None, False
         overlap = ma ^ mb
         vol = float(overlap.volume())
         area = float(overlap.surface_area())
@@ -89,6 +91,33 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
                         fcl_separates(fcl_model(pa), fcl_object(pb), tol), tol)
         return Interference(ia, ib, 0.0, depth, "fcl-depth", fit), True
     return None, True
+
+
+def thin_slab(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
+    """Whether the two parts lie on either side of a slab at most ``width`` thick: along some
+    direction ``u``, ``max_A u.x - min_B u.x <= width`` (or with A and B swapped).
+
+    Their overlap then lies inside the slab, so its mean thickness ``2 V / S`` is at most
+    ``width``: ``V <= width P`` and ``S >= 2 P`` for its projection ``P`` on the slab's plane
+    (a line across the slab that meets the overlap's interior crosses its boundary twice). With
+    ``width`` the interference allowance, the pair does not interfere, and the overlap boolean
+    (whose cost on large coplanar faces, such as a cover stacked on a housing, is seconds per
+    pair) is not needed. Directions tried: the axes and the normals of each part's
+    :data:`SLAB_FACETS` largest planar facets (a stacked pair shares one)."""
+    dirs = [np.eye(3)]
+    for g in (ga, gb):
+        if len(g.facet_normal):
+            area = np.bincount(g.facet, weights=g.areas, minlength=len(g.facet_normal))
+            top = np.argsort(-area, kind="stable")[:SLAB_FACETS]
+            dirs.append(g.facet_normal[top])
+    u = np.concatenate(dirs)
+    pa, pb = ga.vertices @ u.T, gb.vertices @ u.T
+    gap = np.minimum(pa.max(axis=0) - pb.min(axis=0), pb.max(axis=0) - pa.min(axis=0))
+    return bool(gap.min() <= width)
+
+
+#: Largest planar facets per part whose normals :func:`thin_slab` tries.
+SLAB_FACETS = 8
 
 
 def _classify(tri: np.ndarray, depth: float, pa: Part, pb: Part, separates, tol: float,
