@@ -280,3 +280,26 @@ def test_a_run_that_cannot_start_keeps_the_previous_index(tmp_path, monkeypatch)
     r = run_cli("analyze", src, "--out-dir", out, "--scheduler", "tcp://127.0.0.1:1")
     assert r.returncode == 2 and "tcp://127.0.0.1:1" in r.stderr
     assert (out / "index.json").read_text() == before
+
+
+def test_one_assembly_with_workers_gives_the_same_report_and_a_failing_side_job_is_redone():
+    """``Options.workers`` > 1 computes the interlock LP and the grasps in a forked process
+    beside the planner (:class:`ndbg_cli.core.pools.Forked`): the report must be the same
+    byte for byte. A side job that fails in its child is run again in the parent, whose
+    error is the one the caller sees; one that cannot fork runs in place."""
+    import dataclasses
+
+    import ndbg_cli
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.core.pools import Forked
+    from ndbg_cli.report.document import dumps
+
+    for name in ("bell", "fig3-2d", "fig10-latch"):
+        asm = ndbg_cli.load(EX / f"{name}.yaml")
+        one = dumps(ndbg_cli.analyze(asm, Options()))
+        two = dumps(ndbg_cli.analyze(asm, dataclasses.replace(Options(), workers=2)))
+        assert one == two, name
+    assert Forked(divmod, 17, 5).result() == (3, 2)
+    assert Forked(divmod, 17, 5, enabled=False).result() == (3, 2)
+    with pytest.raises(ZeroDivisionError):
+        Forked(divmod, 1, 0).result()

@@ -1,11 +1,16 @@
 """Ending a process pool at once (Ctrl-C, SIGTERM, an error, a consumer that stops early):
 :func:`end_pool`, shared by the batch (:mod:`ndbg_cli.pipeline.batch`) and one assembly's pair
-workers (:mod:`ndbg_cli.ndbg.infinite.pair_workers`).
+workers (:mod:`ndbg_cli.ndbg.infinite.pair_workers`); and one function run beside the caller
+in a forked process (:class:`Forked`).
 """
 
 from __future__ import annotations
 
+import multiprocessing
+import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from typing import Any
 
 #: Seconds to wait for a terminated worker before killing it.
 JOIN_S = 5.0
@@ -43,3 +48,66 @@ def end_pool(pool: ProcessPoolExecutor) -> None:
         except OSError:
             pass
     pool.shutdown(wait=True, cancel_futures=True)
+
+
+class Forked:
+    """``fn(*args)`` computed in a forked child process while the caller goes on; its value
+    by :meth:`result`.
+
+    For a pure function of data the caller already holds (the child sees it through fork's
+    copy-on-write, nothing is pickled on the way in): the value is the same as calling
+    ``fn`` here, which is what :meth:`result` does when no child could be started (no
+    ``fork``, a daemonic process, ``enabled`` false) or the child died or failed. Only the
+    value travels back, pickled; ``seconds`` is the child's own time for it."""
+
+    def __init__(self, fn: Callable[..., Any], *args: Any, enabled: bool = True) -> None:
+        self._fn, self._args = fn, args
+        self._proc = None
+        self.seconds = 0.0
+        if not enabled:
+            return
+        try:
+            ctx = multiprocessing.get_context("fork")
+            self._recv, send = ctx.Pipe(duplex=False)
+            self._proc = ctx.Process(target=_forked_child, args=(send, fn, args), daemon=True)
+            self._proc.start()
+            send.close()
+        except (OSError, ValueError, AssertionError):  # no fork here, or a daemonic process
+            self._proc = None
+
+    def result(self) -> Any:
+        """The value of ``fn(*args)``: the child's, else computed here."""
+        if self._proc is not None:
+            proc, self._proc = self._proc, None
+            try:
+                ok, value, seconds = self._recv.recv()
+            except (EOFError, OSError):  # the child died (killed, out of memory)
+                ok = False
+            finally:
+                self._recv.close()
+                proc.join(timeout=JOIN_S)
+                if proc.is_alive():
+                    proc.kill()
+                    proc.join()
+            if ok:
+                self.seconds = seconds
+                return value
+        t0 = time.perf_counter()
+        value = self._fn(*self._args)
+        self.seconds = time.perf_counter() - t0
+        return value
+
+
+def _forked_child(send: Any, fn: Callable[..., Any], args: tuple) -> None:
+    """:class:`Forked`'s child: ``(True, value, seconds)`` sent back, or ``(False, None, 0)``
+    when ``fn`` raised (the parent then calls it itself, and sees the error there)."""
+    t0 = time.perf_counter()
+    try:
+        got = (True, fn(*args), time.perf_counter() - t0)
+    except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
+        got = (False, None, 0.0)
+    try:
+        send.send(got)
+    except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes it)
+        send.send((False, None, 0.0))
+    send.close()

@@ -89,6 +89,23 @@ class Measures:
     classes: dict
     andor: dict
     graphs: dict
+    #: the interlock LP and the grasps still being computed beside (``measure(defer=True)``):
+    #: ``(Forked job, NDBGs)``, added to ``classes`` by :meth:`finish`
+    pending: Any = None
+
+    def finish(self, timings: dict[str, float] | None = None) -> Measures:
+        """Add the interlock section and the grasps computed beside (no-op without)."""
+        if self.pending is not None:
+            from ..planning.classes import with_interlock_and_grasps
+
+            job, ndbgs = self.pending
+            self.pending = None
+            lock, grasps = job.result()
+            if timings is not None:
+                timings["interlock_s"] = timings.get("interlock_s", 0.0) + job.seconds
+            self.classes = with_interlock_and_grasps(self.classes, list(ndbgs.values()),
+                                                     lock, grasps)
+        return self
 
 
 def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = None,
@@ -265,8 +282,8 @@ def _infinite_family(asm: Assembly, contacts: Contacts, options: Options, thread
 
 
 def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
-            options: Options = Options(), *, timings: dict[str, float] | None = None
-            ) -> Measures:
+            options: Options = Options(), *, timings: dict[str, float] | None = None,
+            defer: bool = False) -> Measures:
     """The classes and measures of paper section 7 on the usable NDBGs ``ndbgs`` (family ->
     NDBG): interlocking, grasps, monotonicity, linearity, depth, and the AND/OR graphs.
 
@@ -282,6 +299,10 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
         What to compute (:class:`~ndbg_cli.core.options.Options`; the CLI's defaults).
     timings : dict, optional
         Receives the wall-clock seconds of each stage.
+    defer : bool
+        With ``options.workers`` above 1, the interlock LP and the grasps are computed in a
+        forked process (:class:`~ndbg_cli.core.pools.Forked`) while the caller goes on (the
+        planner needs neither): :meth:`Measures.finish` adds them. Same classes.
 
     Returns
     -------
@@ -304,11 +325,13 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     clock = Clock(timings)
     budget = _budget(options)
     base = asm.index(asm.base) if asm.base is not None else None
-    lock, grasps = clock("interlock_s", lambda: _interlock_and_grasp(
-        asm, contacts.analysis, ndbgs))
+    from ..core.pools import Forked
+
+    side = Forked(_interlock_and_grasp, asm, contacts.analysis, ndbgs,
+                  enabled=defer and options.workers > 1)
     graphs: dict = {}
     classes = clock("classes_s", lambda: classes_section(
-        ndbgs, base=base, budget=budget, interlock=lock, grasps=grasps, graphs=graphs))
+        ndbgs, base=base, budget=budget, graphs=graphs))
     # the AND/OR graphs the classes built: size, and the exact counts when complete
     andor = {fam: andor_section(g, (classes.get(fam) or {}).get("min_depth"))
              for fam, g in sorted(graphs.items())}
@@ -320,7 +343,8 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                     "value": sorted([list(p) for p in threaded]),
                     "why": "declared screw joints are threads: these pairs cannot translate "
                            "apart; --threads-as-cylinders treats them as plain cylinders"}
-    return Measures(classes, andor, graphs)
+    got = Measures(classes, andor, graphs, (side, ndbgs))
+    return got if defer else got.finish(timings)
 
 
 def _threaded(asm: Assembly, options: Options) -> set[tuple[str, str]]:
@@ -535,10 +559,11 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
         # infinitesimal NDBG (computed for that alone) and each proven by the sweep test
         proposer = build_ndbg(asm, INFINITESIMAL, contacts, options, cache=cache,
                               timings=timings).ndbg
-    measures = measure(asm, contacts, ndbgs, options, timings=timings)
-    out["classes"], out["andor"] = measures.classes, measures.andor
+    measures = measure(asm, contacts, ndbgs, options, timings=timings, defer=True)
     out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
                                 proposer=proposer)
+    measures.finish(timings)
+    out["classes"], out["andor"] = measures.classes, measures.andor
     if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
         from .proofs import proven_classes
 

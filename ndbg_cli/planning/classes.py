@@ -404,13 +404,27 @@ def classes_section(ndbgs, *, base: int | None = None, budget: Budget | None = N
                                               for g in inside])
     for fam in sorted(done):  # the section lists the families alphabetically
         out[fam] = done[fam]
-    if interlock is not None:
-        nds = {nd.family: nd for nd in items}
-        out.setdefault(INFINITESIMAL, {})["interlocked"] = interlock_hands(interlock, nds)
-    for fam, g in (grasps or {}).items():
-        out.setdefault(fam, {})["grasp"] = g
     # every value says which motions it holds for and what it proves (see evidence())
-    return {fam: {k: label(fam, k, m) if isinstance(m, dict) and "value" in m else m
-                  for k, m in measures.items()} for fam, measures in out.items()}
+    out = {fam: {k: label(fam, k, m) if isinstance(m, dict) and "value" in m else m
+                 for k, m in measures.items()} for fam, measures in out.items()}
+    return with_interlock_and_grasps(out, list(items), interlock, grasps)
+
+
+def with_interlock_and_grasps(classes: dict, ndbgs: Sequence[NDBG], interlock: dict | None,
+                              grasps: dict | None) -> dict:
+    """``classes`` (a :func:`classes_section`) with the interlock LP's section (``interlock``,
+    under ``infinitesimal_translation``, :func:`interlock_hands`) and the grasps (family ->
+    :func:`grasp.grasp_section` result) added and labelled, as :func:`classes_section` adds
+    them when given: for a caller that computes them apart (in parallel)."""
+    out = {fam: dict(m) for fam, m in classes.items()}
+    added = []
+    if interlock is not None:
+        nds = {nd.family: nd for nd in ndbgs}
+        added.append((INFINITESIMAL, "interlocked", interlock_hands(interlock, nds)))
+    added += [(fam, "grasp", g) for fam, g in (grasps or {}).items()]
+    for fam, key, m in added:
+        out.setdefault(fam, {})[key] = (label(fam, key, m) if isinstance(m, dict)
+                                        and "value" in m else m)
+    return out
 
 
