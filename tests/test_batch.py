@@ -303,3 +303,21 @@ def test_one_assembly_with_workers_gives_the_same_report_and_a_failing_side_job_
     assert Forked(divmod, 17, 5, enabled=False).result() == (3, 2)
     with pytest.raises(ZeroDivisionError):
         Forked(divmod, 1, 0).result()
+
+
+def test_contacts_in_worker_processes_are_the_contacts_found_in_one(monkeypatch):
+    """The narrow phase over forked workers (``analyze_contacts(workers=2)``, here with the
+    work threshold lowered so a small example takes that path) finds the same contacts and
+    interferences, in the same order, as one process: the press fit and the clash too."""
+    import ndbg_cli
+    import ndbg_cli.contacts.contacts3d as c3
+    from ndbg_cli.report.contacts import contacts_section
+    from ndbg_cli.report.document import dumps
+
+    monkeypatch.setattr(c3, "MIN_PARALLEL_TRIANGLES", 0)
+    for name in ("gearbox", "press-fit", "clash", "bell"):
+        asm = ndbg_cli.load(EX / f"{name}.yaml")
+        one, two = (contacts_section(asm, c3.analyze_contacts(asm, workers=w)) for w in (1, 2))
+        for sec in (one, two):
+            sec["contact_stats"].pop("timings_s", None)
+        assert dumps(one) == dumps(two), name

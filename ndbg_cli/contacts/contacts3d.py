@@ -22,6 +22,7 @@ from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
+from ..core.pools import fork_map
 from ..geometry.vectors import plane_basis
 from .facets import (
     PartGeometry,
@@ -117,14 +118,16 @@ class ContactAnalysis:
 
 def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                      angle_tolerance: float = CONTACT_ANGLE_TOL_RAD,
-                     cache: PairCache | None = None) -> ContactAnalysis:
+                     cache: PairCache | None = None, workers: int = 1) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 
     ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
     radians. With ``cache``, each
     candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
-    tolerances (:mod:`ndbg_cli.core.cache`). Raises :class:`InputError` for a 2D assembly or a
-    non-positive tolerance.
+    tolerances (:mod:`ndbg_cli.core.cache`). ``workers`` > 1: the pairs not in the cache
+    are tested in that many forked processes (:func:`ndbg_cli.core.pools.fork_map`) when they
+    hold :data:`MIN_PARALLEL_TRIANGLES` triangles; the result does not depend on it. Raises
+    :class:`InputError` for a 2D assembly or a non-positive tolerance.
 
     Tolerance model (lengths in the assembly unit):
 
@@ -172,44 +175,39 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     # content hashes of the validated, placed meshes (what this stage really reads), once each
     gkeys = ([content_hash(np.asarray(p.mesh.vertices), np.asarray(p.mesh.faces))
               for p in asm.parts] if cache is not None else [])
-    for a, b, crossing in pairs:
-        ga, gb = geos[a], geos[b]
-        key = None
+    keys: list = [None] * len(pairs)
+    results: list = [None] * len(pairs)
+    for k, (a, b, crossing) in enumerate(pairs):
         if cache is not None:
-            key = cache.key("contacts", gkeys[a], gkeys[b], tol, ang, bool(crossing))
-            got = cache.get("contacts", key, _check_entry)
+            keys[k] = cache.key("contacts", gkeys[a], gkeys[b], tol, ang, bool(crossing))
+            got = cache.get("contacts", keys[k], _check_entry)
             if got is not None:
                 found, approximate, cs, count = got
-                if approximate:
-                    approx.append((asm.parts[a].id, asm.parts[b].id))
-                if found is not None:
-                    interferences.append(dataclasses.replace(found, a=a, b=b))
-                contacts += [dataclasses.replace(c, a=a, b=b) for c in cs]
-                tri_pairs += count
-                continue
-        found, approximate, before = None, False, len(contacts)
-        count = 0
-        if crossing:
-            ti = time.perf_counter()
-            allowance = tol + min(float(ga.sag.max()), float(gb.sag.max()))
-            found, approximate = interference(a, b, asm.parts[a], asm.parts[b], ga, gb,
-                                              allowance, tol)
-            t_int += time.perf_counter() - ti
-            if approximate:
-                approx.append((asm.parts[a].id, asm.parts[b].id))
-            if found is not None:
-                interferences.append(found)
-                contacts += fit_contacts(found)
-        if found is None:
-            faces, skip_a, skip_b = coplanar_facets(ga, gb, tol, ang)
-            i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol, skip_a,
-                                                                        skip_b), tol)
-            count = len(i)
-            tri_pairs += count
-            if len(i) or faces:
-                contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang, offsets, faces)
-        if key is not None:
-            cache.put("contacts", key, (found, approximate, contacts[before:], count))
+                results[k] = (None if found is None else dataclasses.replace(found, a=a, b=b),
+                              approximate, [dataclasses.replace(c, a=a, b=b) for c in cs],
+                              count, 0.0)
+    todo = [k for k in range(len(pairs)) if results[k] is None]
+    work = sum(geos[a].triangles.shape[0] + geos[b].triangles.shape[0]
+               for a, b, _ in (pairs[k] for k in todo))
+    # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
+    # by their triangles
+    order = sorted(range(len(todo)), key=lambda x: (
+        -bool(pairs[todo[x]][2]), -sum(geos[p].triangles.shape[0] for p in pairs[todo[x]][:2]),
+        x))
+    got = fork_map(lambda k: _pair_result(asm, geos, *pairs[k], tol, ang), todo,
+                   workers if work >= MIN_PARALLEL_TRIANGLES else 1, order)
+    for k, res in zip(todo, got):
+        results[k] = res
+        if keys[k] is not None:
+            cache.put("contacts", keys[k], res[:4])
+    for (a, b, _), (found, approximate, cs, count, seconds) in zip(pairs, results):
+        if approximate:
+            approx.append((asm.parts[a].id, asm.parts[b].id))
+        if found is not None:
+            interferences.append(found)
+        contacts += cs
+        tri_pairs += count
+        t_int += seconds
     ti = time.perf_counter()
     interferences += _nested(asm, nested, tol)
     t_int += time.perf_counter() - ti
@@ -224,12 +222,43 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
         "interference_approximate_pairs": [list(p) for p in approx],
         "interference_method": ("manifold3d overlap volume; open meshes: fcl crossing-triangle "
                                 "depth (approximate)"),
-        "bvh_s": t1 - t0, "broad_s": t2 - t1, "narrow_s": t3 - t2 - t_int,
+        "bvh_s": t1 - t0, "broad_s": t2 - t1, "narrow_s": max(t3 - t2 - t_int, 0.0),
         "interference_s": t_int,
     })
     return ContactAnalysis(tuple(contacts), tuple(sorted(interferences, key=lambda x: (x.a, x.b))),
                            tol, ang, stats)
 
+
+def _pair_result(asm: Assembly, geos: list[PartGeometry], a: int, b: int, crossing: bool,
+                 tol: float, ang: float
+                 ) -> tuple[Interference | None, bool, list[Contact], int, float]:
+    """One candidate pair's narrow phase: ``(interference or None, approximate, contacts,
+    triangle pairs, seconds of the interference test)``. A pair whose surfaces cross is
+    tested for interference first; one that interferes gets its fit's contacts only."""
+    ga, gb = geos[a], geos[b]
+    found, approximate, contacts, count, seconds = None, False, [], 0, 0.0
+    if crossing:
+        ti = time.perf_counter()
+        allowance = tol + min(float(ga.sag.max()), float(gb.sag.max()))
+        found, approximate = interference(a, b, asm.parts[a], asm.parts[b], ga, gb,
+                                          allowance, tol)
+        seconds = time.perf_counter() - ti
+        if found is not None:
+            contacts += fit_contacts(found)
+    if found is None:
+        faces, skip_a, skip_b = coplanar_facets(ga, gb, tol, ang)
+        i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol, skip_a,
+                                                                    skip_b), tol)
+        count = len(i)
+        if len(i) or faces:
+            contacts += _pair_contacts(a, b, ga, gb, i, j, tol, ang, offsets, faces)
+    return found, approximate, contacts, count, seconds
+
+
+#: Fewest triangles (summed over the parts of the pairs to test) for which
+#: :func:`analyze_contacts` hands the pairs to worker processes (``workers``): below it
+#: their start costs more than they save.
+MIN_PARALLEL_TRIANGLES = 20_000
 
 #: Radial normals standing for a press fit's cylindrical contact (:func:`fit_contacts`).
 PRESS_NORMALS = 8

@@ -1,7 +1,7 @@
 """Ending a process pool at once (Ctrl-C, SIGTERM, an error, a consumer that stops early):
 :func:`end_pool`, shared by the batch (:mod:`ndbg_cli.pipeline.batch`) and one assembly's pair
 workers (:mod:`ndbg_cli.ndbg.infinite.pair_workers`); and one function run beside the caller
-in a forked process (:class:`Forked`).
+in a forked process (:class:`Forked`), or over a list in forked workers (:func:`fork_map`).
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ import multiprocessing
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 #: Seconds to wait for a terminated worker before killing it.
@@ -111,3 +112,49 @@ def _forked_child(send: Any, fn: Callable[..., Any], args: tuple) -> None:
     except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes it)
         send.send((False, None, 0.0))
     send.close()
+
+
+#: What :func:`fork_map`'s workers compute (set before they are forked, read by
+#: :func:`_fork_call`: nothing but an index is pickled on the way in).
+_FORK_JOB: tuple | None = None
+
+
+def fork_map(fn: Callable[[Any], Any], items: list, workers: int,
+             order: list[int] | None = None) -> list:
+    """``[fn(x) for x in items]``, computed by up to ``workers`` forked processes when
+    ``workers`` > 1 (each takes the next item when done: ``order``, e.g. the costliest first,
+    is the order they are handed out). ``fn`` and ``items`` reach the workers through fork;
+    only the results are pickled. In this process instead when it cannot fork (no ``fork``,
+    a daemonic process), and for what is left when a worker dies. An exception ``fn`` raises
+    is raised here, as in a loop."""
+    global _FORK_JOB
+    n = len(items)
+    if workers <= 1 or n < 2 or multiprocessing.current_process().daemon:
+        return [fn(x) for x in items]
+    try:
+        ctx = multiprocessing.get_context("fork")
+    except ValueError:
+        return [fn(x) for x in items]
+    _FORK_JOB = (fn, items)
+    pool = ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx)
+    done = False
+    futures: dict = {}
+    try:
+        futures = {k: pool.submit(_fork_call, k) for k in (order or range(n))}
+        out = [futures[k].result() for k in range(n)]
+        done = True
+    except BrokenProcessPool:  # a worker died (out of memory, killed): the rest here
+        out = [futures[k].result() if k in futures and futures[k].done()
+               and not futures[k].exception() else fn(items[k]) for k in range(n)]
+    finally:
+        _FORK_JOB = None
+        if done:
+            pool.shutdown(wait=True)
+        else:
+            end_pool(pool)
+    return out
+
+
+def _fork_call(k: int) -> Any:
+    fn, items = _FORK_JOB
+    return fn(items[k])

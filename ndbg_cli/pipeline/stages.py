@@ -146,7 +146,8 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
         from ..report.contacts import contacts_section
 
         ca = clock("contacts_s", lambda: analyze_contacts(asm, tolerance=options.tolerance,
-                                                          cache=cache))
+                                                          cache=cache,
+                                                          workers=options.workers))
         warnings += check_interference_policy(asm, ca, options.interference)
         sec = contacts_section(asm, ca)
         # wall-clock phases go to the report's timings (kept out unless asked for)
