@@ -193,6 +193,11 @@ def test_bolt_with_screw_joint_is_not_prismatic_unless_threads_are_cylinders():
     c = rep["classes"]
     assert c["infinite_translation"]["prismatic"]["value"] is False
     assert c["generalized"]["one_handed_monotone"]["value"] is True
+    # by hand (expect: translation_free false): the thread holds the bolt against every
+    # translation, which the interlocking LP reads too (it once moved the bolt out alone)
+    assert expect("bolt-screw")["translation_free"] is False
+    lock = c["infinitesimal_translation"]["interlocked"]
+    assert lock["value"] is True and "declared threads hold bolt and block" in lock["why"]
     assert [m["motion"]["type"] for m in rep["ndbg"]["generalized"]["needs_rotation"]] == \
         ["screw"]
     plain = clean(analyze_path(EX / "bolt-screw.yaml", Options(threads_as_cylinders=True)))

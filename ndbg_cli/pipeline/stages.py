@@ -670,29 +670,8 @@ def _generalized(asm: Assembly, ca, inf: NDBG, options: Options) -> tuple[NDBG, 
 
 def _interlock_and_grasp(asm: Assembly, ca, ndbgs: dict[str, NDBG]) -> tuple[dict | None, dict]:
     """Infinitesimal interlocking (LP over part velocities, any number of hands) and the
-    prismatic form-closure grasps of the translational families."""
-    from ..planning.grasp import grasp
-    from ..planning.interlock import interlock
+    prismatic form-closure grasps of the translational families
+    (:func:`~ndbg_cli.pipeline.interlocking.interlock_and_grasp`)."""
+    from .interlocking import interlock_and_grasp
 
-    dim = asm.dimension
-    normals: dict[tuple[int, int], list[np.ndarray]] = {}
-    for c in ca.contacts:
-        normals.setdefault((c.a, c.b), []).append(np.asarray(c.normals, float).reshape(-1, dim))
-    pair_normals = {k: np.concatenate(v) for k, v in sorted(normals.items())}
-    fixed = asm.index(asm.base) if asm.base is not None else 0
-    lock = None
-    if INFINITESIMAL in ndbgs or INFINITE in ndbgs:
-        lock = interlock(len(asm), pair_normals, fixed, dim=dim, ids=asm.ids)
-        lock.pop("velocities", None)
-        edge_point = sum(1 for c in ca.contacts if getattr(c, "blocking", "any") == "all")
-        if edge_point:
-            lock["why"] += (f" ({edge_point} edge/point contacts read as every normal of their "
-                            "cone: conservative, may call a product interlocked that is not)")
-    grasps = {}
-    from ..planning.fingers import exterior_faces
-
-    faces = exterior_faces(asm)
-    for fam in (INFINITESIMAL, INFINITE):
-        if fam in ndbgs:
-            grasps[fam] = grasp(ndbgs[fam], faces)
-    return lock, grasps
+    return interlock_and_grasp(asm, ca, ndbgs)
