@@ -539,6 +539,10 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     out["classes"], out["andor"] = measures.classes, measures.andor
     out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
                                 proposer=proposer)
+    from .interlocking import apply_witnesses
+
+    # what the plan proves refutes a conservative "interlocked" or "no candidate tree"
+    apply_witnesses(out, asm.ids, contacts.analysis, asm.base)
     if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
         from .proofs import proven_classes
 
