@@ -887,6 +887,52 @@ by bearing_up going up), bearing_low; the housing stays. One direction suffices.
                   gearbox_solids(n), expect, comment, base="housing")
 
 
+# -- 15. dowels in a frame, tessellated independently --------------------------------------
+
+DOWEL_CENTRES = ((-30, -15), (0, -15), (30, -15), (-30, 15), (0, 15), (30, 15))
+#: Facets of the dowels and of their holes: both polygons have their vertices on the one
+#: nominal circle (r 4), as a tessellator puts them, and every dowel vertex is a hole vertex.
+DOWEL_FACETS, DOWEL_HOLE_FACETS = 8, 24
+
+
+def dowels(out: Path) -> None:
+    """Six dowels through a frame plate, flush with both faces; the dowels have 8 facets and
+    the holes 24, so the dowels touch the holes only along vertex lines (edge contacts)."""
+    frame = box(-45, -30, 0, 45, 30, 10)
+    solids = {}
+    for k, (x, y) in enumerate(DOWEL_CENTRES):
+        frame = frame - prism(circle(4, x, y, n=DOWEL_HOLE_FACETS), -1, 11)
+        solids[f"dowel_{k + 1}"] = prism(circle(4, x, y, n=DOWEL_FACETS), 0, 10)
+    solids["frame"] = frame  # last: the dowels come first, as in the model a user reported
+    ids = [f"dowel_{k + 1}" for k in range(len(DOWEL_CENTRES))]
+    expect = {
+        "parts": 7,
+        "contact_pairs": [[d, "frame"] for d in ids],
+        "axis": [0, 0, 1],
+        "removal_directions": [[0, 0, 1], [0, 0, -1]],
+        "blocked_directions": [[1, 0, 0], [0, -1, 0], [-1, 1, 0], [0.1, 0, 1], [0, 0.1, -1]],
+        "interlocked": False,
+        "plan_found": True,
+        "one_direction": True,
+    }
+    n, h = DOWEL_FACETS, DOWEL_HOLE_FACETS
+    comment = f"""\
+Frame plate 90x60x10 (z 0..10) with six through holes r 4 at (+-30, +-15) and (0, +-15); a
+dowel in each (r 4, z 0..10, flush with both faces). The dowels have {n} facets and the holes {h},
+both polygons with their vertices on the nominal circle r 4 (phase 0): every dowel vertex
+(every 45 deg) is a hole vertex (every 15 deg), and the dowel's chords lie inside the hole's,
+so each dowel touches its hole only along 8 vertical vertex lines: edge contacts.
+A dowel's vertex line sits in the hole's corner, whose free directions are within 82.5 deg of
+the inward radial; with vertices every 45 deg any motion with a horizontal component pushes
+some vertex outward (within 22.5 deg of it): blocked. Along the axis nothing is in the way
+(through holes, ends flush): each dowel leaves along +z or -z, alone, in any order (no two
+dowels touch). So the product is not interlocked (a dowel slides along its axis), a plan of
+single translations exists (take the dowels out one at a time, all along +z: one direction).
+"""
+    mesh_assembly(out, "dowels", "six dowels in a frame, 8-facet dowels in 24-facet holes",
+                  solids, expect, comment)
+
+
 def build(out: Path = HERE) -> None:
     """Build every example into ``out`` (manifests) and ``out/meshes`` (STL files)."""
     out = Path(out)
@@ -908,6 +954,7 @@ def build(out: Path = HERE) -> None:
     overlap(out)
     clash(out)
     gearbox(out)
+    dowels(out)
 
 
 if __name__ == "__main__":

@@ -38,7 +38,7 @@ COLLIDE_MM3 = 1e-3  #: a blocked motion must sweep at least this much volume int
 EXPECTED_NAMES = {
     "bell", "fig3-2d", "fig2-sandwich-5", "fig2-sandwich-8", "fig5-rotation", "fig10-latch",
     "fig11-nonlinear", "stack", "peg-37", "peg-blind", "hover", "hover-shifted", "slot-37",
-    "hinge", "bolt-screw", "bolt-plain", "press-fit", "overlap", "clash", "gearbox",
+    "hinge", "bolt-screw", "bolt-plain", "press-fit", "overlap", "clash", "gearbox", "dowels",
 }
 
 
@@ -104,7 +104,7 @@ def test_parts_do_not_overlap(name):
             assert overlap(s[a], s[b]) <= limit, (a, b)
 
 
-@pytest.mark.parametrize("name", ["bell", "hover", "hover-shifted"])
+@pytest.mark.parametrize("name", ["bell", "hover", "hover-shifted", "dowels"])
 def test_contact_pairs_are_exactly_the_touching_pairs(name):
     s = solids(name)
     listed = {frozenset(p) for p in load(name).expect["contact_pairs"]}
@@ -319,6 +319,24 @@ def test_stack_sequence():
     for pid in exp["sequence"]:
         assert sweep_free("stack", [pid], exp["direction"], 40.0, removed=tuple(removed)), pid
         removed.append(pid)
+
+
+def test_dowels_leave_along_their_axis_only():
+    """Each dowel alone slides out of the frame along +z and -z, and any motion with a
+    horizontal component (the listed probes) pushes it into the frame at once; all of them
+    leave along +z one after the other."""
+    exp = load("dowels").expect
+    dowels = [p for p in solids("dowels") if p != "frame"]
+    for pid in dowels:
+        for d in exp["removal_directions"]:
+            assert sweep_free("dowels", [pid], d, 20.0), (pid, d)
+        for d in exp["blocked_directions"]:
+            assert not sweep_free("dowels", [pid], d, 0.5), (pid, d)
+    removed: list[str] = []
+    for pid in dowels:
+        assert sweep_free("dowels", [pid], exp["axis"], 20.0, removed=tuple(removed)), pid
+        removed.append(pid)
+    assert exp["interlocked"] is False and exp["plan_found"] and exp["one_direction"]
 
 
 def test_bell_reuses_one_screw_mesh_with_placements():

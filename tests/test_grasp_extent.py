@@ -95,21 +95,21 @@ def test_2d_house_assembly_end_to_end(tmp_path):
     and B's three roof edges (A's top and B's bottom touch). Both families need the same 5
     fingers, and no direction of S^1 (sampled every 0.01 deg) escapes them."""
     from ndbg_cli.ndbg.infinite.build import lookup
-    from ndbg_cli.pipeline import stages as pipeline
+    from ndbg_cli.pipeline import interlocking as pipeline
 
     asm = ndbg_cli.load(_house_yaml(tmp_path))
     seen = {}
-    orig = pipeline._interlock_and_grasp
+    orig = pipeline.interlock_and_grasp
 
     def keep(a, ca, ndbgs):
         seen.update(ndbgs)
         return orig(a, ca, ndbgs)
 
-    pipeline._interlock_and_grasp = keep
+    pipeline.interlock_and_grasp = keep
     try:
         rep = analyze(asm, Options(motion="all"))
     finally:
-        pipeline._interlock_and_grasp = orig
+        pipeline.interlock_and_grasp = orig
     phi = np.radians(np.arange(0, 360, 0.01))
     dirs = np.column_stack([np.cos(phi), np.sin(phi)])
     for fam in ("infinitesimal_translation", "infinite_translation"):

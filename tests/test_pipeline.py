@@ -15,6 +15,7 @@ import yaml
 
 from ndbg_cli.core.options import Options
 from ndbg_cli.pipeline.analysis import analyze_path
+from ndbg_cli.report.consistency import CODE, contradictions
 from ndbg_cli.report.document import clean, dumps, validate_report
 
 from conftest import shared
@@ -63,6 +64,45 @@ def test_report_validates_and_has_every_section(name):
                 "plan", "classes", "timings", "warnings"):
         assert key in rep, key
     assert rep["timings"] == {}
+
+
+#: Every example with hand facts (an ``expect`` block); the heavy ones marked slow.
+WITH_EXPECT = sorted(p.stem for p in EX.glob("*.yaml") if "expect" in yaml.safe_load(
+    p.read_text()))
+HEAVY = {"bell", "gearbox", "press-fit"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in HEAVY
+                                  else n for n in WITH_EXPECT])
+def test_example_reports_do_not_contradict_themselves(name):
+    """The consistency rules (ndbg check --self) hold on every example's report, and the
+    report carries no contradiction warning."""
+    rep = report(name)
+    found = contradictions(rep)
+    assert found == [], "\n".join(c.line() for c in found)
+    assert not [w for w in rep["warnings"] if w["code"] == CODE]
+    validate_report(rep)
+
+
+def test_dowels_interlocked_agrees_with_the_proven_plan():
+    """The user's case: dowels in a frame, edge contacts along vertex lines. By hand (the
+    manifest): each dowel leaves along the hole axis, so the product is not interlocked and a
+    plan of single translations exists. The report once said "interlocked: yes" (the LP,
+    reading the edge contacts conservatively) beside that proven plan."""
+    rep, e = report("dowels"), expect("dowels")
+    plan, lock = rep["plan"], rep["classes"]["infinitesimal_translation"]["interlocked"]
+    assert plan["found"] is e["plan_found"] and plan["verified"]["value"] is True
+    for step in plan["sequence"]:  # every step along the hole axis, either sense
+        assert abs(abs(unit(step["removal_direction"]) @ unit(e["axis"])) - 1) < 1e-9
+    assert lock["value"] is e["interlocked"] and lock["evidence"] == "proven"
+    w = lock["witness"]  # one side leaves the other along the axis: a dowel, or all but one
+    assert abs(abs(unit(w["removal_direction"]) @ unit(e["axis"])) - 1) < 1e-9
+    assert sorted(w["moved"] + w["rest"]) == sorted(p["id"] for p in rep["assembly"]["parts"])
+    assert (lock["hands"], lock["hands_exact"]) == (1, True)
+    assert "edge/point contacts" in lock["why"]  # the LP's reading, said
+    for fam in ("infinitesimal_translation", "generalized", "infinite_translation"):
+        assert rep["classes"][fam]["one_handed_monotone"]["value"] is True, fam
+    assert rep["ndbg"]["infinitesimal_translation"]["conservative_contacts"] > 0
 
 
 def test_schema_rejects_a_broken_report():
@@ -193,6 +233,11 @@ def test_bolt_with_screw_joint_is_not_prismatic_unless_threads_are_cylinders():
     c = rep["classes"]
     assert c["infinite_translation"]["prismatic"]["value"] is False
     assert c["generalized"]["one_handed_monotone"]["value"] is True
+    # by hand (expect: translation_free false): the thread holds the bolt against every
+    # translation, which the interlocking LP reads too (it once moved the bolt out alone)
+    assert expect("bolt-screw")["translation_free"] is False
+    lock = c["infinitesimal_translation"]["interlocked"]
+    assert lock["value"] is True and "declared threads hold bolt and block" in lock["why"]
     assert [m["motion"]["type"] for m in rep["ndbg"]["generalized"]["needs_rotation"]] == \
         ["screw"]
     plain = clean(analyze_path(EX / "bolt-screw.yaml", Options(threads_as_cylinders=True)))

@@ -409,8 +409,12 @@ def _index_entry(r: dict, file: str) -> dict:
 
 @cli.command(context_settings=CONTEXT)
 @click.argument("paths", nargs=-1, required=True, type=click.Path())
-@click.option("--rules", "rules_file", required=True, type=click.Path(),
-              help="YAML rules file (see configs/rules-*.yaml).")
+@click.option("--rules", "rules_file", type=click.Path(),
+              help="YAML rules file (see configs/rules-*.yaml); needed unless --self.")
+@click.option("--self", "self_check", is_flag=True,
+              help="Check that each report's answers agree with each other (a proven "
+              "plan against 'interlocked' and the classes, the families against each "
+              "other, ...): one line per contradiction, exit 1 on any.")
 @click.option("--junit", type=click.Path(dir_okay=False), help="Also write a JUnit XML "
               "report here (one test case per assembly).")
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text",
@@ -425,18 +429,25 @@ def _index_entry(r: dict, file: str) -> dict:
 @common_load_options
 @cache_options
 @click.pass_context
-def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_budget, units,
-          tolerance, allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
+def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, infinite_budget,
+          units, tolerance, allow_outside_paths, mesh_tolerance, load_timeout,
+          load_memory) -> None:
     """CI gate: analyse PATHS (or read saved .json reports, or a folder of them) and check
-    design rules.
+    design rules (--rules), the reports' consistency (--self), or both.
 
-    Exit code 0 when every rule holds, 1 when any is violated (one line per violation:
-    assembly, rule, measured value, expected, why), 2 for bad input or a bad rules file.
+    Exit code 0 when every rule holds and no report contradicts itself, 1 when a rule is
+    violated (one line per violation: assembly, rule, measured value, expected, why) or a
+    report contradicts itself (--self: one line per contradiction: assembly, consistency
+    rule, what disagrees, the report fields involved), 2 for bad input or a bad rules file.
 
     \b
     Example:
       ndbg check assemblies/bell.yaml --rules configs/rules-bell.yaml --junit ndbg.xml
+      ndbg check --self assemblies/
+      ndbg check --self reports/ --rules configs/rules-bell.yaml
     """
+    if not rules_file and not self_check:
+        fail("nothing to check: give --rules FILE, --self, or both", EXIT_INPUT)
     from ..io.formats import prestart_reader
 
     if len(paths) == 1:  # a native reader's start-up overlaps the imports below
@@ -446,9 +457,9 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     from ..report.diff import holds_reports, read_reports
     from ..report.document import dumps
     from ..report.junit import junit_xml
-    from ..report.rules import evaluate, load_rules
+    from ..report.rules import RuleSet, evaluate, load_rules
 
-    ruleset = load_rules(rules_file)
+    ruleset = load_rules(rules_file) if rules_file else RuleSet()
     options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
                        allow_outside_paths=allow_outside_paths,
                        infinite_budget=infinite_budget, mesh_tolerance=mesh_tolerance,
@@ -481,6 +492,7 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
     # a failed rule is a violation when the analysis proves it, else undecided (it fails
     # only through the rules file's ``undecided: fail``)
     undecided = sum(1 for o in failed if o.ok is None)
+    found = _contradictions(reports) if self_check else None
     if fmt == "json":
         doc = {"schema": "ndbg.check/1", "rules": rules_file,
                "summary": {"assemblies": len(outcomes), "rules_checked": sum(map(len, outcomes)),
@@ -491,6 +503,9 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
                               "expected": o.expected, "measured": o.measured, "ok": o.ok,
                               "passed": o.passed, "reason": o.reason} for o in oc]
                             for oc in outcomes]}
+        if found is not None:
+            doc["summary"]["contradictions"] = len(found)
+            doc["contradictions"] = found
         click.echo(dumps(doc), nl=False)
     else:
         for o in failed:
@@ -498,13 +513,35 @@ def check(ctx, paths, rules_file, junit, fmt, jobs, motion, config, infinite_bud
         n = len(outcomes)
         bad = len({o.assembly for o in failed})
         tail = f", {undecided} undecided (undecided: fail)" if undecided else ""
-        click.echo(f"ndbg check: {n - bad} of {n} assemblies pass "
-                   f"({sum(map(len, outcomes))} rules checked, "
-                   f"{len(failed) - undecided} violation(s){tail})", err=bool(failed))
+        if rules_file:
+            click.echo(f"ndbg check: {n - bad} of {n} assemblies pass "
+                       f"({sum(map(len, outcomes))} rules checked, "
+                       f"{len(failed) - undecided} violation(s){tail})", err=bool(failed))
+        if found is not None:
+            _echo_contradictions(found, len(reports))
     _trim_cache(options.cache)
     errors = [_exit_code(r) for r in reports if "error" in r]
     if errors:
         sys.exit(max(errors))  # 2 input error, 3 internal error
-    sys.exit(EXIT_VIOLATION if failed else EXIT_OK)
+    sys.exit(EXIT_VIOLATION if failed or found else EXIT_OK)
+
+
+def _contradictions(reports: list[dict]) -> list[dict]:
+    """Each report's contradictions (:func:`ndbg_cli.report.consistency.contradictions`) as
+    records naming the assembly, in the reports' order."""
+    from ..report.consistency import contradictions
+    from ..report.document import identity
+
+    return [{"assembly": identity(r)[0], "source": identity(r)[1], **c.record()}
+            for r in reports for c in contradictions(r)]
+
+
+def _echo_contradictions(found: list[dict], n: int) -> None:
+    """One line per contradiction on stdout, then the count on stderr (as the rules do)."""
+    for c in found:
+        click.echo(f"{c['assembly']}: {c['rule']}: {c['message']} [{', '.join(c['fields'])}]")
+    bad = len({c["source"] for c in found})
+    click.echo(f"ndbg check --self: {n - bad} of {n} reports consistent "
+               f"({len(found)} contradiction(s))", err=bool(found))
 
 

@@ -16,6 +16,8 @@ from ..core.assembly import Assembly
 from ..core.errors import NdbgError
 from ..core.options import Options
 from ..io.loaders import load
+from ..report.consistency import contradictions
+from ..report.consistency import warnings as consistency_warnings
 from ..report.document import REPORT_SCHEMA
 
 
@@ -81,6 +83,8 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     report.update(sections)
     report["warnings"] += [d.record() for d in more]
     report["timings"] = timings if options.timings else {}
+    # answers that contradict each other are said so (ndbg check --self lists the same)
+    report["warnings"] += consistency_warnings(contradictions(report), asm.source or None)
     return report
 
 

@@ -327,8 +327,9 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     budget = _budget(options)
     base = asm.index(asm.base) if asm.base is not None else None
     from ..core.pools import Forked
+    from .interlocking import interlock_and_grasp
 
-    side = Forked(_interlock_and_grasp, asm, contacts.analysis, ndbgs,
+    side = Forked(interlock_and_grasp, asm, contacts.analysis, ndbgs,
                   enabled=defer and options.workers > 1)
     graphs: dict = {}
     classes = clock("classes_s", lambda: classes_section(
@@ -571,6 +572,10 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
                                 proposer=proposer)
     measures.finish(timings)
     out["classes"], out["andor"] = measures.classes, measures.andor
+    from .interlocking import apply_witnesses
+
+    # what the plan proves refutes a conservative "interlocked" or "no candidate tree"
+    apply_witnesses(out, asm.ids, contacts.analysis, asm.base)
     if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
         from .proofs import proven_classes
 
@@ -699,32 +704,3 @@ def _generalized(asm: Assembly, ca, inf: NDBG, options: Options) -> tuple[NDBG, 
               "motion": c["motion"]} for c in sec["candidates"]]
     return gen, sec, parts
 
-
-def _interlock_and_grasp(asm: Assembly, ca, ndbgs: dict[str, NDBG]) -> tuple[dict | None, dict]:
-    """Infinitesimal interlocking (LP over part velocities, any number of hands) and the
-    prismatic form-closure grasps of the translational families."""
-    from ..planning.grasp import grasp
-    from ..planning.interlock import interlock
-
-    dim = asm.dimension
-    normals: dict[tuple[int, int], list[np.ndarray]] = {}
-    for c in ca.contacts:
-        normals.setdefault((c.a, c.b), []).append(np.asarray(c.normals, float).reshape(-1, dim))
-    pair_normals = {k: np.concatenate(v) for k, v in sorted(normals.items())}
-    fixed = asm.index(asm.base) if asm.base is not None else 0
-    lock = None
-    if INFINITESIMAL in ndbgs or INFINITE in ndbgs:
-        lock = interlock(len(asm), pair_normals, fixed, dim=dim, ids=asm.ids)
-        lock.pop("velocities", None)
-        edge_point = sum(1 for c in ca.contacts if getattr(c, "blocking", "any") == "all")
-        if edge_point:
-            lock["why"] += (f" ({edge_point} edge/point contacts read as every normal of their "
-                            "cone: conservative, may call a product interlocked that is not)")
-    grasps = {}
-    from ..planning.fingers import exterior_faces
-
-    faces = exterior_faces(asm)
-    for fam in (INFINITESIMAL, INFINITE):
-        if fam in ndbgs:
-            grasps[fam] = grasp(ndbgs[fam], faces)
-    return lock, grasps

@@ -61,12 +61,18 @@ def evidence(family: str, key: str, entry: dict) -> str:
 
     A yes (or a minimum) of a necessary-only family is a candidate; a no of any family is
     proven, but only for that family's motions (``holds_for``). Interlocking is decided by
-    its LP whatever the value; a greedy grasp is an upper bound when complete, and bounds
-    nothing when some requirement is left (its budget ran out, or no candidate face holds a
-    direction): the fingers placed do not hold the product."""
+    its LP, but the yes of an LP reading edge or point contacts as every normal of their cone
+    (``exact`` false: more than they block) is a candidate (a necessary condition); a
+    greedy grasp is an upper bound when complete, and bounds nothing when some requirement is
+    left (its budget ran out, or no candidate face holds a direction): the fingers placed do
+    not hold the product."""
     v = entry.get("value")
     if key == "interlocked":
-        return "undecided" if v is None else "proven"
+        if v is None:
+            return "undecided"
+        # an LP reading some contacts as more than they block (``exact`` false): its yes is
+        # a necessary condition only, its no (a motion found) still a proof
+        return "candidate" if v is True and entry.get("exact", True) is False else "proven"
     if key == "grasp":
         return "bound" if v is not None and entry.get("complete", True) else "undecided"
     if key in MINIMA:

@@ -88,6 +88,9 @@ def infinitesimal_text(section: dict, limit: int = 12) -> list[str]:
     parts = section.get("partitionings", [])
     more = " (truncated)" if section.get("partitionings_truncated") else ""
     lines.append(f"  {len(parts)} candidate partitionings{more}")
+    if section.get("conservative_contacts"):
+        lines.append(f"  {section['conservative_contacts']} edge/point contacts read on every "
+                     "face meeting there (more than they block): free splits may be missing")
     for p in parts[:limit]:
         d = _vec(p["directions"][0]) if p["directions"] else "-"
         lines.append(f"    move {{{', '.join(p['moved'])}}} from {{{', '.join(p['rest'])}}}"
