@@ -13,7 +13,9 @@ from __future__ import annotations
 import dataclasses
 import time
 import weakref
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import fcl
 import numpy as np
@@ -118,7 +120,8 @@ class ContactAnalysis:
 
 def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                      angle_tolerance: float = CONTACT_ANGLE_TOL_RAD,
-                     cache: PairCache | None = None, workers: int = 1) -> ContactAnalysis:
+                     cache: PairCache | None = None, workers: int = 1,
+                     meanwhile: Callable[[], Any] | None = None) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 
     ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
@@ -126,7 +129,8 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
     tolerances (:mod:`ndbg_cli.core.cache`). ``workers`` > 1: the pairs not in the cache
     are tested in that many forked processes (:func:`ndbg_cli.core.pools.fork_map`) when they
-    hold :data:`MIN_PARALLEL_TRIANGLES` triangles; the result does not depend on it. Raises
+    hold :data:`MIN_PARALLEL_TRIANGLES` triangles; the result does not depend on it;
+    ``meanwhile`` is called here while they work (:func:`~ndbg_cli.core.pools.fork_map`). Raises
     :class:`InputError` for a 2D assembly or a non-positive tolerance.
 
     Tolerance model (lengths in the assembly unit):
@@ -195,7 +199,7 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
         -bool(pairs[todo[x]][2]), -sum(geos[p].triangles.shape[0] for p in pairs[todo[x]][:2]),
         x))
     got = fork_map(lambda k: _pair_result(asm, geos, *pairs[k], tol, ang), todo,
-                   workers if work >= MIN_PARALLEL_TRIANGLES else 1, order)
+                   workers if work >= MIN_PARALLEL_TRIANGLES else 1, order, meanwhile)
     for k, res in zip(todo, got):
         results[k] = res
         if keys[k] is not None:

@@ -120,20 +120,26 @@ _FORK_JOB: tuple | None = None
 
 
 def fork_map(fn: Callable[[Any], Any], items: list, workers: int,
-             order: list[int] | None = None) -> list:
+             order: list[int] | None = None,
+             meanwhile: Callable[[], Any] | None = None) -> list:
     """``[fn(x) for x in items]``, computed by up to ``workers`` forked processes when
     ``workers`` > 1 (each takes the next item when done: ``order``, e.g. the costliest first,
     is the order they are handed out). ``fn`` and ``items`` reach the workers through fork;
     only the results are pickled. In this process instead when it cannot fork (no ``fork``,
     a daemonic process), and for what is left when a worker dies. An exception ``fn`` raises
-    is raised here, as in a loop."""
+    is raised here, as in a loop. ``meanwhile``: called here while the workers compute (work
+    this process needs later, e.g. loading compiled kernels), or first without workers."""
     global _FORK_JOB
     n = len(items)
     if workers <= 1 or n < 2 or multiprocessing.current_process().daemon:
+        if meanwhile is not None:
+            meanwhile()
         return [fn(x) for x in items]
     try:
         ctx = multiprocessing.get_context("fork")
     except ValueError:
+        if meanwhile is not None:
+            meanwhile()
         return [fn(x) for x in items]
     _FORK_JOB = (fn, items)
     pool = ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx)
@@ -141,6 +147,8 @@ def fork_map(fn: Callable[[Any], Any], items: list, workers: int,
     futures: dict = {}
     try:
         futures = {k: pool.submit(_fork_call, k) for k in (order or range(n))}
+        if meanwhile is not None:
+            meanwhile()
         out = [futures[k].result() for k in range(n)]
         done = True
     except BrokenProcessPool:  # a worker died (out of memory, killed): the rest here

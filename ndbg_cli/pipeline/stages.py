@@ -11,18 +11,16 @@ suggested rotations/screws (5.2, 6), ``all`` = every one.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from ..core.assembly import Assembly, Diagnostic
 from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
 from ..core.options import Options
 from ..ndbg.model import NDBG, ConnectivityTest
+from .families import declared_threads, generalized, infinite, infinite_skip_reason
 
 FAMILIES_OF = {
     "all": (INFINITESIMAL, INFINITE, GENERALIZED),
@@ -145,9 +143,9 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
         from ..contacts.interference import check_interference_policy
         from ..report.contacts import contacts_section
 
-        ca = clock("contacts_s", lambda: analyze_contacts(asm, tolerance=options.tolerance,
-                                                          cache=cache,
-                                                          workers=options.workers))
+        ca = clock("contacts_s", lambda: analyze_contacts(
+            asm, tolerance=options.tolerance, cache=cache, workers=options.workers,
+            meanwhile=_load_kernels if options.workers > 1 else None))
         warnings += check_interference_policy(asm, ca, options.interference)
         sec = contacts_section(asm, ca)
         # wall-clock phases go to the report's timings (kept out unless asked for)
@@ -217,7 +215,7 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
     from ..ndbg.generalized.build import block_threads
 
     clock = Clock(timings)
-    threaded = _threaded(asm, options)
+    threaded = declared_threads(asm, options)
     if family in (INFINITESIMAL, GENERALIZED) and infinitesimal is None:
         from ..ndbg.infinitesimal.build import infinitesimal_ndbg
 
@@ -229,7 +227,7 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
     if family == INFINITE:
         return _infinite_family(asm, contacts, options, threaded, cache, clock)
     if family == GENERALIZED and asm.dimension == 3:
-        gen, sec, parts = clock("generalized_s", lambda: _generalized(
+        gen, sec, parts = clock("generalized_s", lambda: generalized(
             asm, contacts.analysis, infinitesimal, options))
         return Family(GENERALIZED, gen, sec, parts)
     if family == GENERALIZED:
@@ -259,14 +257,14 @@ def _infinite_family(asm: Assembly, contacts: Contacts, options: Options, thread
 
     connected = ConnectivityTest(contacts.neighbours) if options.connected else None
     try:
-        got = clock("infinite_s", lambda: _infinite(asm, options, threaded, connected,
+        got = clock("infinite_s", lambda: infinite(asm, options, threaded, connected,
                                                     cache, contacts.analysis))
         too_large = None
     except TooLarge as exc:
         got, too_large = None, str(exc)
     if got is None:
         sec = {"family": INFINITE, "skipped": True,
-               "why": too_large or _infinite_skip_reason(asm, options)}
+               "why": too_large or infinite_skip_reason(asm, options)}
         warn = Diagnostic("warning", "infinite-skipped",
                           "infinite-translation NDBG skipped: " + sec["why"],
                           file=asm.source or None)
@@ -337,7 +335,7 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     # the AND/OR graphs the classes built: size, and the exact counts when complete
     andor = {fam: andor_section(g, (classes.get(fam) or {}).get("min_depth"))
              for fam, g in sorted(graphs.items())}
-    threaded = _threaded(asm, options)
+    threaded = declared_threads(asm, options)
     if threaded and not options.threads_as_cylinders:
         for fam in (INFINITESIMAL, INFINITE):
             if fam in classes:
@@ -349,12 +347,17 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     return got if defer else got.finish(timings)
 
 
-def _threaded(asm: Assembly, options: Options) -> set[tuple[str, str]]:
-    """The declared screw joints read as threads (none in 2D, none with
-    ``--threads-as-cylinders``): :func:`~ndbg_cli.ndbg.generalized.build.threaded_pairs`."""
-    from ..ndbg.generalized.build import threaded_pairs
+def _load_kernels() -> None:
+    """Load the compiled kernels of the sweep test (numba's start, about 0.4 s, is paid by
+    the first kernel called in a process): done while the contact workers compute, since the
+    plan's proofs call them next."""
+    from ..ndbg.infinite.sweep import warm_up
 
-    return threaded_pairs(asm, options.threads_as_cylinders) if asm.dimension == 3 else set()
+    warm_up()
+
+
+#: Strategies whose trees :func:`_prove` checks besides the reported plan's.
+PROOF_STRATEGIES = ("fewest-directions", "linear")
 
 
 def _budget(options: Options) -> Any:
@@ -606,101 +609,3 @@ def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, 
     keep = {k: v for k, v in again.sections.items() if k != "interferences"}
     out.update(keep)
     return merged, again
-
-
-#: Strategies whose trees :func:`_prove` checks besides the reported plan's.
-PROOF_STRATEGIES = ("fewest-directions", "linear")
-
-
-def _over_budget(asm: Assembly, options: Options) -> str:
-    from ..ndbg.infinite.blocked_sets import triangle_pairs
-
-    return (f"{triangle_pairs(asm)} facing triangle pairs exceed the budget of "
-            f"{options.infinite_budget}")
-
-
-def _infinite_skip_reason(asm: Assembly, options: Options) -> str:
-    if options.motion == "infinite":  # the restriction was tried: it is every direction
-        return (f"{_over_budget(asm, options)}, and the infinitesimal NDBG frees some "
-                "subassembly in every direction (for one, when parts or groups of parts touch "
-                "nothing else), so it cannot be restricted (raise --infinite-budget to "
-                "compute it on the whole sphere)")
-    return (f"{_over_budget(asm, options)} (raise it with --infinite-budget; --motion "
-            "infinite computes it where the infinitesimal NDBG frees something)")
-
-
-def _infinite(asm: Assembly, options: Options, threaded: set, connected, cache=None, ca=None
-              ) -> tuple[NDBG, dict, list[dict]] | None:
-    """The infinite-translation NDBG, its section and partitionings. Above the budget (3D) it is
-    skipped (``None``), unless ``--motion infinite`` asks for it: then it is computed only where the
-    infinitesimal NDBG frees some subassembly (:mod:`ndbg_cli.ndbg.infinite.domain`), which gives
-    the same partitionings of the whole assembly and nothing else (``None`` again when that is every
-    direction)."""
-    from ..core.constants import ANGLE_TOL_RAD
-    from ..ndbg.generalized.build import block_threads
-    from ..ndbg.infinite.blocked_sets import triangle_pairs
-    from ..ndbg.infinite.build import build_infinite
-    from ..ndbg.infinite.domain import free_domain
-    from ..ndbg.infinitesimal.build import contact_pairs
-    from ..ndbg.model import partitionings
-    from ..report.infinite import infinite_section
-
-    domain = None
-    if asm.dimension == 3 and triangle_pairs(asm) > options.infinite_budget:
-        if options.motion != "infinite":  # asked for explicitly only: it takes minutes
-            return None
-        domain = free_domain(len(asm.parts), contact_pairs(asm, ca),
-                             float(getattr(ca, "angle_tolerance", ANGLE_TOL_RAD)))
-        if domain is None:
-            return None
-    nd = block_threads(build_infinite(asm, cache, domain, workers=options.workers,
-                                           progress=options.progress), threaded)
-    parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
-    sec = infinite_section(asm, nd, parts, trunc)
-    if domain is not None:
-        sec["domain"] = {
-            "restricted": True, "area": nd.stats.get("domain_area"),
-            "why": f"{_over_budget(asm, options)}; the regions are those inside "
-                   "the domain (cut by its boundary), the whole assembly's partitionings "
-                   "are all of them; its regions make no plans or classes (the plan's steps are "
-                   "proposed by the infinitesimal NDBG and proven by the sweep test)"}
-    if options.region_limit is not None and len(sec["region_list"]) > options.region_limit:
-        sec["region_list"] = sec["region_list"][:options.region_limit]
-        sec["region_list_truncated"] = True
-    parts_out = sec.pop("partitionings")
-    return nd, sec, parts_out
-
-
-def _generalized(asm: Assembly, ca, inf: NDBG, options: Options) -> tuple[NDBG, dict, list[dict]]:
-    from ..ndbg.generalized.build import (
-        generalized_ndbg,
-        generalized_section,
-        hybrid,
-        motion_dbg,
-        threads,
-    )
-    from ..ndbg.generalized.twist import contact_rows
-    from ..ndbg.model import Region
-
-    rows = contact_rows(asm, ca.contacts)
-    suggested = generalized_ndbg(asm, ca.contacts, rows=rows,
-                                 threads_as_cylinders=options.threads_as_cylinders)
-    sec = generalized_section(asm, suggested, rows,
-                              threads_as_cylinders=options.threads_as_cylinders)
-    # Motions the exact LP found for subassemblies that need a rotation (paper Fig. 5) join
-    # the suggested ones, so the generalized classes see them (a candidate-level verdict).
-    found = []
-    thr = threads(asm, options.threads_as_cylinders)
-    for e in sec["needs_rotation"]:
-        rec = dict(e["motion"], sense=1, source="lp: frees " + ", ".join(e["parts"]))
-        found.append(Region(-1, None, motion_dbg(rows, np.asarray(rec["twist"]), thr),
-                            motion=rec))
-    if found:
-        suggested = dataclasses.replace(suggested, regions=suggested.regions + tuple(found))
-    gen = hybrid(inf, suggested)
-    sec["family"] = GENERALIZED
-    sec["regions"] = {"translational": len(inf.regions), "suggested": len(suggested.regions)}
-    parts = [{"moved": c["moved"], "rest": c["rest"], "family": GENERALIZED,
-              "motion": c["motion"]} for c in sec["candidates"]]
-    return gen, sec, parts
-

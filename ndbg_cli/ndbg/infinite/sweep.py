@@ -161,6 +161,15 @@ class SweepChecker:
         return DBG(tuple(self.blockers(i, d) for i in range(len(self.tris))))
 
 
+def warm_up() -> None:
+    """Load this test's compiled kernels now (from numba's cache; the first kernel of a
+    process also starts numba): a caller with time to spare makes the first test cheaper."""
+    t = np.zeros((1, 3, 3))
+    t[0, 1, 0] = t[0, 2, 1] = 1.0
+    b = boxes(t)
+    first_blocking(t, t, b, b, 1e-9, 1e-18, 1e-9)
+
+
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
     """Whether part ``j`` blocks the infinite translation of part ``i`` along direction ``d``
     (a 3-vector; in 2D a 2-vector). Builds a :class:`SweepChecker`; reuse one for many calls."""
