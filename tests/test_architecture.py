@@ -119,7 +119,7 @@ def test_the_library_stages_give_the_cli_report(tmp_path):
     from helpers import run_cli
 
     path = ROOT / "assemblies" / "hover.yaml"
-    out = run_cli("analyze", str(path), "--format", "json", "--no-cache")
+    out = run_cli("analyze", str(path), "--format", "json", "--no-cache", "--detail", "full")
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout)
     asm = ndbg_cli.load(path)

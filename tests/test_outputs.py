@@ -147,3 +147,46 @@ def test_search_budget_is_counted_work_not_the_clock(tmp_path):
     cfg.write_text("max_work: 0\n")
     bad = run_cli("analyze", EX / "fig2-sandwich-5.yaml", "--config", cfg, *FAST)
     assert bad.returncode == 2 and "max_work" in bad.stderr
+
+
+def test_a_summary_report_keeps_every_answer_and_cuts_the_long_lists(tmp_path):
+    """``--detail summary`` (the default) against ``--detail full`` on the bell: the same plan,
+    classes, interferences, warnings and AND/OR counts; contacts without their points but
+    with their count; NDBG sections without regions and DBGs but with their counts; at most
+    20 partitionings per family; valid against the schema; and much smaller."""
+    import json
+
+    from ndbg_cli.report.detail import SUMMARY_ITEMS
+    from ndbg_cli.report.document import validate_report
+
+    from helpers import run_cli
+
+    path = ROOT / "assemblies" / "bell.yaml"
+    got = {}
+    for level in ("summary", "full"):
+        out = tmp_path / f"{level}.json"
+        r = run_cli("analyze", str(path), "--no-cache", "--detail", level, "--out", str(out))
+        assert r.returncode == 0, r.stderr
+        got[level] = json.loads(out.read_text())
+        validate_report(got[level])
+    short, full = got["summary"], got["full"]
+    for key in ("plan", "classes", "interferences", "warnings", "andor", "assembly"):
+        assert short[key] == full[key], key
+    assert [{k: v for k, v in c.items() if k not in ("points", "point_normals")}
+            for c in full["contacts"]] == [{k: v for k, v in c.items() if k != "point_count"}
+                                           for c in short["contacts"]]
+    assert [c["point_count"] for c in short["contacts"]] == [len(c["points"])
+                                                             for c in full["contacts"]]
+    for fam, sec in full["ndbg"].items():
+        kept = short["ndbg"][fam]
+        assert "dbgs" not in kept and "region_list" not in kept
+        assert {k: v for k, v in sec.items() if k not in ("dbgs", "region_list",
+                "suggested_motions", "candidates")} == {
+            k: v for k, v in kept.items() if k not in ("suggested_motions", "candidates")}
+    fams = {p["family"] for p in full["partitionings"]}
+    for fam in fams:
+        listed = [p for p in full["partitionings"] if p["family"] == fam]
+        assert [p for p in short["partitionings"] if p["family"] == fam] == \
+            listed[:SUMMARY_ITEMS]
+    assert short["options"]["detail"]["level"] == "summary"
+    assert len(json.dumps(short)) < len(json.dumps(full)) / 3

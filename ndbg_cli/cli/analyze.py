@@ -59,6 +59,11 @@ from ._pictures import Pictures
               show_default=True, help="What interpenetrating parts are.")
 @click.option("--timings", is_flag=True, help="Record wall-clock timings in the report "
               "(makes it differ from run to run).")
+@click.option("--detail", type=click.Choice(["summary", "full"]), default="summary",
+              show_default=True, help="What a JSON report holds: every answer, the counts and "
+              "the first 20 entries of long lists (summary), or also every contact point, "
+              "every region and DBG of each NDBG and every partitioning listed (full). Text "
+              "reports and pictures are the same either way.")
 @click.option("--config", "config", type=click.Path(), help="YAML settings file (see "
               "configs/default.yaml); options given on the command line win.")
 @click.option("--strategy", type=click.Choice(STRATEGIES), default="shortest",
@@ -103,8 +108,8 @@ from ._pictures import Pictures
 @common_load_options
 @cache_options
 @click.pass_context
-def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
-            strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
+def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, detail,
+            config, strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
             time_limit, infinite_budget, html, glb, png, svg, units, tolerance,
             allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
@@ -126,6 +131,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     from ..core.progress import progress
     from ..io.formats import discover
     from ..pipeline.batch import Interrupted, default_jobs, run_batch, run_batch_dask
+    from ..report.detail import summarize
     from ..report.document import dumps
     from ..report.text import render
 
@@ -170,7 +176,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         for k, r in enumerate(progress(stream, len(targets), "analyzing", quiet=STATE.quiet)):
             code = max(code, _exit_code(r))
             stem = _report_name(r, names)
-            pictures.write(r, targets[k], stem, options)
+            pictures.write(r, targets[k], stem, options)  # from the full report
+            written = summarize(r) if detail == "summary" else r  # what JSON holds
             if "error" in r:
                 _note(f"ndbg: error: {r['error']['message']}")
             elif summary:
@@ -179,12 +186,12 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
             if out_dir is not None:
                 path = out_dir / f"{stem}.json"
                 _refuse_input(where, path, inputs | _part_files(r))
-                _write(where, path, dumps(r))
-                reports.append(_index_entry(r, path.name))
+                _write(where, path, dumps(written))
+                reports.append(_index_entry(written, path.name))
             elif fmt == "jsonl" and out_file is None:
-                click.echo(_jsonl_line(r), nl=False)
+                click.echo(_jsonl_line(written), nl=False)
             else:
-                reports.append(r)
+                reports.append(r if fmt == "text" else written)
     except Interrupted:
         tail = " (no index.json: the run is incomplete)" if out_dir is not None else ""
         click.echo(f"ndbg: terminated; reports written so far are complete{tail}", err=True)
