@@ -39,6 +39,9 @@ class Options:
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)
     workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
     progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
+    # the folder the report's paths (sources, files) are written relative to (None: the
+    # current working folder; ndbg_cli.core.paths.portable)
+    root: str | None = None
 
 
 #: What each setting of a config file must be, with the types and ranges of the CLI's options:
