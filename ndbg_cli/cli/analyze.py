@@ -27,6 +27,8 @@ from ._app import (
     common_load_options,
     fail,
     range_type,
+    root_option,
+    with_root,
 )
 from ._pictures import Pictures
 
@@ -100,12 +102,13 @@ from ._pictures import Pictures
               "folder: plan.png (exploded-view strip), sphere-FAMILY.png, tree.png; in a "
               "batch one subfolder NAME/ each.")
 @click.option("--svg", type=click.Path(file_okay=False), help="As --png, as SVG.")
+@root_option
 @common_load_options
 @cache_options
 @click.pass_context
 def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
             strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
-            time_limit, infinite_budget, html, glb, png, svg, units, tolerance,
+            time_limit, infinite_budget, html, glb, png, svg, root, units, tolerance,
             allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
@@ -137,7 +140,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                        time_limit=time_limit, infinite_budget=infinite_budget,
                        mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
                        load_memory=load_memory)
-    options = dataclasses.replace(options, progress=not STATE.quiet)
+    options = dataclasses.replace(with_root(options, root), progress=not STATE.quiet)
     targets: list[Path] = []
     for p in paths:
         if not Path(p).exists():
@@ -178,7 +181,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                     _note(line)
             if out_dir is not None:
                 path = out_dir / f"{stem}.json"
-                _refuse_input(where, path, inputs | _part_files(r))
+                _refuse_input(where, path, inputs | _part_files(r, options.root))
                 _write(where, path, dumps(r))
                 reports.append(_index_entry(r, path.name))
             elif fmt == "jsonl" and out_file is None:
@@ -197,7 +200,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         _write(where, out_dir / "index.json", dumps(_batch_doc(reports)))
     elif out_file is not None:
         r = reports[0]
-        _refuse_input(where, out_file, _part_files(r))
+        _refuse_input(where, out_file, _part_files(r, options.root))
         text = {"json": dumps, "jsonl": _jsonl_line, "text": render}[fmt](r)
         _write(where, out_file, text)
     elif fmt == "json":
@@ -303,10 +306,12 @@ def _input_files(targets: list[Path]) -> set[Path]:
     return files
 
 
-def _part_files(report: dict) -> set[Path]:
-    """The resolved files a report's parts were read from (mesh files of a manifest)."""
+def _part_files(report: dict, root: str | None) -> set[Path]:
+    """The resolved files a report's parts were read from (mesh files of a manifest; their
+    sources are relative to ``root``, the folder of the report's paths)."""
     parts = (report.get("assembly") or {}).get("parts") or []
-    return {Path(p["source"]).resolve() for p in parts if "#" not in str(p.get("source"))}
+    return {(Path(root or ".") / p["source"]).resolve() for p in parts
+            if "#" not in str(p.get("source"))}
 
 
 def _refuse_input(where: str, path: Path, inputs: set[Path]) -> None:
@@ -426,11 +431,12 @@ def _index_entry(r: dict, file: str) -> dict:
 @click.option("--infinite-budget", type=range_type("infinite_budget"),
               default=DEFAULTS.infinite_budget,
               show_default=True, help="As for analyze.")
+@root_option
 @common_load_options
 @cache_options
 @click.pass_context
 def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, infinite_budget,
-          units, tolerance, allow_outside_paths, mesh_tolerance, load_timeout,
+          root, units, tolerance, allow_outside_paths, mesh_tolerance, load_timeout,
           load_memory) -> None:
     """CI gate: analyse PATHS (or read saved .json reports, or a folder of them) and check
     design rules (--rules), the reports' consistency (--self), or both.
@@ -464,6 +470,7 @@ def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, 
                        allow_outside_paths=allow_outside_paths,
                        infinite_budget=infinite_budget, mesh_tolerance=mesh_tolerance,
                        load_timeout=load_timeout, load_memory=load_memory)
+    options = with_root(options, root)
     saved, targets = [], []
     for p in paths:
         if not Path(p).exists():

@@ -93,11 +93,15 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths,
         fail(f"{assembly}: contacts of 2D assemblies are listed by `ndbg analyze`", EXIT_INPUT)
     result = analyze_contacts(asm, tolerance=tolerance)
     warnings = check_interference_policy(asm, result, interference)
-    if fmt == "json":
+    if fmt == "json":  # paths relative to the current folder, as in a report
+        from ..core.paths import portable, portable_source
+
         doc = {"schema": CONTACTS_SCHEMA, "tool": {"name": "ndbg", "version": __version__},
-               "assembly": {"name": asm.name, "source": asm.source, "units": asm.units},
+               "assembly": {"name": asm.name, "source": portable(asm.source),
+                            "units": asm.units},
                **contacts_section(asm, result),
-               "warnings": [d.record() for d in list(asm.diagnostics) + warnings]}
+               "warnings": [{**d.record(), "file": portable_source(d.file, asm.source)}
+                            for d in list(asm.diagnostics) + warnings]}
         doc["contact_stats"].pop("timings_s", None)
         click.echo(dumps(doc), nl=False)
     else:
