@@ -120,7 +120,8 @@ def analyze_path(path: str | Path, options: Options = Options(),
         asm = load(path, units=options.units, tolerance=options.tolerance,
                    allow_outside_paths=options.allow_outside_paths,
                    mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
-                   load_memory=options.load_memory, progress=options.progress)
+                   load_memory=options.load_memory, progress=options.progress,
+                   max_triangles=options.max_triangles)
     except NdbgError as exc:
         return error_record(path, exc, options.root)
     t_load = time.perf_counter() - t0
