@@ -117,6 +117,10 @@ def common_load_options(f):
     f = click.option("--load-memory", type=range_type("load_memory"),
                      default=DEFAULTS.load_memory, show_default=True,
                      help="GiB of address space a native reader's process may use.")(f)
+    f = click.option("--max-triangles", type=range_type("max_triangles"),
+                     default=DEFAULTS.max_triangles, show_default=True,
+                     help="Triangles one assembly may have: more is an input error (exit 2) "
+                     "as soon as the files read pass it, before any analysis.")(f)
     return f
 
 
@@ -142,11 +146,12 @@ def with_root(options: Options, root: str | None) -> Options:
     return dataclasses.replace(options, root=str(report_root(root)))
 
 
-def load_settings(mesh_tolerance, load_timeout, load_memory) -> dict:
+def load_settings(mesh_tolerance, load_timeout, load_memory, max_triangles) -> dict:
     """The :func:`ndbg_cli.io.loaders.load` arguments of the common load options besides
     units, tolerance and paths (for the commands that load without :class:`Options`)."""
     return {"mesh_tolerance": mesh_tolerance, "load_timeout": load_timeout,
-            "load_memory": load_memory, "progress": not STATE.quiet}
+            "load_memory": load_memory, "max_triangles": max_triangles,
+            "progress": not STATE.quiet}
 
 
 def cannot_write(where: str, exc: OSError) -> InputError:

@@ -109,7 +109,7 @@ from ._pictures import Pictures
 def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, config,
             strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
             time_limit, infinite_budget, html, glb, png, svg, root, units, tolerance,
-            allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
+            allow_outside_paths, mesh_tolerance, load_timeout, load_memory, max_triangles) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
     A folder holding manifests is a batch (one report each); a folder holding only meshes is
@@ -139,7 +139,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                        max_partitions=max_partitions, max_nodes=max_nodes, max_work=max_work,
                        time_limit=time_limit, infinite_budget=infinite_budget,
                        mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
-                       load_memory=load_memory)
+                       load_memory=load_memory, max_triangles=max_triangles)
     options = dataclasses.replace(with_root(options, root), progress=not STATE.quiet)
     targets: list[Path] = []
     for p in paths:
@@ -437,7 +437,7 @@ def _index_entry(r: dict, file: str) -> dict:
 @click.pass_context
 def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, infinite_budget,
           root, units, tolerance, allow_outside_paths, mesh_tolerance, load_timeout,
-          load_memory) -> None:
+          load_memory, max_triangles) -> None:
     """CI gate: analyse PATHS (or read saved .json reports, or a folder of them) and check
     design rules (--rules), the reports' consistency (--self), or both.
 
@@ -469,7 +469,8 @@ def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, 
     options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
                        allow_outside_paths=allow_outside_paths,
                        infinite_budget=infinite_budget, mesh_tolerance=mesh_tolerance,
-                       load_timeout=load_timeout, load_memory=load_memory)
+                       load_timeout=load_timeout, load_memory=load_memory,
+                       max_triangles=max_triangles)
     options = with_root(options, root)
     saved, targets = [], []
     for p in paths:
