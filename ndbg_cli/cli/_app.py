@@ -117,14 +117,41 @@ def common_load_options(f):
     f = click.option("--load-memory", type=range_type("load_memory"),
                      default=DEFAULTS.load_memory, show_default=True,
                      help="GiB of address space a native reader's process may use.")(f)
+    f = click.option("--max-triangles", type=range_type("max_triangles"),
+                     default=DEFAULTS.max_triangles, show_default=True,
+                     help="Triangles one assembly may have: more is an input error (exit 2) "
+                     "as soon as the files read pass it, before any analysis.")(f)
     return f
 
 
-def load_settings(mesh_tolerance, load_timeout, load_memory) -> dict:
+def root_option(f):
+    """``--root DIR``: the folder the reports' paths are written relative to (read by
+    :func:`with_root`)."""
+    return click.option("--root", type=click.Path(), default=None,
+                        help="Write the reports' paths (sources, files) relative to this "
+                        "folder (default: the current one); a path outside it stays "
+                        "absolute.")(f)
+
+
+def with_root(options: Options, root: str | None) -> Options:
+    """``options`` with its ``root`` set to ``root`` (``--root``), else the current folder,
+    made absolute: worker processes and cluster workers write the same paths. A ``root``
+    that is not a folder is an input error (exit 2)."""
+    import dataclasses
+
+    from ..core.paths import report_root
+
+    if root is not None and not Path(root).is_dir():
+        raise InputError(f"--root {root}: no such directory")
+    return dataclasses.replace(options, root=str(report_root(root)))
+
+
+def load_settings(mesh_tolerance, load_timeout, load_memory, max_triangles) -> dict:
     """The :func:`ndbg_cli.io.loaders.load` arguments of the common load options besides
     units, tolerance and paths (for the commands that load without :class:`Options`)."""
     return {"mesh_tolerance": mesh_tolerance, "load_timeout": load_timeout,
-            "load_memory": load_memory, "progress": not STATE.quiet}
+            "load_memory": load_memory, "max_triangles": max_triangles,
+            "progress": not STATE.quiet}
 
 
 def cannot_write(where: str, exc: OSError) -> InputError:

@@ -98,7 +98,7 @@ def _load(target: Path, options: Options) -> Assembly:
     return load(target, units=options.units, tolerance=options.tolerance,
                 allow_outside_paths=options.allow_outside_paths,
                 mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
-                load_memory=options.load_memory)
+                load_memory=options.load_memory, max_triangles=options.max_triangles)
 
 
 def _write(where: str, path: Path, data: str | bytes) -> None:

@@ -27,6 +27,8 @@ from ._app import (
     common_load_options,
     fail,
     range_type,
+    root_option,
+    with_root,
 )
 from ._pictures import Pictures
 
@@ -105,13 +107,14 @@ from ._pictures import Pictures
               "folder: plan.png (exploded-view strip), sphere-FAMILY.png, tree.png; in a "
               "batch one subfolder NAME/ each.")
 @click.option("--svg", type=click.Path(file_okay=False), help="As --png, as SVG.")
+@root_option
 @common_load_options
 @cache_options
 @click.pass_context
 def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference, timings, detail,
             config, strategy, threads_as_cylinders, connected, max_partitions, max_nodes, max_work,
-            time_limit, infinite_budget, html, glb, png, svg, units, tolerance,
-            allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
+            time_limit, infinite_budget, html, glb, png, svg, root, units, tolerance,
+            allow_outside_paths, mesh_tolerance, load_timeout, load_memory, max_triangles) -> None:
     """Analyse assemblies: manifests, model files (STEP, GLB, ...) or folders.
 
     A folder holding manifests is a batch (one report each); a folder holding only meshes is
@@ -142,8 +145,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                        max_partitions=max_partitions, max_nodes=max_nodes, max_work=max_work,
                        time_limit=time_limit, infinite_budget=infinite_budget,
                        mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
-                       load_memory=load_memory)
-    options = dataclasses.replace(options, progress=not STATE.quiet)
+                       load_memory=load_memory, max_triangles=max_triangles)
+    options = dataclasses.replace(with_root(options, root), progress=not STATE.quiet)
     targets: list[Path] = []
     for p in paths:
         if not Path(p).exists():
@@ -185,7 +188,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
                     _note(line)
             if out_dir is not None:
                 path = out_dir / f"{stem}.json"
-                _refuse_input(where, path, inputs | _part_files(r))
+                _refuse_input(where, path, inputs | _part_files(r, options.root))
                 _write(where, path, dumps(written))
                 reports.append(_index_entry(written, path.name))
             elif fmt == "jsonl" and out_file is None:
@@ -204,7 +207,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         _write(where, out_dir / "index.json", dumps(_batch_doc(reports)))
     elif out_file is not None:
         r = reports[0]
-        _refuse_input(where, out_file, _part_files(r))
+        _refuse_input(where, out_file, _part_files(r, options.root))
         text = {"json": dumps, "jsonl": _jsonl_line, "text": render}[fmt](r)
         _write(where, out_file, text)
     elif fmt == "json":
@@ -310,10 +313,12 @@ def _input_files(targets: list[Path]) -> set[Path]:
     return files
 
 
-def _part_files(report: dict) -> set[Path]:
-    """The resolved files a report's parts were read from (mesh files of a manifest)."""
+def _part_files(report: dict, root: str | None) -> set[Path]:
+    """The resolved files a report's parts were read from (mesh files of a manifest; their
+    sources are relative to ``root``, the folder of the report's paths)."""
     parts = (report.get("assembly") or {}).get("parts") or []
-    return {Path(p["source"]).resolve() for p in parts if "#" not in str(p.get("source"))}
+    return {(Path(root or ".") / p["source"]).resolve() for p in parts
+            if "#" not in str(p.get("source"))}
 
 
 def _refuse_input(where: str, path: Path, inputs: set[Path]) -> None:
@@ -433,12 +438,13 @@ def _index_entry(r: dict, file: str) -> dict:
 @click.option("--infinite-budget", type=range_type("infinite_budget"),
               default=DEFAULTS.infinite_budget,
               show_default=True, help="As for analyze.")
+@root_option
 @common_load_options
 @cache_options
 @click.pass_context
 def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, infinite_budget,
-          units, tolerance, allow_outside_paths, mesh_tolerance, load_timeout,
-          load_memory) -> None:
+          root, units, tolerance, allow_outside_paths, mesh_tolerance, load_timeout,
+          load_memory, max_triangles) -> None:
     """CI gate: analyse PATHS (or read saved .json reports, or a folder of them) and check
     design rules (--rules), the reports' consistency (--self), or both.
 
@@ -470,7 +476,9 @@ def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, 
     options = _options(ctx, config, motion=motion, units=units, tolerance=tolerance,
                        allow_outside_paths=allow_outside_paths,
                        infinite_budget=infinite_budget, mesh_tolerance=mesh_tolerance,
-                       load_timeout=load_timeout, load_memory=load_memory)
+                       load_timeout=load_timeout, load_memory=load_memory,
+                       max_triangles=max_triangles)
+    options = with_root(options, root)
     saved, targets = [], []
     for p in paths:
         if not Path(p).exists():

@@ -33,7 +33,7 @@ from ._app import (
 @click.option("--force", is_flag=True, help="Overwrite an existing manifest.")
 @common_load_options
 def convert(model, out, force, units, tolerance, allow_outside_paths, mesh_tolerance,
-            load_timeout, load_memory) -> None:
+            load_timeout, load_memory, max_triangles) -> None:
     """Write a model's parts as meshes plus a manifest (an editable project).
 
     \b
@@ -50,7 +50,7 @@ def convert(model, out, force, units, tolerance, allow_outside_paths, mesh_toler
     # it, found before the model is read (a STEP file can take minutes)
     check_writable(out, Path(out))
     asm = load(model, units=units, tolerance=tolerance, allow_outside_paths=allow_outside_paths,
-               **load_settings(mesh_tolerance, load_timeout, load_memory))
+               **load_settings(mesh_tolerance, load_timeout, load_memory, max_triangles))
     try:
         manifest = convert_assembly(asm, Path(out), force=force)
     except OSError as exc:  # e.g. out/meshes is a file, or the disk is full
@@ -68,7 +68,7 @@ def convert(model, out, force, units, tolerance, allow_outside_paths, mesh_toler
               show_default=True, help="What interpenetrating parts are.")
 @common_load_options
 def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths, mesh_tolerance,
-             load_timeout, load_memory) -> None:
+             load_timeout, load_memory, max_triangles) -> None:
     """Print the contact table: touching pairs, kind, area, normals, and interferences.
 
     Normals point out of part A into part B, in the assembly frame and unit.
@@ -88,16 +88,20 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths,
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths,
-               **load_settings(mesh_tolerance, load_timeout, load_memory))
+               **load_settings(mesh_tolerance, load_timeout, load_memory, max_triangles))
     if asm.dimension != 3:
         fail(f"{assembly}: contacts of 2D assemblies are listed by `ndbg analyze`", EXIT_INPUT)
     result = analyze_contacts(asm, tolerance=tolerance)
     warnings = check_interference_policy(asm, result, interference)
-    if fmt == "json":
+    if fmt == "json":  # paths relative to the current folder, as in a report
+        from ..core.paths import portable, portable_source
+
         doc = {"schema": CONTACTS_SCHEMA, "tool": {"name": "ndbg", "version": __version__},
-               "assembly": {"name": asm.name, "source": asm.source, "units": asm.units},
+               "assembly": {"name": asm.name, "source": portable(asm.source),
+                            "units": asm.units},
                **contacts_section(asm, result),
-               "warnings": [d.record() for d in list(asm.diagnostics) + warnings]}
+               "warnings": [{**d.record(), "file": portable_source(d.file, asm.source)}
+                            for d in list(asm.diagnostics) + warnings]}
         doc["contact_stats"].pop("timings_s", None)
         click.echo(dumps(doc), nl=False)
     else:
@@ -117,7 +121,7 @@ def contacts(assembly, fmt, interference, units, tolerance, allow_outside_paths,
               show_default=True)
 @common_load_options
 def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_paths,
-          mesh_tolerance, load_timeout, load_memory) -> None:
+          mesh_tolerance, load_timeout, load_memory, max_triangles) -> None:
     """Print the DBG for one translation direction, computed directly from the geometry.
 
     translation: from the contacts (local blocking); infinite: a sweep test of every part
@@ -137,7 +141,7 @@ def query(assembly, direction, motion, fmt, units, tolerance, allow_outside_path
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths,
-               **load_settings(mesh_tolerance, load_timeout, load_memory))
+               **load_settings(mesh_tolerance, load_timeout, load_memory, max_triangles))
     try:
         d = np.array([float(x) for x in direction.split(",")])
     except ValueError:
@@ -201,7 +205,7 @@ def _dbg_record(asm, g) -> dict:
               show_default=True)
 @common_load_options
 def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tolerance,
-           allow_outside_paths, mesh_tolerance, load_timeout, load_memory) -> None:
+           allow_outside_paths, mesh_tolerance, load_timeout, load_memory, max_triangles) -> None:
     """Which parts must be withdrawn, and in what order, before PARTS can be removed.
 
     Exact (fewest parts withdrawn; steps merged greedily) when the search fits --max-nodes;
@@ -225,7 +229,7 @@ def remove(assembly, parts, motion, fmt, max_nodes, infinite_budget, units, tole
 
     asm = load(assembly, units=units, tolerance=tolerance,
                allow_outside_paths=allow_outside_paths,
-               **load_settings(mesh_tolerance, load_timeout, load_memory))
+               **load_settings(mesh_tolerance, load_timeout, load_memory, max_triangles))
     unknown = [p for p in parts if p not in asm.ids]
     if unknown:
         fail(f"{assembly}: no part '{unknown[0]}' (parts: {', '.join(asm.ids[:12])}"

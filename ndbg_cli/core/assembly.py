@@ -84,7 +84,9 @@ class Part:
     """One rigid part, placed in the assembly frame, in the assembly's unit.
 
     ``transform`` is the 4x4 placement that was applied to the source geometry (after unit
-    scaling); ``source`` names where the geometry came from (a file, or ``file#node``).
+    scaling); ``source`` names where the geometry came from (a file, or ``file#node``), as
+    the loader found it (a manifest's mesh files resolved); a report writes it relative to
+    its root folder (:func:`ndbg_cli.core.paths.portable_source`).
     """
 
     id: str
@@ -122,6 +124,8 @@ class Assembly:
     explicit length tolerance from the manifest or command line, or ``None`` for the default
     (see :attr:`length_tolerance`). ``base`` names an optional fixed base part. ``expect`` is
     the manifest's free-form ``expect:`` block (answers worked out by hand, for tests).
+    ``source`` is the manifest, model file or folder as it was given to the loader; a report
+    writes it relative to its root folder (:func:`ndbg_cli.core.paths.portable`).
     """
 
     name: str

@@ -42,6 +42,13 @@ LOAD_TIMEOUT_S = 120.0
 #: OpenCASCADE needs a few GiB for a large product; a damaged file that makes it allocate
 #: without end fails at this limit instead of driving the machine into swap.
 LOAD_MEMORY_GIB = 16.0
+#: Triangles one assembly may have by default (``--max-triangles``), counted as its files are
+#: read: the stages' memory grows with them (about 2.4 kB a triangle at the peak of a
+#: translation analysis of two 82k-triangle spheres: 585 MB), so 5 million need about
+#: 12 GB, what a 16 GB workstation can hold. A larger input fails at once with a one-line
+#: error instead of swapping or being killed; the largest real models analysed so far (AS1,
+#: the engine, the finely tessellated gearbox: under 0.5 million) are well below it.
+MAX_TRIANGLES = 5_000_000
 #: Linear deflection (mm, OpenCASCADE's working unit) of STEP/IGES tessellation by default:
 #: the largest distance between a facet and the exact surface. Kept since the first release
 #: (reports of STEP files depend on it).
@@ -56,5 +63,6 @@ STEP_ANGULAR_DEFLECTION_RAD = 0.5
 
 __all__ = ["INFINITESIMAL", "INFINITE", "GENERALIZED", "FAMILIES", "WORK_LIMIT", "ANGLE_TOL_RAD",
            "CONTACT_ANGLE_TOL_RAD",
-           "LOAD_TIMEOUT_S", "LOAD_MEMORY_GIB", "STEP_DEFLECTION_MM", "DEFLECTION_RELATIVE",
+           "LOAD_TIMEOUT_S", "LOAD_MEMORY_GIB", "MAX_TRIANGLES", "STEP_DEFLECTION_MM",
+           "DEFLECTION_RELATIVE",
            "STEP_ANGULAR_DEFLECTION_RAD"]

@@ -6,6 +6,8 @@ file, the part and the problem. The CLI maps exceptions to the exit codes below.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 #: Success.
 EXIT_OK = 0
 #: The analysis ran and found a violation a CI gate asked about (``--fail-on``); an
@@ -33,18 +35,36 @@ class NdbgError(Exception):
     @property
     def message(self) -> str:
         """The one-line message: ``FILE[:LINE]: part 'ID': PROBLEM``."""
+        return self._located(self.file)
+
+    def _located(self, file: str | None) -> str:
+        """The one-line message naming ``file``."""
         where = []
-        if self.file:
-            where.append(f"{self.file}:{self.line}" if self.line else self.file)
+        if file:
+            where.append(f"{file}:{self.line}" if self.line else file)
         if self.part:
             where.append(f"part '{self.part}'")
         text = " ".join(self.problem.split())  # one line, whatever the cause said
         return ": ".join(where + [text])
 
-    def record(self) -> dict:
-        """The error as a JSON-ready record (used in batch reports)."""
-        return {"code": self.exit_code, "kind": type(self).__name__, "message": self.message,
-                "file": self.file, "part": self.part, "line": self.line}
+    def record(self, path: Callable[[str], str | None] | None = None) -> dict:
+        """The error as a JSON-ready record (used in batch reports).
+
+        Parameters
+        ----------
+        path : callable, optional
+            How the record writes the file, in ``file`` and in the message (e.g.
+            :func:`ndbg_cli.core.paths.portable`); as raised when not given.
+
+        Returns
+        -------
+        dict
+            ``code``, ``kind``, ``message``, ``file``, ``part``, ``line``.
+        """
+        file = path(self.file) if path is not None and self.file else self.file
+        return {"code": self.exit_code, "kind": type(self).__name__,
+                "message": self._located(file), "file": file, "part": self.part,
+                "line": self.line}
 
 
 class InputError(NdbgError):

@@ -7,7 +7,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from .constants import LOAD_MEMORY_GIB, LOAD_TIMEOUT_S, WORK_LIMIT
+from .constants import LOAD_MEMORY_GIB, LOAD_TIMEOUT_S, MAX_TRIANGLES, WORK_LIMIT
 
 MOTIONS = ("all", "translation", "infinite", "generalized")
 STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
@@ -25,6 +25,7 @@ class Options:
     mesh_tolerance: float | None = None  # STEP/IGES deflection, assembly unit (None: default)
     load_timeout: float | None = LOAD_TIMEOUT_S  # seconds a native reader may take (None: any)
     load_memory: float | None = LOAD_MEMORY_GIB  # GiB a native reader may use (None: any)
+    max_triangles: int | None = MAX_TRIANGLES  # triangles of one assembly (None: any)
     interference: str = "warn"  # error | warn | ignore
     timings: bool = False
     strategy: str = "shortest"  # shortest | linear | fewest-directions | balanced
@@ -39,6 +40,9 @@ class Options:
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)
     workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
     progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
+    # the folder the report's paths (sources, files) are written relative to (None: the
+    # current working folder; ndbg_cli.core.paths.portable)
+    root: str | None = None
 
 
 #: What each setting of a config file must be, with the types and ranges of the CLI's options:
@@ -49,7 +53,7 @@ SETTINGS: dict[str, tuple] = {
     "motion": (MOTIONS,), "interference": (INTERFERENCE,), "strategy": (STRATEGIES,),
     "units": (str,), "cache": (str,), "tolerance": (float, 0, True),
     "mesh_tolerance": (float, 0, True), "load_timeout": (float, 0, True),
-    "load_memory": (float, 0, True),
+    "load_memory": (float, 0, True), "max_triangles": (int, 1),
     "time_limit": (float, 0, True), "max_partitions": (int, 1), "region_limit": (int, 1),
     "max_nodes": (int, 1), "max_work": (int, 1), "infinite_budget": (int, 0),
     "allow_outside_paths": (bool,),

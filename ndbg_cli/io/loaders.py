@@ -27,6 +27,7 @@ from ..core.constants import (
     DEFLECTION_RELATIVE,
     LOAD_MEMORY_GIB,
     LOAD_TIMEOUT_S,
+    MAX_TRIANGLES,
     STEP_ANGULAR_DEFLECTION_RAD,
     STEP_DEFLECTION_MM,
 )
@@ -44,6 +45,7 @@ from .formats import (
     reader_preload,
 )
 from .isolated import in_child, run_isolated
+from .limits import TriangleBudget, check_max_triangles
 from .manifest import _Located, placement, read_manifest
 from .validate import make_part, make_polygon_part
 
@@ -52,7 +54,8 @@ from .validate import make_part, make_polygon_part
 class Reading:
     """How model files are read (:func:`load`'s arguments of the same names): the
     tessellation's deflection, the limits of a native reader's child process, whether it is
-    used (``None``: for :data:`NATIVE_SUFFIXES`) and whether it shows a status line."""
+    used (``None``: for :data:`NATIVE_SUFFIXES`), whether it shows a status line, and the
+    most triangles the assembly may have (``None``: any)."""
 
     units: str | None = None
     mesh_tolerance: float | None = None
@@ -60,13 +63,14 @@ class Reading:
     load_memory: float | None = LOAD_MEMORY_GIB
     isolate: bool | None = None
     progress: bool = False
+    max_triangles: int | None = MAX_TRIANGLES
 
 
 def load(path: str | Path, *, units: str | None = None, tolerance: float | None = None,
          allow_outside_paths: bool = False, mesh_tolerance: float | None = None,
          load_timeout: float | None = LOAD_TIMEOUT_S,
          load_memory: float | None = LOAD_MEMORY_GIB, isolate: bool | None = None,
-         progress: bool = False) -> Assembly:
+         progress: bool = False, max_triangles: int | None = MAX_TRIANGLES) -> Assembly:
     """Load one assembly from a manifest, a model file, or a directory of mesh files.
 
     ``units`` overrides the unit the input's lengths are in (for files whose unit is not
@@ -81,6 +85,8 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     STEP/IGES files, in the assembly unit (default: 0.01 mm, more for a model larger than
     1 m, see :data:`ndbg_cli.core.constants.DEFLECTION_RELATIVE`). ``progress``: a status line
     on stderr while a child reads (see :class:`ndbg_cli.core.progress.StatusLine`).
+    More than ``max_triangles`` triangles in the files (``None``: no limit) is an
+    :class:`InputError`, raised as soon as the files read so far pass it.
 
     * a YAML manifest (``.yaml``/``.yml``): parts are mesh files or 2D polygons;
     * one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
@@ -121,8 +127,10 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
         if value is not None and not 0 < value < math.inf:  # NaN fails both
             raise InputError(f"{name} must be positive and finite, got {value}",
                              file=str(path))
+    check_max_triangles(max_triangles, str(path))
     reading = Reading(units=units, mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
-                      load_memory=load_memory, isolate=isolate, progress=progress)
+                      load_memory=load_memory, isolate=isolate, progress=progress,
+                      max_triangles=max_triangles)
     with _quiet_numerics():
         asm = _load(p, str(path), reading, allow_outside_paths)
     if tolerance is not None:
@@ -180,6 +188,7 @@ def load_manifest(path: Path, *, units: str | None = None,
     parts: list[Part] = []
     diags: list[Diagnostic] = []
     seen: dict[str, int] = {}
+    budget = TriangleBudget(reading.max_triangles, file, len(data["parts"]))
     for k, entry in enumerate(data["parts"]):
         where = ("parts", k)
         pid = entry["id"]
@@ -203,6 +212,7 @@ def load_manifest(path: Path, *, units: str | None = None,
             mesh_path = _resolve(entry["mesh"], folder, doc, where + ("mesh",), pid,
                                  allow_outside_paths)
             v, f = _read_single_mesh(mesh_path, part=pid, reading=reading)
+            budget.add(len(f), k + 1)
             part, d = make_part(pid, v, f, transform=T, scale=s, source=str(mesh_path),
                                 fixed=fixed)
         parts.append(part)
@@ -578,6 +588,8 @@ def load_model(path: Path, *, units: str | None = None, reading: Reading | None 
     inst, meta = _read_instances(path, reading)
     if not inst:
         raise InputError("file holds no triangle mesh", file=str(path))
+    TriangleBudget(reading.max_triangles, str(path), len(inst)).add(
+        sum(len(f) for _, _, f in inst), len(inst))
     file_units = meta.get("ndbg_units")
     if file_units is not None:  # STEP/IGES record their unit: convert cascadio's metres to it
         asm_units = canonical_unit(units, file=str(path)) if units else file_units
@@ -621,9 +633,11 @@ def load_mesh_directory(path: Path, *, units: str | None = None,
         stems[q.stem] = q
     asm_units = canonical_unit(units, file=str(path)) if units else "mm"
     parts, diags = [], []
-    for q in files:
-        v, f = _read_single_mesh(q, part=q.stem, reading=replace(reading or Reading(),
-                                                                  units=asm_units))
+    reading = replace(reading or Reading(), units=asm_units)
+    budget = TriangleBudget(reading.max_triangles, str(path), len(files))
+    for k, q in enumerate(files):
+        v, f = _read_single_mesh(q, part=q.stem, reading=reading)
+        budget.add(len(f), k + 1)
         part, d = make_part(q.stem, v, f, source=str(q))
         parts.append(part)
         diags.extend(d)

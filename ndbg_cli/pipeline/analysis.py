@@ -15,26 +15,42 @@ from .._version import __version__
 from ..core.assembly import Assembly
 from ..core.errors import NdbgError
 from ..core.options import Options
+from ..core.paths import portable, portable_source, report_root
 from ..io.loaders import load
 from ..report.consistency import contradictions
 from ..report.consistency import warnings as consistency_warnings
 from ..report.document import REPORT_SCHEMA
 
 
-def assembly_section(asm: Assembly) -> dict:
-    """The report's ``assembly`` section: name, source, units, tolerance, parts."""
+def assembly_section(asm: Assembly, root: str | Path | None = None) -> dict:
+    """The report's ``assembly`` section: name, source, units, tolerance, parts.
+
+    Parameters
+    ----------
+    asm : Assembly
+        The assembly.
+    root : str or Path, optional
+        The folder the sources are written relative to (:func:`ndbg_cli.core.paths.portable`;
+        default: the current working folder).
+
+    Returns
+    -------
+    dict
+        The section.
+    """
     parts = []
     for p in asm.parts:
         c = p.check
         parts.append({
-            "id": p.id, "source": p.source, "hash": p.hash, "fixed": p.fixed,
+            "id": p.id, "source": portable_source(p.source, asm.source, root), "hash": p.hash,
+            "fixed": p.fixed,
             "triangles": c.triangles, "vertices": c.vertices, "watertight": c.watertight,
             "winding_consistent": c.winding_consistent, "volume": c.volume, "area": c.area,
             "bounds": [list(c.bounds[0]), list(c.bounds[1])],
         })
     joints = [{"type": j.type, "parts": list(j.parts), "axis": list(j.axis),
                "point": list(j.point), "pitch": j.pitch} for j in asm.joints]
-    return {"name": asm.name, "source": asm.source, "units": asm.units,
+    return {"name": asm.name, "source": portable(asm.source, root), "units": asm.units,
             "dimension": asm.dimension, "tolerance": asm.length_tolerance,
             "tolerance_source": "explicit" if asm.tolerance is not None else "default",
             "base": asm.base, "parts": parts, "joints": joints,
@@ -49,7 +65,9 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     asm : Assembly
         A loaded assembly (:func:`ndbg_cli.load`).
     options : Options
-        What to compute; the CLI's defaults.
+        What to compute; the CLI's defaults. Its ``root`` is the folder the report's paths
+        are written relative to (default: the current working folder; a path outside it
+        stays absolute).
 
     Returns
     -------
@@ -67,10 +85,11 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     True
     """
     timings: dict[str, float] = {}
+    root = report_root(options.root)
     report: dict = {
         "schema": REPORT_SCHEMA,
         "tool": {"name": "ndbg", "version": __version__},
-        "assembly": assembly_section(asm),
+        "assembly": assembly_section(asm, root),
         "options": {"motion": options.motion, "interference": options.interference,
                     "strategy": options.strategy,
                     "threads_as_cylinders": options.threads_as_cylinders,
@@ -85,6 +104,8 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     report["timings"] = timings if options.timings else {}
     # answers that contradict each other are said so (ndbg check --self lists the same)
     report["warnings"] += consistency_warnings(contradictions(report), asm.source or None)
+    for w in report["warnings"]:
+        w["file"] = portable_source(w.get("file"), asm.source, root)
     return report
 
 
@@ -99,22 +120,41 @@ def analyze_path(path: str | Path, options: Options = Options(),
         asm = load(path, units=options.units, tolerance=options.tolerance,
                    allow_outside_paths=options.allow_outside_paths,
                    mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
-                   load_memory=options.load_memory, progress=options.progress)
+                   load_memory=options.load_memory, progress=options.progress,
+                   max_triangles=options.max_triangles)
     except NdbgError as exc:
-        return error_record(path, exc)
+        return error_record(path, exc, options.root)
     t_load = time.perf_counter() - t0
     if on_loaded is not None:
         on_loaded(Path(path), asm)
     try:
         report = analyze(asm, options)
     except NdbgError as exc:
-        return error_record(path, exc)
+        return error_record(path, exc, options.root)
     if options.timings:
         report["timings"]["load_s"] = t_load
     return report
 
 
-def error_record(path: str | Path, exc: NdbgError) -> dict:
-    """A report standing for an assembly that could not be analysed."""
+def error_record(path: str | Path, exc: NdbgError, root: str | Path | None = None) -> dict:
+    """A report standing for an assembly that could not be analysed.
+
+    Parameters
+    ----------
+    path : str or Path
+        The input.
+    exc : NdbgError
+        Why it could not be analysed.
+    root : str or Path, optional
+        The folder the paths (``source``, the error's ``file`` and message) are written
+        relative to, as in a report (default: the current working folder).
+
+    Returns
+    -------
+    dict
+        ``schema``, ``tool``, ``source`` and ``error``.
+    """
+    base = report_root(root)
     return {"schema": REPORT_SCHEMA, "tool": {"name": "ndbg", "version": __version__},
-            "source": str(path), "error": exc.record()}
+            "source": portable(path, base),
+            "error": exc.record(path=lambda f: portable_source(f, str(path), base))}

@@ -43,14 +43,15 @@ def analyze_one(target: Path, options: Options, debug: bool = False,
     except Exception as exc:  # a bug: record it and let the batch go on
         if debug:
             traceback.print_exc()
-        return _internal_error(target, exc)
+        return _internal_error(target, exc, options.root)
 
 
-def _internal_error(target: Path, exc: BaseException) -> dict:
-    """The error record of an unexpected exception while analysing ``target``."""
+def _internal_error(target: Path, exc: BaseException, root: str | None) -> dict:
+    """The error record of an unexpected exception while analysing ``target`` (paths
+    relative to ``root``, as in a report)."""
     err = NdbgError(f"internal error: {exc.__class__.__name__}: {exc} "
                     "(run with --debug for a traceback)", file=str(target))
-    return error_record(target, err)
+    return error_record(target, err, root)
 
 
 def default_jobs() -> int:
@@ -88,8 +89,9 @@ def _analyze_taken(k: int, target: Path, options: Options, debug: bool) -> dict:
     return analyze_one(target, options, debug)
 
 
-def _worker_died(target: Path, exitcode: int | None) -> dict:
-    """The error record (exit code 3) of an assembly whose worker process died under it."""
+def _worker_died(target: Path, exitcode: int | None, root: str | None) -> dict:
+    """The error record (exit code 3) of an assembly whose worker process died under it
+    (paths relative to ``root``, as in a report)."""
     if exitcode is not None and exitcode < 0:
         try:
             how = f"killed by {signal.Signals(-exitcode).name}"
@@ -101,7 +103,7 @@ def _worker_died(target: Path, exitcode: int | None) -> dict:
         how = f"exit code {exitcode}"
     err = NdbgError(f"internal error: the worker process analysing it died ({how}); the other "
                     "assemblies were analysed (run it alone, with --debug)", file=str(target))
-    return error_record(target, err)
+    return error_record(target, err, root)
 
 
 def _exitcodes(procs: dict | None) -> dict[int, int | None] | None:
@@ -188,15 +190,16 @@ def _pooled(targets: list[Path], options: Options, jobs: int, debug: bool) -> It
                 # under it once printed an OSError traceback from that thread at exit)
                 pool.shutdown(wait=True)
         before = len(ready)
-        _collect(futures, ready, taken, _exitcodes(procs), targets)
+        _collect(futures, ready, taken, _exitcodes(procs), targets, options.root)
         fruitless = 0 if len(ready) > before else fruitless + 1
         if fruitless > MAX_FRUITLESS_RESTARTS:  # workers die before doing anything
             for j in range(k, len(targets)):
-                ready.setdefault(j, _worker_died(targets[j], None))
+                ready.setdefault(j, _worker_died(targets[j], None, options.root))
 
 
 def _collect(futures: dict[int, Future], ready: dict[int, dict], taken,
-             exitcodes: dict[int, int | None] | None, targets: list[Path]) -> None:
+             exitcodes: dict[int, int | None] | None, targets: list[Path],
+             root: str | None = None) -> None:
     """After a broken pool was ended: into ``ready``, the results it completed, and an error
     record for each target that was under way in a worker that died by itself (not ended
     by SIGTERM from the pool or :func:`~ndbg_cli.core.pools.end_pool`). The other targets are
@@ -212,7 +215,7 @@ def _collect(futures: dict[int, Future], ready: dict[int, dict], taken,
             continue  # not started: the next pool takes it
         code = exitcodes.get(pid) if exitcodes is not None else None
         if exitcodes is None or code not in ended:
-            ready[j] = _worker_died(targets[j], code)
+            ready[j] = _worker_died(targets[j], code, root)
 
 
 DASK_MISSING = "--scheduler needs dask.distributed: pip install 'ndbg-cli[dask]'"
@@ -295,7 +298,7 @@ def _gather_in_order(client, cluster, targets: list[Path], options: Options,
             except (Exception, asyncio.CancelledError) as exc:  # the task failed on the cluster
                 if debug:
                     traceback.print_exc()
-                result = _internal_error(target, exc)
+                result = _internal_error(target, exc, options.root)
             future.release()
             yield result
     finally:
