@@ -933,6 +933,56 @@ single translations exists (take the dowels out one at a time, all along +z: one
                   solids, expect, comment)
 
 
+# -- 16. a rack of boards on standoffs, at any size ------------------------------------------
+
+#: Board size (x, y), thickness, standoff radius and height, and the standoffs' corners.
+RACK_BOARD, RACK_T, RACK_R, RACK_GAP = (100.0, 60.0), 2.0, 3.0, 10.0
+RACK_CORNERS = ((8.0, 8.0), (92.0, 8.0), (8.0, 52.0), (92.0, 52.0))
+
+
+def rack_solids(levels: int) -> dict[str, Manifold]:
+    """``levels`` boards stacked on four standoffs per gap: ``5 levels - 4`` parts, board_0
+    (the base) at the bottom. Standoffs are 16-sided prisms between the boards' faces."""
+    pitch = RACK_T + RACK_GAP
+    solids: dict[str, Manifold] = {}
+    for k in range(levels):
+        z = k * pitch
+        solids[f"board_{k}"] = box(0, 0, z, RACK_BOARD[0], RACK_BOARD[1], z + RACK_T)
+        if k + 1 < levels:
+            for c, (x, y) in enumerate(RACK_CORNERS):
+                solids[f"standoff_{k}_{c}"] = prism(circle(RACK_R, x, y, n=16), z + RACK_T,
+                                                    z + pitch)
+    return solids
+
+
+def rack(out: Path, levels: int, name: str | None = None) -> str:
+    """A rack of ``levels`` boards on standoffs (``5 levels - 4`` parts: 96 at 20 levels, 296
+    at 60, 996 at 200), written as ``NAME.yaml``; returns the name. By construction each part
+    touches only the parts above and below it, on faces normal to z: the rack comes apart
+    along +z, top down, so one direction suffices; a board cannot leave downwards or, while
+    a standoff stands on it, upwards; a standoff pinched between two boards may also slide out
+    sideways (away from the board's middle, where no other standoff stands in its way)."""
+    name = name or f"rack-{5 * levels - 4}"
+    solids = rack_solids(levels)
+    expect = {
+        "parts": len(solids),
+        "top_down": [[0, 0, 1]],
+        "min_directions": 1,
+        "top": f"board_{levels - 1}",
+    }
+    size = f"{RACK_BOARD[0]:g} x {RACK_BOARD[1]:g} x {RACK_T:g}"
+    comment = f"""{levels} boards {size} stacked {RACK_T + RACK_GAP:g} apart on
+four standoffs (r {RACK_R:g}, 16 sides) per gap at the boards' corners; board_0 is the base.
+Each part touches only the parts above and below it, on faces normal to z: by construction
+the rack comes apart along +z, top down (a board once the standoffs on it are gone, a standoff
+once the board on it is gone), and one direction suffices. A standoff may also slide out
+sideways, away from the board's middle.
+"""
+    mesh_assembly(out, name, f"a rack of {levels} boards on standoffs ({len(solids)} parts)",
+                  solids, expect, comment, base="board_0")
+    return name
+
+
 def build(out: Path = HERE) -> None:
     """Build every example into ``out`` (manifests) and ``out/meshes`` (STL files)."""
     out = Path(out)

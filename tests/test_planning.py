@@ -1147,3 +1147,28 @@ def test_fewest_directions_of_a_subassembly_counts_its_own_directions():
     p = plan(nd, "fewest-directions", mask=0b011)
     assert p.found and p.exact and p.regions_used() == [0]
     assert min_directions(nd, mask=0b011)["value"] == 1
+
+
+def test_stack_regions_by_hand_an_arc_into_the_base_spoils_a_direction():
+    """Three parts, base 0. Region 0's DBG: 2 -> 1 -> 0 (1 rests on the base, 2 on 1 along
+    -d: 2 is blocked by 1, 1 by the base): {0, 1} has only the base as sink, so no stack
+    product with base 0 (without a base, any acyclic DBG is one). Region 1's DBG: 0 -> 1,
+    1 -> 2 (the base blocked by 1, 1 by 2: moving the others away from the base frees 2
+    first, then 1): a stack product. Region 2: a cycle 1 <-> 2, never."""
+    from ndbg_cli.core.constants import INFINITE
+    from ndbg_cli.ndbg.dbg import DBG
+    from ndbg_cli.ndbg.model import NDBG, Region
+    from ndbg_cli.planning.classes import stack_regions
+    from ndbg_cli.planning.decompose import sink_decompose
+
+    dbgs = (DBG.from_arcs(3, [(2, 1), (1, 0)]), DBG.from_arcs(3, [(0, 1), (1, 2)]),
+            DBG.from_arcs(3, [(1, 2), (2, 1)]))
+    nd = NDBG(INFINITE, ["a", "b", "c"],
+              tuple(Region(2, d, g) for d, g in zip(((0, 0, 1.0), (0, 1.0, 0), (1.0, 0, 0)),
+                                                   dbgs)), 3)
+    assert stack_regions(nd, base=0) == [1]
+    assert stack_regions(nd) == [0, 1]
+    # the same as the sink decomposition on each region alone (its definition)
+    for base in (None, 0, 1, 2):
+        assert stack_regions(nd, base=base) == [
+            r for r in range(3) if sink_decompose(nd, 7, [r], base=base)[1] is None]
