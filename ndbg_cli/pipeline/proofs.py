@@ -256,10 +256,11 @@ def _step(nd: NDBG, mask: int, moved: int, d: tuple[float, ...], source: str) ->
     """A proven step along ``d``, in the region freeing it whose direction is nearest ``d``
     (``None`` when no region of ``nd`` frees it: the tolerances of the two tests differ)."""
     v = np.asarray(d)
-    regs = [r for r, reg in enumerate(nd.regions)
-            if reg.direction is not None and reg.dbg.is_free(moved, mask)]
-    region = max(regs, key=lambda r: (round(float(np.dot(nd.regions[r].direction, v)), 9),
-                                      -r)) if regs else None
+    # the regions nearest d first (as the rounded cosine, then the lower index, rank them):
+    # the first that frees the step is the one sought, without testing all of them
+    near = sorted(((round(float(np.dot(reg.direction, v)), 9), -r) for r, reg
+                   in enumerate(nd.regions) if reg.direction is not None), reverse=True)
+    region = next((-r for _, r in near if nd.regions[-r].dbg.is_free(moved, mask)), None)
     return Step(mask=mask, moved=moved, rest=mask & ~moved, region=region, stated=d,
                 source=source)
 
