@@ -16,6 +16,7 @@ from .._version import __version__
 from ..core.errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION, InputError
 from ..core.files import write_atomic
 from ..core.options import MOTIONS, STRATEGIES, Options, setting_problem
+from ..report.detail import DETAILS, summarize
 from ._app import (
     CONTEXT,
     DEFAULTS,
@@ -61,7 +62,7 @@ from ._pictures import Pictures
               show_default=True, help="What interpenetrating parts are.")
 @click.option("--timings", is_flag=True, help="Record wall-clock timings in the report "
               "(makes it differ from run to run).")
-@click.option("--detail", type=click.Choice(["summary", "full"]), default="summary",
+@click.option("--detail", type=click.Choice(DETAILS), default=DETAILS[0],
               show_default=True, help="What a JSON report holds: every answer, the counts and "
               "the first 20 entries of long lists (summary), or also every contact point, "
               "every region and DBG of each NDBG and every partitioning listed (full). Text "
@@ -134,7 +135,6 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     from ..core.progress import progress
     from ..io.formats import discover
     from ..pipeline.batch import Interrupted, default_jobs, run_batch, run_batch_dask
-    from ..report.detail import summarize
     from ..report.document import dumps
     from ..report.text import render
 

@@ -191,15 +191,12 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                               approximate, [dataclasses.replace(c, a=a, b=b) for c in cs],
                               count, 0.0)
     todo = [k for k in range(len(pairs)) if results[k] is None]
-    work = sum(geos[a].triangles.shape[0] + geos[b].triangles.shape[0]
-               for a, b, _ in (pairs[k] for k in todo))
+    size = [len(geos[pairs[k][0]].triangles) + len(geos[pairs[k][1]].triangles) for k in todo]
     # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
     # by their triangles
-    order = sorted(range(len(todo)), key=lambda x: (
-        -bool(pairs[todo[x]][2]), -sum(geos[p].triangles.shape[0] for p in pairs[todo[x]][:2]),
-        x))
+    order = sorted(range(len(todo)), key=lambda x: (-bool(pairs[todo[x]][2]), -size[x], x))
     got = fork_map(lambda k: _pair_result(asm, geos, *pairs[k], tol, ang), todo,
-                   workers if work >= MIN_PARALLEL_TRIANGLES else 1, order, meanwhile)
+                   workers if sum(size) >= MIN_PARALLEL_TRIANGLES else 1, order, meanwhile)
     for k, res in zip(todo, got):
         results[k] = res
         if keys[k] is not None:

@@ -131,13 +131,13 @@ def fork_map(fn: Callable[[Any], Any], items: list, workers: int,
     this process needs later, e.g. loading compiled kernels), or first without workers."""
     global _FORK_JOB
     n = len(items)
-    if workers <= 1 or n < 2 or multiprocessing.current_process().daemon:
-        if meanwhile is not None:
-            meanwhile()
-        return [fn(x) for x in items]
-    try:
-        ctx = multiprocessing.get_context("fork")
-    except ValueError:
+    ctx = None
+    if workers > 1 and n > 1 and not multiprocessing.current_process().daemon:
+        try:
+            ctx = multiprocessing.get_context("fork")
+        except ValueError:  # no fork here
+            pass
+    if ctx is None:
         if meanwhile is not None:
             meanwhile()
         return [fn(x) for x in items]

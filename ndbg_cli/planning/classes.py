@@ -291,10 +291,11 @@ def stack_regions(ndbg: NDBG, *, base: int | None = None) -> list[int]:
     full = (1 << ndbg.n) - 1
     out = []
     for dbg, regions in ndbg.distinct():
-        comps, _ = condense(dbg.succ, full)
-        if any(c & (c - 1) for c in comps):
+        # the O(n) test first: the condensation is the costly one
+        if base is not None and any(s >> base & 1 for i, s in enumerate(dbg.succ) if i != base):
             continue
-        if base is None or not any(s >> base & 1 for i, s in enumerate(dbg.succ) if i != base):
+        comps, _ = condense(dbg.succ, full)
+        if not any(c & (c - 1) for c in comps):
             out += regions
     return sorted(out)
 

@@ -21,7 +21,7 @@ from ...core.assembly import Assembly, content_hash
 from ...core.cache import PairCache
 from ...core.progress import progress as bar
 from ..dbg import DBG
-from .blocking_cones import part_triangles, unique_circles
+from .blocking_cones import closed_parts, part_triangles, unique_circles
 from .chart_union import antipodal, cut_to_domain, reverse_entries
 from .convex_cones import convex_entries, convex_pairs, far_convex
 from .cubemap import face_of
@@ -224,13 +224,6 @@ CONVEX_PAIR_COST = 16
 CONVEX_DIFFERENCES_PER_PAIR = 128
 
 
-def closed_parts(asm: Assembly) -> list[bool]:
-    """Whether each part's mesh is watertight and consistently wound (2D parts: extruded
-    polygons, always): the convex route needs a closed surface."""
-    return [asm.dimension == 2 or (p.check.watertight and p.check.winding_consistent)
-            for p in asm.parts]
-
-
 def triangle_pairs(asm: Assembly) -> int:
     """Number of (moving, blocking) triangle pairs over all ordered pairs of parts: the cost
     driver, twice what the builder examines (it computes each unordered pair once) and an
@@ -240,14 +233,13 @@ def triangle_pairs(asm: Assembly) -> int:
     :data:`CONVEX_PAIR_COST` plus one per :data:`CONVEX_DIFFERENCES_PER_PAIR` difference
     vectors. The CLI skips the NDBG with a warning above
     ``--infinite-budget`` (example counts in benchmarks/NOTES.md)."""
+    closed = closed_parts(asm)
     # open shells count twice: their triangles face both ways (part_triangles)
-    t = np.array([p.check.triangles * (1 if closed else 2) if asm.dimension == 3
-                  else 4 * p.check.vertices
-                  for p, closed in zip(asm.parts, closed_parts(asm))], dtype=float)
+    t = np.array([p.check.triangles * (1 if c else 2) if asm.dimension == 3
+                  else 4 * p.check.vertices for p, c in zip(asm.parts, closed)], dtype=float)
     total = t.sum() ** 2 - (t ** 2).sum()
     if asm.dimension == 3 and len(t) > 1:
-        verts, pairs = far_convex(part_triangles(asm), closed_parts(asm),
-                                  asm.length_tolerance)
+        verts, pairs = far_convex(part_triangles(asm), closed, asm.length_tolerance)
         if len(pairs):
             i, j = pairs[:, 0], pairs[:, 1]
             diffs = np.array([len(verts[a]) * len(verts[b]) for a, b in pairs.tolist()],

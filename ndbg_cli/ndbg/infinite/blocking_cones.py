@@ -32,6 +32,14 @@ from .tritree import TriTree, tri_tree  # noqa: F401 (tri_tree: part of this API
 CHUNK = 20000
 
 
+def closed_parts(asm: Assembly) -> list[bool]:
+    """Whether each part's mesh is watertight and consistently wound (2D parts: extruded
+    polygons, always): the convex route needs a closed surface, and an open one faces both
+    ways (:func:`part_triangles`)."""
+    return [asm.dimension == 2 or (p.check.watertight and p.check.winding_consistent)
+            for p in asm.parts]
+
+
 def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
     """Per part: triangles ``(t, 3, 3)`` and unit outward normals ``(t, 3)``, in the assembly
     frame (2D parts are extruded to prisms of height ``diagonal``).
@@ -43,7 +51,7 @@ def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
     stands for would be (the engine's pins, ``../shared/data/engine``)."""
     out = []
     h = max(asm.diagonal, 1e-9)
-    for p in asm.parts:
+    for p, closed in zip(asm.parts, closed_parts(asm)):
         if asm.dimension == 2:
             mesh = trimesh.creation.extrude_polygon(p.polygon, h)
             mesh.apply_translation([0.0, 0.0, -h / 2])
@@ -54,7 +62,7 @@ def part_triangles(asm: Assembly) -> list[tuple[np.ndarray, np.ndarray]]:
         ln = np.linalg.norm(nrm, axis=1, keepdims=True)
         ok = ln[:, 0] > 0
         tri, nrm = tri[ok], nrm[ok] / ln[ok]
-        if asm.dimension == 3 and not (p.check.watertight and p.check.winding_consistent):
+        if not closed:
             tri = np.concatenate([tri, tri[:, ::-1]])
             nrm = np.concatenate([nrm, -nrm])
         out.append((tri, nrm))
