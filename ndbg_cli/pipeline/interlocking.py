@@ -195,7 +195,7 @@ def _refuted(fam: str, measures: dict, plan: dict, real: dict, conservative: int
     ``plan`` and the infinite translations' classes ``real`` (their trees are candidate trees
     too): what those trees show, the rest undecided."""
     from ..planning.classes import label
-    from .proofs import _tree_text
+    from .proofs import _tree_text, direction_counts
 
     def least(key: str, found: list[int]) -> int | None:
         v = (real.get(key) or {}).get("value")
@@ -208,8 +208,7 @@ def _refuted(fam: str, measures: dict, plan: dict, real: dict, conservative: int
                                         if t.get("nonlinear_steps") is not None])
     n = len(plan["tree"]["parts"])
     low = math.ceil(math.log2(n)) if n > 1 else 0
-    best = least("min_directions", [] if _directions(plan, base) is None
-                 else [_directions(plan, base)])
+    best = least("min_directions", direction_counts(plan, base))
     cause = (f"the contacts read {conservative} edge/point contacts on every face meeting "
              "there, more than they block" if conservative else
              "its contacts block, within their tolerances, what the exact sweep test does not")
@@ -242,14 +241,3 @@ def _refuted(fam: str, measures: dict, plan: dict, real: dict, conservative: int
                                  "side without the base along one direction"} if best == 1
                                 else {"value": None, "why": why})
     return {**measures, **{k: label(fam, k, v) for k, v in new.items()}}
-
-
-def _directions(plan: dict, base: str | None) -> int | None:
-    """The fewest distinct removal directions of the plan's proven trees (the greedy proofs'
-    counts, and the plan's own when its moved sides never hold ``base``), or None."""
-    counts = [t["directions"] for t in plan.get("proofs") or [] if "directions" in t]
-    steps = plan.get("sequence") or []
-    if steps and all(s.get("removal_direction") is not None and base not in s["moved"]
-                     for s in steps):
-        counts.append(len({tuple(s["removal_direction"]) for s in steps}))
-    return min(counts) if counts else None

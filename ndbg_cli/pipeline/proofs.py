@@ -406,6 +406,18 @@ def proven_classes(plan: dict, candidates: dict, base: str | None = None) -> dic
     return {k: label(INFINITE, k, m) for k, m in sorted(out.items())}
 
 
+def direction_counts(plan: dict, base: str | None) -> list[int]:
+    """The distinct removal directions of each proven tree of a plan section: the greedy
+    proofs' counts, and the plan's own when its moved sides never hold ``base`` (the
+    classes' convention: a direction is the moved side's, the one without the base)."""
+    counts = [t["directions"] for t in plan.get("proofs") or [] if "directions" in t]
+    steps = plan.get("sequence") or []
+    if steps and all(s.get("removal_direction") is not None and base not in s["moved"]
+                     for s in steps):
+        counts.append(len({tuple(s["removal_direction"]) for s in steps}))
+    return counts
+
+
 def _directions_classes(plan: dict, candidates: dict, base: str | None) -> dict:
     """``min_directions`` and ``stack_product`` from the proven trees of a plan section (the
     greedy proofs' counts of distinct removal directions; their moved sides never hold the
@@ -415,11 +427,7 @@ def _directions_classes(plan: dict, candidates: dict, base: str | None) -> dict:
     tree along one direction is a stack product (paper 7.1: every
     instruction along that direction); and each infinite-translation DBG holds the
     infinitesimal one of its direction, so no candidate stack product means none at all."""
-    counts = [t["directions"] for t in plan.get("proofs") or [] if "directions" in t]
-    steps = plan.get("sequence") or []
-    if steps and all(s.get("removal_direction") is not None and base not in s["moved"]
-                     for s in steps):
-        counts.append(len({tuple(s["removal_direction"]) for s in steps}))
+    counts = direction_counts(plan, base)
     out: dict = {}
     cand = candidates.get("min_directions") or {}
     low = cand.get("value") if cand.get("exact", False) else cand.get("lower_bound")
