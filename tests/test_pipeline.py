@@ -372,3 +372,31 @@ def test_one_blas_thread_in_the_cli_unless_the_caller_chose():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
     assert out[0] == "3" and out[-1] == "3"
+
+
+def test_a_rack_above_the_part_cap_is_proven_without_the_whole_sphere(tmp_path):
+    # 9 boards on standoffs: 41 parts, one above INFINITE_MAX_PARTS. By construction the rack
+    # comes apart top down along +z; the default run leaves the whole sphere out (its
+    # arrangement grows as the fourth power of the parts), says why, and still decides the
+    # infinite family's classes from the plan the sweep test proves.
+    import sys
+
+    from ndbg_cli.core.constants import INFINITE_MAX_PARTS
+
+    sys.path.insert(0, str(EX))
+    import build
+
+    name = build.rack(tmp_path, 9)
+    rep = clean(analyze_path(tmp_path / f"{name}.yaml", Options()))
+    assert len(rep["assembly"]["parts"]) == 41 > INFINITE_MAX_PARTS
+    skipped = [w["message"] for w in rep["warnings"] if w["code"] == "infinite-skipped"]
+    assert len(skipped) == 1 and "41 parts" in skipped[0]
+    assert rep["ndbg"]["infinite_translation"]["skipped"] is True
+    assert rep["plan"]["verified"]["value"] is True
+    assert {tuple(s["removal_direction"]) for s in rep["plan"]["sequence"]} <= {
+        (0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (1.0, 0.0, 0.0), (-1.0, 0.0, 0.0),
+        (0.0, 1.0, 0.0), (0.0, -1.0, 0.0)}
+    inf = rep["classes"]["infinite_translation"]
+    assert inf["one_handed_monotone"]["value"] is True
+    assert inf["prismatic"]["value"] is True
+    assert not contradictions(rep)

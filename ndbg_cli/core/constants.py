@@ -26,6 +26,15 @@ FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
 WORK_LIMIT = 5_000_000
 
 
+#: Parts above which the default run does not compute the infinite-translation NDBG over the
+#: whole sphere (3D), whatever its triangles: every pair of parts blocks the other in some
+#: directions, so the arrangement of the n(n-1) blocked sets has O(n^4) regions at worst, and
+#: the stages after it work per region (racks of boards on standoffs: 16 parts 3,604 regions,
+#: 36 parts 10,906, 56 parts 22,438 and over a minute in all; benchmarks/NOTES.md). Above it
+#: the plan is proposed by the infinitesimal NDBG and proven by the sweep test, which decides
+#: the infinite family's classes when it succeeds; ``--motion infinite`` computes it anyway.
+INFINITE_MAX_PARTS = 40
+
 #: Angle (radians, 1e-6 rad ~ 0.2 arc-seconds) below which two directions of the arrangements
 #: are one (merged normals, vertices) and a direction lies on a great circle (sign tests).
 ANGLE_TOL_RAD = 1e-6

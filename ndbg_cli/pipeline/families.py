@@ -33,7 +33,23 @@ def _over_budget(asm: Assembly, options: Options) -> str:
             f"{options.infinite_budget}")
 
 
+def _too_many_parts(asm: Assembly, options: Options) -> bool:
+    """Whether the default run leaves the whole sphere out for the part count alone
+    (:data:`~ndbg_cli.core.constants.INFINITE_MAX_PARTS`)."""
+    from ..core.constants import INFINITE_MAX_PARTS
+
+    return (asm.dimension == 3 and options.motion != "infinite"
+            and len(asm.parts) > INFINITE_MAX_PARTS)
+
+
 def infinite_skip_reason(asm: Assembly, options: Options) -> str:
+    from ..core.constants import INFINITE_MAX_PARTS
+
+    if _too_many_parts(asm, options):
+        return (f"{len(asm.parts)} parts: above {INFINITE_MAX_PARTS} its arrangement over the "
+                "whole sphere grows as the fourth power of the parts (every pair blocks in "
+                "some directions); the plan is proven by the sweep test instead (--motion "
+                "infinite computes it)")
     if options.motion == "infinite":  # the restriction was tried: it is every direction
         return (f"{_over_budget(asm, options)}, and the infinitesimal NDBG frees some "
                 "subassembly in every direction (for one, when parts or groups of parts touch "
@@ -60,6 +76,8 @@ def infinite(asm: Assembly, options: Options, threaded: set, connected, cache=No
     from ..report.infinite import infinite_section
 
     domain = None
+    if _too_many_parts(asm, options):
+        return None
     if asm.dimension == 3 and triangle_pairs(asm) > options.infinite_budget:
         if options.motion != "infinite":  # asked for explicitly only: it takes minutes
             return None

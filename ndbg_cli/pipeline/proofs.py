@@ -233,23 +233,45 @@ def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, stra
 class _Clearance:
     """:data:`ndbg_cli.planning.proven.Clearance` from the contacts: the least ``-n . d``
     over the contact normals ``n`` out of ``moved`` into ``rest`` (1 when they touch
-    nowhere)."""
+    nowhere). The normals are kept per part, and the smaller side's parts are read: one part
+    against the rest costs its own contacts, not the assembly's (the greedy search asks this
+    for every split it ranks)."""
 
     def __init__(self, analysis: Any, dimension: int) -> None:
-        self.normals: dict[tuple[int, int], np.ndarray] = {}
+        pairs: dict[tuple[int, int], list[np.ndarray]] = {}
         for c in getattr(analysis, "contacts", ()):
             n = np.asarray(c.normals, dtype=float).reshape(-1, dimension)
-            for a, b, m in ((c.a, c.b, n), (c.b, c.a, -n)):
-                old = self.normals.get((a, b))
-                self.normals[a, b] = m if old is None else np.vstack([old, m])
+            pairs.setdefault((c.a, c.b), []).append(n)
+            pairs.setdefault((c.b, c.a), []).append(-n)
+        #: part a -> [(b, normals out of a into b)], in the contacts' order
+        self.out: dict[int, list[tuple[int, np.ndarray]]] = {}
+        self.touching: dict[int, int] = {}  # part a -> bitmask of the parts it touches
+        for (a, b), ns in pairs.items():
+            self.out.setdefault(a, []).append((b, np.vstack(ns)))
+            self.touching[a] = self.touching.get(a, 0) | 1 << b
+        # the answer depends on the smaller side and the parts of the other it touches
+        # only: a part leaving one subassembly after another asks the same question again
+        self._memo: dict[tuple, float] = {}
 
     def __call__(self, moved: int, rest: int, d: tuple[float, ...]) -> float:
-        v = np.asarray(d)
-        least = 1.0
-        for (a, b), n in self.normals.items():
-            if moved >> a & 1 and rest >> b & 1:
-                least = min(least, float((-(n @ v)).min()))
-        return least
+        # n out of moved into rest along d is -n out of rest into moved: -(n.d) = (-n).(-d)
+        side, other, sign = ((moved, rest, 1.0) if moved.bit_count() <= rest.bit_count()
+                             else (rest, moved, -1.0))
+        near = 0
+        for a in bits(side):
+            near |= self.touching.get(a, 0)
+        near &= other
+        key = (side, near, sign, d)
+        got = self._memo.get(key)
+        if got is None:
+            v = np.asarray(d)
+            got = 1.0
+            for a in bits(side):
+                for b, n in self.out.get(a, ()):
+                    if near >> b & 1:
+                        got = min(got, float((-sign * (n @ v)).min()))
+            self._memo[key] = got
+        return got
 
 
 def _step(nd: NDBG, mask: int, moved: int, d: tuple[float, ...], source: str) -> Step:

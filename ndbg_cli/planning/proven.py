@@ -248,12 +248,45 @@ def _options(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int,
                   if 0 < o[0] != mask and (base is None or not o[0] >> base & 1))
 
 
-Chooser = Callable[[int, int, int, int], tuple]
 #: ``clearance(moved, rest, d)``: how far inside the directions that free ``moved`` locally
-#: ``d`` lies (e.g. the least ``-n . d`` over the contact normals ``n`` out of ``moved``
-#: into ``rest``; 0 when sliding along a contact): larger is preferred, as a designer lifts a
+#: ``d`` lies (e.g. the least ``-n . d`` over the contact normals ``n`` out of ``moved`` into
+#: ``rest``; 0 when sliding along a contact): larger is preferred, as a designer lifts a
 #: part off a face rather than sliding it along the face.
 Clearance = Callable[[int, int, tuple[float, ...]], float]
+
+
+@dataclass(frozen=True)
+class Chooser:
+    """The preference key of a proven split ``(mask, moved, k, sense)`` (smaller is better),
+    in two parts: :meth:`head`, cheap, and :meth:`tail`, which reads the clearance. The key is
+    ``head + tail``; :func:`greedy` ranks every split by its head and reads the tail only where
+    heads tie (on a product of hundreds of parts a subassembly offers hundreds of splits, and
+    the clearance of each costs its contacts). Made by :func:`chooser`."""
+
+    strategy: str
+    connected: ConnectivityTest | None
+    used: set[int]
+    dirs: Sequence[Direction]
+    clearance: Clearance | None = None
+
+    def head(self, mask: int, moved: int, k: int, sense: int) -> tuple:
+        rest = mask & ~moved
+        apart = 0 if self.connected is None or (self.connected(moved)
+                                                and self.connected(rest)) else 1
+        size = max(moved.bit_count(), rest.bit_count())
+        goal: tuple = ((moved.bit_count() > 1, size) if self.strategy == "linear" else
+                       (k not in self.used, size) if self.strategy == "fewest-directions"
+                       else (size,))
+        return (apart, *goal, SOURCES.index(self.dirs[k].source))
+
+    def tail(self, mask: int, moved: int, k: int, sense: int) -> tuple:
+        d = tuple(sense * x for x in self.dirs[k].vector)
+        room = 0.0 if self.clearance is None else -round(
+            self.clearance(moved, mask & ~moved, d), 9)
+        return (room, k, -sense, moved)
+
+    def __call__(self, mask: int, moved: int, k: int, sense: int) -> tuple:
+        return self.head(mask, moved, k, sense) + self.tail(mask, moved, k, sense)
 
 
 def chooser(strategy: str, connected: ConnectivityTest | None, used: set[int],
@@ -263,18 +296,17 @@ def chooser(strategy: str, connected: ConnectivityTest | None, used: set[int],
     part at a time for ``linear``, the most balanced split otherwise, directions already used
     first for ``fewest-directions``), then natural directions before regions', the larger
     ``clearance`` and the order of ``dirs``."""
+    return Chooser(strategy, connected, used, dirs, clearance)
 
-    def key(mask: int, moved: int, k: int, sense: int) -> tuple:
-        rest = mask & ~moved
-        apart = 0 if connected is None or (connected(moved) and connected(rest)) else 1
-        size = max(moved.bit_count(), rest.bit_count())
-        goal: tuple = ((moved.bit_count() > 1, size) if strategy == "linear" else
-                       (k not in used, size) if strategy == "fewest-directions" else (size,))
-        d = tuple(sense * x for x in dirs[k].vector)
-        room = 0.0 if clearance is None else -round(clearance(moved, rest, d), 9)
-        return (apart, *goal, SOURCES.index(dirs[k].source), room, k, -sense, moved)
 
-    return key
+def _best(key: Chooser, options: list[Split]) -> Split | None:
+    """The split of ``options`` with the least ``key``: heads first, tails among the ties."""
+    if not options:
+        return None
+    heads = [key.head(sp.mask, sp.moved, sp.k, sp.sense) for sp in options]
+    low = min(heads)
+    ties = [sp for sp, h in zip(options, heads) if h == low]
+    return min(ties, key=lambda sp: key.tail(sp.mask, sp.moved, sp.k, sp.sense))
 
 
 def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
@@ -291,20 +323,17 @@ def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
         m = stack.pop()
         if m.bit_count() < 2:
             continue
-        best = None
+        options: list[Split] = []
         for k in range(len(rows.dirs)):
-            if k >= min(natural, GREEDY_WIDE) and best is not None:
+            if k >= min(natural, GREEDY_WIDE) and options:
                 break
             if k >= natural and not rows.may_split(k, m):
                 continue
-            for s, sense in _options(rows, k, m, base):
-                cand = key(m, s, k, sense), Split(m, s, k, sense)
-                if best is None or cand[0] < best[0]:
-                    best = cand
-        if best is None:
+            options += [Split(m, s, k, sense) for s, sense in _options(rows, k, m, base)]
+        sp = _best(key, options)
+        if sp is None:
             out.found, out.stuck, out.splits = False, m, {}
             return out
-        sp = best[1]
         out.splits[m] = sp
         used.add(sp.k)
         stack.extend((sp.rest, sp.moved))
