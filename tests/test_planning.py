@@ -1172,3 +1172,45 @@ def test_stack_regions_by_hand_an_arc_into_the_base_spoils_a_direction():
     for base in (None, 0, 1, 2):
         assert stack_regions(nd, base=base) == [
             r for r in range(3) if sink_decompose(nd, 7, [r], base=base)[1] is None]
+
+
+_DEEP = """
+import json, sys
+import ndbg_cli
+from ndbg_cli.ndbg.dbg import DBG
+from ndbg_cli.ndbg.model import NDBG, Region
+from ndbg_cli.planning.decompose import tree_string
+from ndbg_cli.planning.plans import Plan, Step, sequence_json, tree_json
+from ndbg_cli.pipeline.analysis import analyze
+
+n = 1500
+analyze(ndbg_cli.load(sys.argv[1]))  # the library's entry raises the limit for such trees
+nd = NDBG("infinitesimal_translation", tuple(f"p{i}" for i in range(n)),
+          (Region(2, (0.0, 0.0, 1.0), DBG.empty(n)),))
+root = (1 << n) - 1
+steps, m = {}, root
+while m.bit_count() > 1:  # one part at a time: the highest leaves first
+    top = 1 << (m.bit_length() - 1)
+    steps[m] = Step(m, top, m & ~top, 0)
+    m &= ~top
+p = Plan(nd, root, "linear", steps)
+tree = json.loads(json.dumps(tree_json(p)))
+text = tree_string(nd, {k: (s.moved, 0) for k, s in steps.items()}, root)
+print(p.depth(), tree["depth"], len(sequence_json(p)), text.count("|"))
+"""
+
+
+def test_a_tree_as_deep_as_a_large_product_is_rendered(tmp_path):
+    # A product that comes apart one part at a time has trees as deep as it has parts: the
+    # 996-part rack ended in a RecursionError (Python's default limit is 1,000 frames). A fresh
+    # interpreter (default limit) renders a linear tree of 1,500 parts once analyze() ran.
+    import subprocess
+    import sys
+
+    script = tmp_path / "deep.py"
+    script.write_text(_DEEP)
+    ex = Path(__file__).resolve().parents[1] / "assemblies" / "hover.yaml"
+    got = subprocess.run([sys.executable, str(script), str(ex)], capture_output=True,
+                         text=True, timeout=300)
+    assert got.returncode == 0, got.stderr[-2000:]
+    assert got.stdout.split() == ["1499", "1499", "1499", "1499"]

@@ -14,6 +14,7 @@ import click
 
 from ..core.errors import EXIT_INPUT, EXIT_INTERNAL, EXIT_OK, InputError, NdbgError
 from ..core.files import ESCAPE
+from ..core.stack import allow_deep_trees
 from . import analyze, commands  # noqa: F401  (each registers its commands on the group)
 from ._app import STATE, cli, fail
 
@@ -39,6 +40,7 @@ def main(argv: list[str] | None = None) -> None:
     such a file fails with UnicodeEncodeError (stdout's default is strict), or writes
     the raw byte (a C locale's surrogateescape), which is not UTF-8."""
     _one_blas_thread()
+    allow_deep_trees()
     for stream in (sys.stdout, sys.stderr):
         try:
             stream.reconfigure(errors=ESCAPE)

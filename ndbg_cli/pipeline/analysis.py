@@ -16,6 +16,7 @@ from ..core.assembly import Assembly
 from ..core.errors import NdbgError
 from ..core.options import Options
 from ..core.paths import portable, portable_source, report_root
+from ..core.stack import allow_deep_trees
 from ..io.loaders import load
 from ..report.consistency import contradictions
 from ..report.consistency import warnings as consistency_warnings
@@ -98,6 +99,7 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     }
     from .stages import run_stages
 
+    allow_deep_trees()  # a product coming apart one part at a time has trees as deep
     sections, more = run_stages(asm, options, timings)
     report.update(sections)
     report["warnings"] += [d.record() for d in more]
