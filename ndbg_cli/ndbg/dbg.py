@@ -164,7 +164,7 @@ def tarjan(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
     index = [-1] * n
     low = [0] * n
     comp_of = [-1] * n
-    onstack = 0
+    onstack = bytearray(n)  # a flag per part: O(1), where a bitmask costs O(n) a change
     stack: list[int] = []
     comps: list[int] = []
     counter = 0
@@ -174,7 +174,7 @@ def tarjan(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
         index[root] = low[root] = counter
         counter += 1
         stack.append(root)
-        onstack |= 1 << root
+        onstack[root] = 1
         work = [[root, succ[root] & mask]]
         while work:
             top = work[-1]
@@ -187,9 +187,9 @@ def tarjan(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
                     index[w] = low[w] = counter
                     counter += 1
                     stack.append(w)
-                    onstack |= b
+                    onstack[w] = 1
                     work.append([w, succ[w] & mask])
-                elif onstack & b and index[w] < low[v]:
+                elif onstack[w] and index[w] < low[v]:
                     low[v] = index[w]
                 continue
             work.pop()
@@ -202,9 +202,8 @@ def tarjan(succ: Sequence[int], mask: int) -> tuple[list[int], list[int]]:
                 k = len(comps)
                 while True:
                     w = stack.pop()
-                    b = 1 << w
-                    onstack ^= b
-                    comp |= b
+                    onstack[w] = 0
+                    comp |= 1 << w
                     comp_of[w] = k
                     if w == v:
                         break
