@@ -128,6 +128,24 @@ def test_greedy_needs_no_backtracking_and_stops_where_no_direction_splits():
     assert not got.found and got.stuck == 0b011
 
 
+def test_linear_greedy_offers_every_part_that_leaves_alone():
+    # Along +z: A and B block each other; C and D are blocked by A and block nobody, so each
+    # of them may leave along -z (the rest along +z). Along -z, C and D are blocked by every
+    # part and B by A. Every other direction is blocked. The strong components along +z are
+    # {A, B}, {C}, {D}: their prefixes offered D alone and never C; the linear search reads
+    # the one-part splits from the rows and takes C (the lower part at the same direction).
+    table = {(0, 0, 1): {(0, 1), (1, 0), (2, 0), (3, 0)},
+             (0, 0, -1): {(1, 0), (2, 0), (2, 1), (2, 3), (3, 0), (3, 1), (3, 2)}}
+    dirs = directions(3, [], [])
+    got = greedy(Rows(_Pairs(4, table), 4, dirs), 0b1111,
+                 key=chooser("linear", None, set(), dirs), natural=len(dirs))
+    assert got.found
+    root = got.splits[0b1111]
+    assert (root.moved, root.vector(dirs)) == (0b0100, (0.0, 0.0, -1.0))
+    assert all(sp.moved.bit_count() == 1 or sp.rest.bit_count() == 1
+               for sp in got.splits.values())
+
+
 def test_region_directions_are_tried_only_where_their_region_frees_something():
     # the proposer: region 0 frees nothing in {A, B}; the test says its direction would
     nd = NDBG("infinitesimal_translation", ("A", "B"),

@@ -141,6 +141,7 @@ class Rows:
                  proposer: NDBG | None = None) -> None:
         self.test, self.n, self.dirs, self.proposer = test, n, list(dirs), proposer
         self._rows: dict[tuple[int, int], int] = {}
+        self._preds: dict[int, list[int]] = {}
         self._vec = [np.asarray(d.vector, dtype=float) for d in self.dirs]
 
     def row(self, k: int, i: int) -> int:
@@ -148,6 +149,18 @@ class Rows:
         if key not in self._rows:
             self._rows[key] = self.test.blockers(i, self._vec[k])
         return self._rows[key]
+
+    def blocked_by(self, k: int) -> list[int]:
+        """``blocked_by(k)[i]``: the parts that part ``i`` blocks along ``dirs[k]`` (the rows
+        read the other way, every part's row computed), over the whole product."""
+        got = self._preds.get(k)
+        if got is None:
+            got = [0] * self.n
+            for j in range(self.n):
+                for i in bits(self.row(k, j)):
+                    got[i] |= 1 << j
+            self._preds[k] = got
+        return got
 
     def extend(self, more: Sequence[Direction]) -> int:
         """Append the directions of ``more`` not already in ``dirs`` (equal after rounding to
@@ -248,6 +261,24 @@ def _options(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int,
                   if 0 < o[0] != mask and (base is None or not o[0] >> base & 1))
 
 
+def _singletons(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int, int]]:
+    """The one-part ``(moved, sense)`` splits ``dirs[k]`` offers in ``mask``: a part no other
+    part of ``mask`` blocks leaves along ``dirs[k]``, and a part that blocks no other leaves
+    along its opposite (the rest leaving along ``dirs[k]``); never the base. Read from the
+    rows alone, without the strong components :func:`_options` needs."""
+    back = rows.blocked_by(k)
+    out = []
+    for i in bits(mask):
+        if i == base:
+            continue
+        others = mask & ~(1 << i)
+        if rows.row(k, i) & others == 0:
+            out.append((1 << i, 1))
+        if back[i] & others == 0:
+            out.append((1 << i, -1))
+    return out
+
+
 #: ``clearance(moved, rest, d)``: how far inside the directions that free ``moved`` locally
 #: ``d`` lies (e.g. the least ``-n . d`` over the contact normals ``n`` out of ``moved`` into
 #: ``rest``; 0 when sliding along a contact): larger is preferred, as a designer lifts a
@@ -324,6 +355,19 @@ def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
         if m.bit_count() < 2:
             continue
         options: list[Split] = []
+        if key.strategy == "linear":
+            # One part at a time is what this key ranks first: when a part of m leaves alone
+            # along a natural direction, with both sides connected where that is asked, no
+            # split of the strong components can rank before it, and their search (a Tarjan
+            # per direction: quadratic over a linear tree of many parts) is not needed.
+            options = [Split(m, s, k, sense) for k in range(min(natural, GREEDY_WIDE))
+                       for s, sense in _singletons(rows, k, m, base)]
+            sp = _best(key, options)
+            if sp is not None and key.head(m, sp.moved, sp.k, sp.sense)[0] == 0:
+                out.splits[m] = sp
+                used.add(sp.k)
+                stack.extend((sp.rest, sp.moved))
+                continue
         for k in range(len(rows.dirs)):
             if k >= min(natural, GREEDY_WIDE) and options:
                 break
