@@ -372,3 +372,30 @@ def test_one_blas_thread_in_the_cli_unless_the_caller_chose():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
     assert out[0] == "3" and out[-1] == "3"
+
+
+def test_trees_as_deep_as_2000_parts_stop_no_analysis():
+    """Found by the fuzzing campaign (case mesh:20260288: 2,000 cubes): the classes' tree
+    height and the report's JSON recurse once per level of the assembly tree, and a tree
+    that takes one part at a time is as deep as the assembly has parts: past Python's
+    default limit of 1,000 that was a RecursionError (exit 3). ``analyze`` now raises the
+    limit to what the assembly's parts need; here a 2,000-level tree built by construction
+    goes through the same recursive functions."""
+    import sys
+
+    from ndbg_cli.pipeline.analysis import _deep_enough
+    from ndbg_cli.planning.classes import _choice_depth
+
+    n, old = 2000, sys.getrecursionlimit()
+    full = (1 << n) - 1
+    # part k leaves what is left of parts k..n-1 first: the linear tree, n - 1 levels
+    choice = {full >> k << k: (1 << k, 0) for k in range(n - 1)}
+    tree: dict = {"part": n - 1}
+    for k in range(n - 2, -1, -1):
+        tree = {"moved": {"part": k}, "rest": tree}
+    try:
+        _deep_enough(n)
+        assert _choice_depth(choice, full) == n - 1
+        assert json.loads(dumps(clean(tree)))["rest"]["moved"] == {"part": 1}
+    finally:
+        sys.setrecursionlimit(old)

@@ -7,6 +7,7 @@ into an error record, which is what a batch needs.
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -85,6 +86,7 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     True
     """
     timings: dict[str, float] = {}
+    _deep_enough(len(asm.parts))
     root = report_root(options.root)
     report: dict = {
         "schema": REPORT_SCHEMA,
@@ -107,6 +109,23 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     for w in report["warnings"]:
         w["file"] = portable_source(w.get("file"), asm.source, root)
     return report
+
+
+#: Python frames an assembly tree may need per part (the stages walk trees by recursion,
+#: and the JSON report nests them: a linear tree of N parts is N levels deep, a node a few
+#: frames each), and the head room above it.
+FRAMES_PER_PART = 8
+FRAMES_SPARE = 2000
+
+
+def _deep_enough(parts: int) -> None:
+    """Raise Python's recursion limit (1,000 by default, never lowered here) to what the
+    trees of ``parts`` parts need: a 2,000-part assembly assembled one part at a time made
+    the classes, the plan and the report's JSON stop with a RecursionError (exit 3). Python
+    3.11 calls Python functions without growing the C stack, so the limit only guards it."""
+    need = FRAMES_SPARE + FRAMES_PER_PART * parts
+    if sys.getrecursionlimit() < need:
+        sys.setrecursionlimit(need)
 
 
 def analyze_path(path: str | Path, options: Options = Options(),
