@@ -194,7 +194,9 @@ def campaign(cases: int, seed: int = SEED, jobs: int = 2, timeout: int = TIMEOUT
                 with lock:
                     servers.append(local.server)
             r = run_case(local.server, *item, Path(tmp), pool, timeout)
-            if r.outcome == "hung":
+            if r.outcome == "timeout":  # the killed case's own workers may live on: they
+                local.server.close(kill=True)  # are in the server's process group
+            if r.outcome in ("hung", "timeout"):
                 local.server = None
             with lock:
                 done.append(r)
