@@ -4,7 +4,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup bytecode browser demo test lint bench clean
+.PHONY: setup bytecode browser demo test lint bench fuzz clean
 
 setup: $(STAMP)
 
@@ -40,6 +40,13 @@ lint: setup
 
 bench: bytecode
 	$(BIN)/python benchmarks/run.py
+
+# the fuzzing campaign (tests/fuzz_campaign.py): FUZZ_CASES cases (default 10,000; about half
+# an hour on 2 cores), FUZZ_JOBS fork servers (default 2), FUZZ_SEED; prints the counts of
+# each outcome and fails on any traceback, timeout, signal, partial file or invalid report.
+# A fixed-seed slice of it runs in `make test` (tests/test_fuzz_campaign.py).
+fuzz: bytecode
+	$(BIN)/python tests/fuzz_campaign.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache

@@ -112,6 +112,10 @@ CASES = {
                                 "is not of type 'number'"),
     "zero-quaternion": (manifest("parts:\n" + part("    rotation: {quaternion: [0,0,0,0]}\n")),
                         [], "quaternion has zero length"),
+    # found by the fuzzing campaign (manifest:20260149): scipy's ValueError was exit 3
+    "euler-repeated-axis": (manifest("parts:\n" + part("    rotation: {euler: [0, 0, 0], "
+                                                       "order: zxx}\n")), [],
+                            "bad.yaml:4: parts[0].rotation.order: Euler order 'zxx' repeats"),
     "bad-rotation": (manifest("parts:\n" + part("    rotation: {spin: 3}\n")), [],
                      "rotation must be"),
     "unknown-base": (manifest("base: ghost\nparts:\n" + part()), [], "base part 'ghost'"),

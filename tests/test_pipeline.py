@@ -400,3 +400,30 @@ def test_a_rack_above_the_part_cap_is_proven_without_the_whole_sphere(tmp_path):
     assert inf["one_handed_monotone"]["value"] is True
     assert inf["prismatic"]["value"] is True
     assert not contradictions(rep)
+
+
+def test_trees_as_deep_as_2000_parts_stop_no_analysis():
+    """Found by the fuzzing campaign (case mesh:20260288: 2,000 cubes): the classes' tree
+    height and the report's JSON recurse once per level of the assembly tree, and a tree
+    that takes one part at a time is as deep as the assembly has parts: past Python's
+    default limit of 1,000 that was a RecursionError (exit 3). ``analyze`` now raises the
+    limit to what the assembly's parts need (``core.stack.allow_deep_trees``); here a
+    2,000-level tree built by construction goes through the same recursive functions."""
+    import sys
+
+    from ndbg_cli.core.stack import allow_deep_trees
+    from ndbg_cli.planning.classes import _choice_depth
+
+    n, old = 2000, sys.getrecursionlimit()
+    full = (1 << n) - 1
+    # part k leaves what is left of parts k..n-1 first: the linear tree, n - 1 levels
+    choice = {full >> k << k: (1 << k, 0) for k in range(n - 1)}
+    tree: dict = {"part": n - 1}
+    for k in range(n - 2, -1, -1):
+        tree = {"moved": {"part": k}, "rest": tree}
+    try:
+        allow_deep_trees(n)
+        assert _choice_depth(choice, full) == n - 1
+        assert json.loads(dumps(clean(tree)))["rest"]["moved"] == {"part": 1}
+    finally:
+        sys.setrecursionlimit(old)

@@ -312,6 +312,12 @@ def rotation_matrix(spec: Any, *, dimension: int, doc: _Located, path: tuple) ->
         w, x, y, z = q / np.linalg.norm(q)
         return Rotation.from_quat([x, y, z, w]).as_matrix()
     if "euler" in spec:
+        order = spec["order"]
+        # the schema allows any three axes; an Euler sequence needs each to differ from the
+        # next (scipy raises a ValueError otherwise, which would be an internal error)
+        if any(a.lower() == b.lower() for a, b in zip(order, order[1:])):
+            raise doc.error(path + ("order",), f"Euler order '{order}' repeats an axis in "
+                                               "consecutive places (e.g. xyz, zxz)")
         return Rotation.from_euler(spec["order"], spec["euler"], degrees=True).as_matrix()
     axis = np.asarray(spec["axis"], dtype=float)
     if np.linalg.norm(axis) < 1e-12:

@@ -86,6 +86,8 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     True
     """
     timings: dict[str, float] = {}
+    # a product coming apart one part at a time has trees as deep as its parts
+    allow_deep_trees(len(asm.parts))
     root = report_root(options.root)
     report: dict = {
         "schema": REPORT_SCHEMA,
@@ -99,7 +101,6 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     }
     from .stages import run_stages
 
-    allow_deep_trees()  # a product coming apart one part at a time has trees as deep
     sections, more = run_stages(asm, options, timings)
     report.update(sections)
     report["warnings"] += [d.record() for d in more]
