@@ -540,7 +540,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     :func:`plan_assembly`. ``timings`` receives seconds per stage. Raises
     :class:`~ndbg_cli.core.errors.InputError` (e.g. an interference under
     ``--interference error``)."""
-    from ..core.cache import open_cache
+    from ..core.cache import CACHE_FAULTS, open_cache
 
     cache = open_cache(options.cache)
     contacts = find_contacts(asm, options, cache=cache, timings=timings)
@@ -562,6 +562,8 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
         for stage, st in cache.stats().items():
             timings[f"cache_{stage}_hits"] = st["hits"]
             timings[f"cache_{stage}_misses"] = st["misses"]
+        if cache.faults():  # for the command line to tell once, never in a written report
+            out[CACHE_FAULTS] = cache.faults()
     out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
     ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
     proposer = None

@@ -47,15 +47,18 @@ def clash_units(n: int, pairs: list[tuple[int, int]]) -> list[list[int]]:
 
 def merge_units(asm: Assembly, units: list[list[int]]) -> Assembly:
     """``asm`` with each unit of ``units`` (part indices) made one part named by its members
-    joined with ``+`` (its meshes together; fixed when any member is; the base when it holds
-    the base), at the place of its first member; joints inside a unit are dropped and the
-    others renamed."""
+    joined with ``+`` in the natural order of their ids (its meshes together; fixed when any
+    member is; the base when it holds the base), at the place of its first member; joints
+    inside a unit are dropped and the others renamed."""
+    from ..io.loaders import natural_key
     from ..io.validate import make_part
 
     name = {}
     merged: dict[int, Part] = {}
     for g in units:
-        members = [asm.parts[i] for i in g]
+        # members in the natural order of their ids, not the manifest's: the unit's name
+        # (and mesh) must not change when the parts are listed in another order (issue 34)
+        members = sorted((asm.parts[i] for i in g), key=lambda p: (natural_key(p.id), p.id))
         uid = "+".join(p.id for p in members)
         for p in members:
             name[p.id] = uid
