@@ -29,6 +29,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -286,13 +287,15 @@ def _short(v: object) -> str:
     return s if len(s) < 120 else s[:117] + "..."
 
 
-def run_case(case: Case, work: Path, jobs: int) -> tuple[dict[str, str], list[str], float]:
-    """The row of one assembly: verdict per transformation, the differences, seconds."""
+def run_case(case: Case, work: Path, jobs: int, run: Callable[[Path], dict] = analyse
+             ) -> tuple[dict[str, str], list[str], float]:
+    """The row of one assembly: verdict per transformation, the differences, seconds
+    (``run``: how a report is made, :func:`analyse` by default)."""
     t0 = time.perf_counter()
     paths = prepare(case, work / case.name.replace("/", "-"))
     todo = {k: p for k, p in paths.items() if p is not None}
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        reports = dict(zip(todo, pool.map(analyse, todo.values())))
+        reports = dict(zip(todo, pool.map(run, todo.values())))
     row, notes = {}, []
     for label in TRANSFORMS:
         if label not in reports:

@@ -151,7 +151,7 @@ def tolerance(ndbg: NDBG) -> float:
 
 
 def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
-          tol: float | None = None, budget: int = GRASP_BUDGET) -> dict:
+          tol: float | None = None, budget: int = GRASP_BUDGET, exact: bool = True) -> dict:
     """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts),
     each requirement held over its region's whole extent (:class:`_Pieces`; ``tol``: the
     angular tolerance, default :func:`tolerance`). Each step places the finger that covers
@@ -171,6 +171,11 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
     splits may become wholly coverable by another, so the bounds of the fingers on its parts
     are raised by what they get from the new pieces), each re-counted when it comes to the
     top, which picks the fingers of the plain greedy scan without its pieces x faces matrix.
+
+    With ``exact`` (default) the fingers are then those of the exact minimum over the same
+    faces (:mod:`ndbg_cli.planning.grasp_exact`: the same count in any frame and part order)
+    where its problem is small enough, and ``exact``, ``lower_bound``, ``upper_bound`` say
+    which count it is; ``exact=False`` keeps the greedy placement (its tests use it).
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
     tol = tolerance(ndbg) if tol is None else float(tol)
@@ -191,8 +196,8 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
                         f"{greedy.n0} pieces x candidate faces need {greedy.work} tests, over "
                         f"the budget of {budget}")}
     stopped = greedy.run(budget)
-    exact = None if stopped else _exact(greedy)
-    return _summary(ndbg, m, greedy, coverage, budget, stopped, exact)
+    best = _exact(greedy) if exact and not stopped else None
+    return _summary(ndbg, m, greedy, coverage, budget, stopped, best)
 
 
 #: Most (generator, face) tests of the first gains for which :func:`grasp` also seeks the
@@ -346,7 +351,9 @@ def _summary(ndbg: NDBG, m: int, greedy: _Greedy, coverage: str, budget: int,
     reqs, pieces = greedy.reqs, greedy.pieces
     upper = len(greedy.chosen)
     best = exact[0] if exact is not None else None
-    chosen = greedy.chosen if best is None or len(best) > upper else best
+    # the exact minimum where found, even above the greedy count: the greedy held open
+    # pieces only, and may leave directions on their boundaries free (grasp_exact)
+    chosen = greedy.chosen if best is None else best
     fingers = [greedy.finger(f) for f in chosen]
     left: dict[int, int] = {}
     for i in np.flatnonzero(greedy.alive).tolist():
@@ -382,7 +389,8 @@ def _bounds(value: int, upper: int, exact: tuple[list[int] | None, int] | None) 
     placement's ties depend on the frame)."""
     if exact is not None and exact[0] is not None:
         return {"exact": True, "lower_bound": value, "upper_bound": value,
-                "minimum": f"exact minimum over the candidate faces (greedy placed {upper})"}
+                "minimum": ("exact minimum over the candidate faces, every region held up to "
+                            f"its boundary; a greedy placement took {upper}")}
     lower = max(1, exact[1]) if exact is not None and value else min(value, 1)
     why = ("greedy: an upper bound" if exact is None else
            "greedy: an upper bound (the exact minimum's integer program was cut)")

@@ -5,8 +5,8 @@ count (hover, stack, slot-37: 6, then 2-4 after a turn). The minimum over the sa
 faces is a property of the geometry alone.
 
 Each requirement's pieces are refined by the great circle of every candidate face on its sink
-component into *atoms*: pieces no such circle crosses, so each face blocks an atom wholly or not
-at all. A set of faces then holds the requirement iff it blocks every atom: a set cover, solved
+component into *atoms*: open pieces no such circle crosses, with their open edges and vertices
+(the closure of each region is held), so each face blocks an atom wholly or not at all. A set of faces then holds the requirement iff it blocks every atom: a set cover, solved
 as a 0-1 integer program (HiGHS, :func:`scipy.optimize.milp`, deterministic). Atoms no face
 blocks are left out (the greedy reports them as uncovered). The refinement and the program are
 bounded by counts (:data:`ATOM_BUDGET`, :data:`NODE_LIMIT`), so whether the count is exact does
@@ -61,9 +61,27 @@ def atoms(pieces: Sequence[tuple[np.ndarray, int]], normals: np.ndarray,
             cells = nxt
             if len(out_g) + len(cells) > budget:
                 return None
+        cells = _with_faces(cells)
         out_g += cells
         out_r += [req] * len(cells)
     return out_g, out_r
+
+
+def _with_faces(cells: list[np.ndarray]) -> list[np.ndarray]:
+    """The open cells and, as atoms of their own, their open edges and their vertices: a
+    direction on the boundary between two pieces (the cut of a long arc, the edge of a
+    cube-map cell of the infinite family: lines the frame puts anywhere) or between two
+    regions must be held too, and a finger whose circle runs along it does not hold it. The
+    greedy placement held open pieces only, so such directions were left to chance: held in
+    one frame, not in another (fig5-rotation: 4 fingers, leaving the product free along a
+    diagonal, 5 after a turn)."""
+    out = list(cells)
+    for g in cells:
+        if len(g) >= 3:
+            out += [np.stack([g[i], g[(i + 1) % len(g)]]) for i in range(len(g))]
+        if len(g) >= 2:
+            out += [v[None] for v in g]
+    return out
 
 
 def blocked(cells: list[np.ndarray], normals: np.ndarray, tol: float) -> np.ndarray:
