@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 import trimesh
 import yaml
-from helpers import run_cli
 from scipy.spatial.transform import Rotation
 
 import ndbg_cli
@@ -27,6 +26,8 @@ from ndbg_cli.pipeline.stages import build_ndbg, find_contacts
 from ndbg_cli.planning.fingers import exterior_faces, orientations
 from ndbg_cli.planning.grasp import grasp
 from ndbg_cli.planning.grasp_exact import minimum_cover
+
+from helpers import run_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 EX = ROOT / "assemblies"

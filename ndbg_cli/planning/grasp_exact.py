@@ -1,16 +1,17 @@
 """The fewest fingers of a prismatic form-closure grasp, exactly (issue 34): the greedy
 placement of :mod:`ndbg_cli.planning.grasp` breaks ties between equal gains by the order of the
 parts and faces, which a rotation, a change of units or a new part order changes, and so did its
-count (hover, stack, slot-37: 6, then 2-4 after a turn). The minimum over the same candidate
-faces is a property of the geometry alone.
+count (hover 14 -> 13 after a turn, slot-37 6 -> 8). The minimum over the same candidate faces
+is a property of the geometry alone.
 
 Each requirement's pieces are refined by the great circle of every candidate face on its sink
 component into *atoms*: open pieces no such circle crosses, with their open edges and vertices
-(the closure of each region is held), so each face blocks an atom wholly or not at all. A set of faces then holds the requirement iff it blocks every atom: a set cover, solved
-as a 0-1 integer program (HiGHS, :func:`scipy.optimize.milp`, deterministic). Atoms no face
-blocks are left out (the greedy reports them as uncovered). The refinement and the program are
-bounded by counts (:data:`ATOM_BUDGET`, :data:`NODE_LIMIT`), so whether the count is exact does
-not depend on the machine; past them the caller keeps the greedy count as an upper bound.
+(the closure of each region is held), so each face blocks an atom wholly or not at all. A set
+of faces then holds the requirement iff it blocks every atom: a set cover, solved as a 0-1
+integer program (HiGHS, :func:`scipy.optimize.milp`, deterministic). Atoms no face blocks are
+left out (the greedy reports them as uncovered). The refinement and the program are bounded by
+counts (:data:`ATOM_BUDGET`, :data:`NODE_LIMIT`), so whether the count is exact does not
+depend on the machine; past them the caller keeps the greedy count as an upper bound.
 """
 
 from __future__ import annotations
