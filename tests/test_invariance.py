@@ -137,3 +137,20 @@ def test_a_clash_unit_is_named_the_same_in_any_part_order(tmp_path):
         names = {x for p in report["partitionings"] for x in p["moved"] + p["rest"]}
         assert names == {"bracket+plate", "cover"}, path
         assert report["plan"]["sequence"][0]["onto"] == ["bracket+plate"]
+        assert [x["unit"] for x in report["interferences"]] == [["bracket", "plate"]]
+
+
+def test_a_press_fit_stays_a_press_fit_in_any_frame(tmp_path):
+    """press-fit: the bearing seated on the housing's shoulder leaves a zero-thickness sheet
+    in the overlap, taken out per plane; planes keyed by normals and offsets rounded to a grid
+    of the coordinates kept its two sides apart after a turn, and the fit became a clash (the
+    bearing and housing one unit, the partitionings and depths changed)."""
+    def kinds(path: Path) -> list[tuple[str, str, str]]:
+        asm = ndbg_cli.load(path)
+        rows = find_contacts(asm, Options(cache=None)).sections["interferences"]
+        return [(x["a"], x["b"], x["kind"]) for x in rows]
+
+    want = kinds(EX / "press-fit.yaml")
+    assert [k for _, _, k in want] == ["press_fit", "press_fit"]
+    for seed in (1, 34):
+        assert kinds(_transformed("press-fit", tmp_path, "rotation", seed)) == want, seed

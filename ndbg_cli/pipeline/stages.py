@@ -596,13 +596,13 @@ def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, 
     """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`)
     and its contacts found again (the cache serves the other pairs); the report keeps the
     first analysis's interferences, each clash naming its unit. Unchanged without clashes."""
-    from .units import clash_units, merge_units
+    from .units import clash_units, member_order, merge_units
 
     found = getattr(contacts.analysis, "interferences", ())
     units = clash_units(len(asm), [(x.a, x.b) for x in found if x.kind == "clash"])
     if not units:
         return asm, contacts
-    unit_of = {i: [asm.ids[k] for k in g] for g in units for i in g}
+    unit_of = {i: [asm.ids[k] for k in member_order(asm, g)] for g in units for i in g}
     for rec, x in zip(out["interferences"], found):
         if x.kind == "clash":
             rec["unit"] = unit_of[x.a]
