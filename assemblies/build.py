@@ -792,15 +792,15 @@ def clash(out: Path) -> None:
     expect = {
         "parts": 3,
         "interferences": [{"pair": ["plate", "bracket"], "kind": "clash"}],
-        "unit": ["plate", "bracket"],
+        "unit": ["bracket", "plate"],
         "sequence": [["cover"]],
         "cover_removal": [0, 0, 1],
     }
     comment = """\
 Plate 60x40x5; a bracket 20x20 from z 2 to 20, sunk 3 mm into the plate (a 20x20x3 block of
 overlap: neither a press fit nor shallow); a cover 20x20x2 on the bracket's top.
-The clash keeps plate and bracket together as one unit plate+bracket; the cover then lifts
-off along +z: a one-step plan.
+The clash keeps plate and bracket together as one unit bracket+plate (ids in natural
+order); the cover then lifts off along +z: a one-step plan.
 """
     mesh_assembly(out, "clash", "a bracket modelled into its plate", solids, expect, comment,
                   base="plate")

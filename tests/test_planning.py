@@ -533,7 +533,7 @@ def test_grasp_lazy_greedy_equals_the_plain_scan():
         # few distinct normals, so that gains tie often
         faces = [(rng.randrange(n), rng.choice(axes), None) for _ in range(rng.randint(1, 25))]
         chosen, covers, uncovered = _greedy_grasp_reference(nd, faces)
-        r = grasp(nd, faces)
+        r = grasp(nd, faces, exact=False)  # the greedy placement itself
         assert [(f["part"], tuple(f["normal"])) for f in r["fingers"]] == [
             (nd.ids[faces[f][0]], tuple(float(x) for x in faces[f][1])) for f in chosen]
         assert [f["covers"] for f in r["fingers"]] == covers

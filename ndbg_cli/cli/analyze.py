@@ -166,6 +166,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     reports: list[dict] = []
     names: set[str] = set()
     code = EXIT_OK
+    faults = CacheFaults()
     if scheduler:
         stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
     else:
@@ -177,6 +178,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         if out_dir is not None:  # once the run can start (a dask scheduler was reached)
             _drop_index(where, out_dir, inputs)
         for k, r in enumerate(progress(stream, len(targets), "analyzing", quiet=STATE.quiet)):
+            faults.add(r)
             code = max(code, _exit_code(r))
             stem = _report_name(r, names)
             pictures.write(r, targets[k], stem, options)  # from the full report
@@ -215,6 +217,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
         click.echo(dumps(doc), nl=False)
     elif fmt == "text":
         click.echo("\n".join(render(r) for r in reports), nl=False)
+    faults.tell(options.cache)
     _trim_cache(options.cache)
     sys.exit(code)
 
@@ -325,6 +328,36 @@ def _refuse_input(where: str, path: Path, inputs: set[Path]) -> None:
     """An input error if writing ``path`` would replace one of the ``inputs``."""
     if path.resolve() in inputs:
         raise InputError(f"cannot write {where}: {path} is an input of this run")
+
+
+class CacheFaults:
+    """What the cache skipped in a run, summed over its reports (each analysis, in any
+    worker process, hands its cache's faults over in its report dict, taken out here before
+    anything is written), and told once at the end: the answers are the same without the
+    cache, so these are warnings, on stderr only."""
+
+    def __init__(self) -> None:
+        self.unreadable = self.unwritten = 0
+        self.why: str | None = None
+
+    def add(self, report: dict) -> None:
+        from ..core.cache import CACHE_FAULTS
+
+        got = report.pop(CACHE_FAULTS, None) or {}
+        self.unreadable += got.get("unreadable", 0)
+        self.unwritten += got.get("unwritten", 0)
+        self.why = self.why or got.get("write_error")
+
+    def tell(self, directory: str | None) -> None:
+        if STATE.quiet or not directory:
+            return
+        if self.unreadable:
+            click.echo(f"ndbg: warning: cache {directory}: {self.unreadable} unreadable "
+                       "entr(ies) (truncated, damaged or of another format) skipped: their "
+                       "results were computed again", err=True)
+        if self.unwritten:
+            click.echo(f"ndbg: warning: cache {directory} cannot be written ({self.why}): "
+                       f"{self.unwritten} result(s) computed but not stored", err=True)
 
 
 def _trim_cache(directory: str | None) -> None:
@@ -492,13 +525,16 @@ def check(ctx, paths, rules_file, self_check, junit, fmt, jobs, motion, config, 
         fail("nothing to check: no assembly or report in " + ", ".join(paths), EXIT_INPUT)
     reports = list(saved)
     outcomes = [evaluate(r, ruleset) for r in saved]
+    faults = CacheFaults()
     if targets:  # the stages only then: a gate on saved reports starts fast
         from ..pipeline.batch import default_jobs, run_batch
 
         stream = run_batch(targets, options, jobs or default_jobs(), debug=STATE.debug)
         for r in progress(stream, len(targets), "checking", quiet=STATE.quiet):
+            faults.add(r)
             reports.append(r)
             outcomes.append(evaluate(r, ruleset))
+    faults.tell(options.cache)
     for pattern in ruleset.unmatched(reports):
         click.echo(f"ndbg check: warning: rules for '{pattern}' matched no assembly", err=True)
     if junit:

@@ -92,24 +92,52 @@ def _sheets_removed(triangles: np.ndarray, normals: np.ndarray, areas: np.ndarra
                     tol: float) -> np.ndarray:
     """Weights ``(k,)`` of the overlap's triangles with zero-thickness sheets taken out: two
     faces that only touch (a bearing seated on a shoulder) leave, in the overlap solid, a
-    sheet whose two sides lie in one plane with opposite normals. Per plane (normal rounded
-    to 1e-6 with its sign fixed, offset rounded to ``tol``) the signed areas are summed: a
-    sheet cancels, a real face (a press fit's end ring, in the same plane as the sheet it
-    borders) remains. Each triangle weighs its area times its plane's ``|sum| / total``."""
-    first = np.argmax(np.abs(normals) > 1e-9, axis=1)
-    sign = np.sign(normals[np.arange(len(normals)), first])
-    line = np.round(normals * sign[:, None], 6)
-    offset = np.round((triangles.mean(axis=1) * line).sum(axis=1) / tol)
-    keys = np.column_stack([line, offset])
-    _, inv = np.unique(keys, axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
-    net = np.zeros(inv.max() + 1)
-    tot = np.zeros(inv.max() + 1)
+    sheet whose two sides lie in one plane with opposite normals. Per plane (:func:`_planes`)
+    the signed areas are summed: a sheet cancels, a real face (a press fit's end ring, in the
+    same plane as the sheet it borders) remains. Each triangle weighs its area times its
+    plane's ``|sum| / total``."""
+    inv, ref = _planes(triangles, normals, tol)
+    sign = np.where(np.einsum("ij,ij->i", normals, normals[ref[inv]]) < 0, -1.0, 1.0)
+    net = np.zeros(len(ref))
+    tot = np.zeros(len(ref))
     np.add.at(net, inv, sign * areas)
     np.add.at(tot, inv, areas)
     share = np.abs(net) / np.maximum(tot, 1e-300)
     share[share < 1e-6] = 0.0
     return areas * share[inv]
+
+
+#: Two triangles' planes are one when their normals' lines are this close (radians, about)
+#: and their offsets within the length tolerance.
+PLANE_ANGLE = 1e-5
+
+
+def _planes(triangles: np.ndarray, normals: np.ndarray, tol: float
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """``(plane of each triangle, a triangle of each plane)``: triangles whose planes agree
+    up to :data:`PLANE_ANGLE` and ``tol`` (connected: a chain of near pairs is one plane).
+
+    Keyed by ``n n^T`` and the plane's point nearest the origin ``(n . c) n``, which are the
+    same for ``n`` and ``-n`` and turn with the part: rounding normals and offsets to a grid
+    of the coordinates (as before issue 34) put a sheet's two sides in different cells in
+    some frames, and the press-fit example was a clash after a turn."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = normals
+    r2 = np.sqrt(2.0)
+    outer = np.column_stack([n[:, 0] ** 2, n[:, 1] ** 2, n[:, 2] ** 2, r2 * n[:, 0] * n[:, 1],
+                             r2 * n[:, 0] * n[:, 2], r2 * n[:, 1] * n[:, 2]])
+    q = np.einsum("ij,ij->i", triangles.mean(axis=1), n)[:, None] * n
+    key = np.column_stack([outer, q * (PLANE_ANGLE / max(tol, 1e-300))])
+    pairs = cKDTree(key).query_pairs(PLANE_ANGLE, output_type="ndarray")
+    k = len(n)
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(k, k))
+    count, inv = connected_components(graph, directed=False)
+    ref = np.zeros(count, dtype=np.intp)
+    ref[inv[::-1]] = np.arange(k)[::-1]  # each plane's first triangle
+    return inv, ref
 
 
 def classify_overlap(triangles: np.ndarray, normals: np.ndarray, areas: np.ndarray,

@@ -90,6 +90,10 @@ def stage_modules(stage: str) -> tuple[str, ...]:
     return tuple(sorted(seen))
 
 
+#: The key of a report dict (never written: the command line takes it out) holding the
+#: cache's faults of that analysis (:meth:`PairCache.faults`), for the user to be told once.
+CACHE_FAULTS = "_cache_faults"
+
 #: The content of ``CACHEDIR.TAG``, written in the cache directory: the standard signature
 #: line, then what the folder is.
 CACHEDIR_TAG = ("Signature: 8a477f597d28d172789f06886806bc55\n"
@@ -147,6 +151,12 @@ class PairCache:
         self.root = Path(root)
         self.hits: dict[str, int] = {}
         self.misses: dict[str, int] = {}
+        # faults, told to the user once per run (:meth:`faults`): entries that exist but
+        # could not be read (truncated, foreign bytes, another format), entries that could
+        # not be stored (read-only or full folder, a path through a file), and why
+        self.unreadable: dict[str, int] = {}
+        self.unwritten: dict[str, int] = {}
+        self.write_error: str | None = None
 
     def key(self, stage: str, *parts: Any) -> str:
         """The key of a stage's result for ``parts`` (hashes, tolerances: anything with a
@@ -166,8 +176,12 @@ class PairCache:
                 value = pickle.load(f)
             if check is not None:
                 value = check(value)
+        except (FileNotFoundError, NotADirectoryError):  # not stored: a plain miss
+            self.misses[stage] = self.misses.get(stage, 0) + 1
+            return None
         except Exception:  # torn, foreign or corrupt entry (any unpickling error)
             self.misses[stage] = self.misses.get(stage, 0) + 1
+            self.unreadable[stage] = self.unreadable.get(stage, 0) + 1
             return None
         self.hits[stage] = self.hits.get(stage, 0) + 1
         try:  # used now: the last entry a trim removes
@@ -177,16 +191,30 @@ class PairCache:
         return value
 
     def put(self, stage: str, key: str, value: Any) -> None:
-        """Store ``value`` atomically; a cache that cannot be written is silently skipped
-        (the analysis never fails because of its cache)."""
+        """Store ``value`` atomically; a cache that cannot be written is skipped (the
+        analysis never fails because of its cache), counted in :attr:`unwritten`."""
+        if self.write_error is not None and self.unwritten.get(stage, 0) > 64:
+            # a folder that refused this many writes will refuse the rest: counted, not tried
+            self.unwritten[stage] += 1
+            return
         try:
             write_atomic(self._path(stage, key),
                          pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL), durable=False)
             tag = self.root / "CACHEDIR.TAG"
             if not tag.exists():  # backup tools skip a tagged folder (bford.info/cachedir)
                 write_atomic(tag, CACHEDIR_TAG.encode(), durable=False)
-        except OSError:
-            pass
+        except OSError as exc:
+            self.unwritten[stage] = self.unwritten.get(stage, 0) + 1
+            if self.write_error is None:
+                self.write_error = exc.strerror or type(exc).__name__
+
+    def faults(self) -> dict:
+        """``{"unreadable": n, "unwritten": n, "write_error": why}`` when some entry could
+        not be read or stored in this run, else ``{}``."""
+        bad, unwritten = sum(self.unreadable.values()), sum(self.unwritten.values())
+        if not bad and not unwritten:
+            return {}
+        return {"unreadable": bad, "unwritten": unwritten, "write_error": self.write_error}
 
     def stats(self) -> dict[str, dict[str, int]]:
         """``{stage: {"hits": h, "misses": m}}``."""

@@ -540,7 +540,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     :func:`plan_assembly`. ``timings`` receives seconds per stage. Raises
     :class:`~ndbg_cli.core.errors.InputError` (e.g. an interference under
     ``--interference error``)."""
-    from ..core.cache import open_cache
+    from ..core.cache import CACHE_FAULTS, open_cache
 
     cache = open_cache(options.cache)
     contacts = find_contacts(asm, options, cache=cache, timings=timings)
@@ -562,6 +562,8 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
         for stage, st in cache.stats().items():
             timings[f"cache_{stage}_hits"] = st["hits"]
             timings[f"cache_{stage}_misses"] = st["misses"]
+        if cache.faults():  # for the command line to tell once, never in a written report
+            out[CACHE_FAULTS] = cache.faults()
     out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
     ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
     proposer = None
@@ -594,13 +596,13 @@ def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, 
     """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`)
     and its contacts found again (the cache serves the other pairs); the report keeps the
     first analysis's interferences, each clash naming its unit. Unchanged without clashes."""
-    from .units import clash_units, merge_units
+    from .units import clash_units, member_order, merge_units
 
     found = getattr(contacts.analysis, "interferences", ())
     units = clash_units(len(asm), [(x.a, x.b) for x in found if x.kind == "clash"])
     if not units:
         return asm, contacts
-    unit_of = {i: [asm.ids[k] for k in g] for g in units for i in g}
+    unit_of = {i: [asm.ids[k] for k in member_order(asm, g)] for g in units for i in g}
     for rec, x in zip(out["interferences"], found):
         if x.kind == "clash":
             rec["unit"] = unit_of[x.a]

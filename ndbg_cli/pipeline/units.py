@@ -45,17 +45,26 @@ def clash_units(n: int, pairs: list[tuple[int, int]]) -> list[list[int]]:
     return sorted((g for g in groups.values() if len(g) > 1), key=lambda g: g[0])
 
 
+def member_order(asm: Assembly, group: list[int]) -> list[int]:
+    """The part indices of a unit in the natural order of their ids, not the manifest's: a
+    unit's name, members and mesh must not change when the parts are listed in another
+    order (issue 34)."""
+    from ..io.loaders import natural_key
+
+    return sorted(group, key=lambda i: (natural_key(asm.ids[i]), asm.ids[i]))
+
+
 def merge_units(asm: Assembly, units: list[list[int]]) -> Assembly:
     """``asm`` with each unit of ``units`` (part indices) made one part named by its members
-    joined with ``+`` (its meshes together; fixed when any member is; the base when it holds
-    the base), at the place of its first member; joints inside a unit are dropped and the
-    others renamed."""
+    joined with ``+`` in the natural order of their ids (its meshes together; fixed when any
+    member is; the base when it holds the base), at the place of its first member; joints
+    inside a unit are dropped and the others renamed."""
     from ..io.validate import make_part
 
     name = {}
     merged: dict[int, Part] = {}
     for g in units:
-        members = [asm.parts[i] for i in g]
+        members = [asm.parts[i] for i in member_order(asm, g)]
         uid = "+".join(p.id for p in members)
         for p in members:
             name[p.id] = uid

@@ -8,13 +8,13 @@ import shapely
 
 from ..core.assembly import Assembly
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
-from ..geometry.vectors import unique_rows
 
 
 def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float], list[float]]]:
     """Candidate finger placements for the form-closure grasp: for every part, each distinct
-    outward face orientation (3D: triangle normals in one cell of a grid of the contact angle
-    tolerance's side, each face keeping its own normal rounded to ``digits``; 2D: edge
+    outward face orientation (3D: triangle normals within the contact angle tolerance of
+    their group's largest face, :func:`orientations`, each face keeping its own normal
+    rounded to ``digits``; 2D: edge
     normals) with a point on a face of that orientation that no other
     part covers: the centroid of the largest such triangle (2D: the midpoint of the longest
     such edge) whose point just outside, ``2 eps`` along the normal, is not next to another
@@ -44,10 +44,10 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
         mesh = part.mesh
         unit = np.asarray(mesh.face_normals)
         areas = np.asarray(mesh.area_faces)
-        # one orientation: normals in one grid cell of the contact angle tolerance's side (a
+        # one orientation: normals within the contact angle tolerance of a leader's (a
         # finely tessellated curved face is not thousands of orientations: a finger blocks
         # the same directions on any of them, up to that tolerance)
-        inverse = unique_rows(np.round(unit / CONTACT_ANGLE_TOL_RAD))[1]
+        inverse = orientations(unit, areas)
         # each orientation's faces, largest first (ties: lower index first)
         order = np.lexsort((np.arange(len(areas)), -areas, inverse))
         # the first FINGER_TRIES faces of each orientation, in that order
@@ -74,6 +74,31 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
             if not cov:
                 chosen[g] = c[:3]
     return [c for c in chosen if c is not None]
+
+
+def orientations(normals: np.ndarray, areas: np.ndarray) -> np.ndarray:
+    """``(faces,)`` the orientation of each face: the largest face not yet grouped leads an
+    orientation, which takes every ungrouped face whose normal is within
+    :data:`CONTACT_ANGLE_TOL_RAD` of its own (ties of area: lower index first). Numbered in
+    the leaders' order, so the groups and their order depend on the part's geometry alone:
+    a grid of cells on the coordinates (as before issue 34) split a face's normals
+    differently in another frame, and the finger count changed with it."""
+    from scipy.spatial import cKDTree
+
+    n = len(normals)
+    label = np.full(n, -1, dtype=np.intp)
+    if n == 0:
+        return label
+    tree = cKDTree(normals)
+    chord = 2.0 * np.sin(CONTACT_ANGLE_TOL_RAD / 2.0)
+    k = 0
+    for i in np.lexsort((np.arange(n), -areas)).tolist():
+        if label[i] >= 0:
+            continue
+        near = np.asarray(tree.query_ball_point(normals[i], chord), dtype=np.intp)
+        label[near[label[near] < 0]] = k
+        k += 1
+    return label
 
 
 #: Faces of one orientation tried per part by :func:`exterior_faces` (largest first).

@@ -151,7 +151,7 @@ def tolerance(ndbg: NDBG) -> float:
 
 
 def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
-          tol: float | None = None, budget: int = GRASP_BUDGET) -> dict:
+          tol: float | None = None, budget: int = GRASP_BUDGET, exact: bool = True) -> dict:
     """Fingers for a prismatic form-closure grasp of order 1 of ``mask`` (default: all parts),
     each requirement held over its region's whole extent (:class:`_Pieces`; ``tol``: the
     angular tolerance, default :func:`tolerance`). Each step places the finger that covers
@@ -171,6 +171,11 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
     splits may become wholly coverable by another, so the bounds of the fingers on its parts
     are raised by what they get from the new pieces), each re-counted when it comes to the
     top, which picks the fingers of the plain greedy scan without its pieces x faces matrix.
+
+    With ``exact`` (default) the fingers are then those of the exact minimum over the same
+    faces (:mod:`ndbg_cli.planning.grasp_exact`: the same count in any frame and part order)
+    where its problem is small enough, and ``exact``, ``lower_bound``, ``upper_bound`` say
+    which count it is; ``exact=False`` keeps the greedy placement (its tests use it).
     """
     m = (1 << ndbg.n) - 1 if mask is None else mask
     tol = tolerance(ndbg) if tol is None else float(tol)
@@ -191,7 +196,33 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
                         f"{greedy.n0} pieces x candidate faces need {greedy.work} tests, over "
                         f"the budget of {budget}")}
     stopped = greedy.run(budget)
-    return _summary(ndbg, m, greedy, coverage, budget, stopped)
+    best = _exact(greedy) if exact and not stopped else None
+    return _summary(ndbg, m, greedy, coverage, budget, stopped, best)
+
+
+#: Most (generator, face) tests of the first gains for which :func:`grasp` also seeks the
+#: exact minimum (:mod:`ndbg_cli.planning.grasp_exact`); above it the greedy count is kept,
+#: reported as an upper bound. The examples need at most a few hundred thousand.
+EXACT_WORK = 5_000_000
+
+
+def _exact(greedy: _Greedy) -> tuple[list[int] | None, int] | None:
+    """The fewest faces that hold what the greedy placement holds, ``(faces, lower
+    bound)`` (faces ``None``: the program was cut), or ``None`` when the problem is over
+    :data:`EXACT_WORK` or its refinement over the atom budget. The greedy's order of ties
+    depends on the frame and the part order; this minimum does not."""
+    from .grasp_exact import atoms, blocked, minimum_cover
+
+    if not greedy.chosen or greedy.work > EXACT_WORK:
+        return None
+    usable = greedy.inside[:, greedy.part_of]  # (requirement, face): a face of its component
+    first = [(greedy.pieces.chunks[i], greedy.pieces.req[i]) for i in range(greedy.n0)]
+    got = atoms(first, greedy.normals, usable, greedy.tol)
+    if got is None:
+        return None
+    cells, req = got
+    cover = blocked(cells, greedy.normals, greedy.tol) & usable[np.asarray(req, dtype=np.intp)]
+    return minimum_cover(cover)
 
 
 class _Greedy:
@@ -314,10 +345,16 @@ class _Greedy:
 
 
 def _summary(ndbg: NDBG, m: int, greedy: _Greedy, coverage: str, budget: int,
-             stopped: bool) -> dict:
-    """:func:`grasp`'s result from a finished (or stopped) placement."""
+             stopped: bool, exact: tuple[list[int] | None, int] | None = None) -> dict:
+    """:func:`grasp`'s result from a finished (or stopped) placement, with the exact
+    minimum's fingers in place of the greedy's where it was found."""
     reqs, pieces = greedy.reqs, greedy.pieces
-    fingers = [greedy.finger(f) for f in greedy.chosen]
+    upper = len(greedy.chosen)
+    best = exact[0] if exact is not None else None
+    # the exact minimum where found, even above the greedy count: the greedy held open
+    # pieces only, and may leave directions on their boundaries free (grasp_exact)
+    chosen = greedy.chosen if best is None else best
+    fingers = [greedy.finger(f) for f in chosen]
     left: dict[int, int] = {}
     for i in np.flatnonzero(greedy.alive).tolist():
         left.setdefault(pieces.req[i], i)
@@ -335,6 +372,27 @@ def _summary(ndbg: NDBG, m: int, greedy: _Greedy, coverage: str, budget: int,
     elif uncovered:
         why = (f"incomplete: {len(uncovered)} (region, sink component) pair(s) have directions "
                f"no candidate face blocks ({where}); {len(fingers)} finger(s) placed")
-    return {"value": len(fingers), "fingers": fingers, "uncovered": uncovered,
-            "complete": not uncovered, "coverage": coverage, "why": why,
-            "parts": [ndbg.ids[i] for i in bits(m)]}
+    out = {"value": len(fingers), "fingers": fingers, "uncovered": uncovered,
+           "complete": not uncovered, "coverage": coverage, "why": why,
+           "parts": [ndbg.ids[i] for i in bits(m)]}
+    if not stopped:
+        bounds = _bounds(len(fingers), upper, exact)
+        out["why"] += f" ({bounds.pop('minimum')})"
+        out.update(bounds)
+    return out
+
+
+def _bounds(value: int, upper: int, exact: tuple[list[int] | None, int] | None) -> dict:
+    """``exact``, ``lower_bound``, ``upper_bound`` of the finger count over the candidate
+    faces, and what the ``why`` adds: the minimum (exact, the same in any frame and part
+    order), or the greedy count with the bound the integer program proved (not exact: its
+    placement's ties depend on the frame)."""
+    if exact is not None and exact[0] is not None:
+        return {"exact": True, "lower_bound": value, "upper_bound": value,
+                "minimum": ("exact minimum over the candidate faces, every region held up to "
+                            f"its boundary; a greedy placement took {upper}")}
+    lower = max(1, exact[1]) if exact is not None and value else min(value, 1)
+    why = ("greedy: an upper bound" if exact is None else
+           "greedy: an upper bound (the exact minimum's integer program was cut)")
+    return {"exact": False, "lower_bound": min(lower, value), "upper_bound": value,
+            "minimum": why}

@@ -392,7 +392,10 @@ def measure(report: dict, rule: str, family: str) -> tuple[Any, Any, Any, str]:
         # a greedy placement: a grasp with that many fingers exists, fewer may do
         if not e.get("complete", True) or v is None:
             return None, None, None, note
-        return None, None, v, note + " (greedy: an upper bound)"
+        # the exact minimum over the candidate faces (one point per exposed face
+        # orientation): a finger elsewhere might do more, so it stays an upper bound
+        return None, None, v, note + (" (minimum over the candidate faces: an upper bound)"
+                                      if e.get("exact") else " (greedy: an upper bound)")
     proof = plan_proves(report.get("plan") or {})
     if RULES[rule][0] == "bool":
         got = _bool_class(report, key, fams)
