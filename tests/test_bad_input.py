@@ -116,6 +116,9 @@ CASES = {
     "euler-repeated-axis": (manifest("parts:\n" + part("    rotation: {euler: [0, 0, 0], "
                                                        "order: zxx}\n")), [],
                             "bad.yaml:4: parts[0].rotation.order: Euler order 'zxx' repeats"),
+    # found by the fuzzing campaign: a NUL in a mesh path was os.stat's ValueError (exit 3)
+    "nul-in-mesh-path": (manifest('parts:\n  - id: a\n    mesh: "meshes/cube.stl\\0x"\n'), [],
+                         "contains a NUL character"),
     "bad-rotation": (manifest("parts:\n" + part("    rotation: {spin: 3}\n")), [],
                      "rotation must be"),
     "unknown-base": (manifest("base: ghost\nparts:\n" + part()), [], "base part 'ghost'"),
@@ -214,3 +217,13 @@ def test_json_mode_still_prints_a_record_on_stdout(tmp_path):
     assert r.returncode == 2
     doc = json.loads(r.stdout)
     assert doc["error"]["code"] == 2 and "furlong" in doc["error"]["message"]
+
+
+def test_huge_quaternion_is_a_rotation(tmp_path):
+    """Found by the fuzzing campaign: the norm of [1e308, 1e308, 0, 0] overflows to inf,
+    q / inf is the zero quaternion and scipy's ValueError was an internal error (exit 3);
+    it is the rotation of [1, 1, 0, 0]."""
+    p = manifest("parts:\n" + part("    rotation: {quaternion: [1e308, 1e308, 0, 0]}\n"))(
+        tmp_path)
+    r = run_cli("analyze", p, "--motion", "translation", "--format", "json", "--no-cache")
+    assert r.returncode == 0, r.stderr

@@ -245,6 +245,8 @@ def _unit(name: Any, doc: _Located, path: tuple) -> str:
 
 def _resolve(rel: str, folder: Path, doc: _Located, path: tuple, pid: str,
              allow_outside: bool) -> Path:
+    if "\0" in rel:  # no file can be named so; the OS calls would raise a ValueError (exit 3)
+        raise doc.error(path, f"mesh path {rel!r} contains a NUL character", part=pid)
     target = (folder / rel).resolve()
     if not allow_outside and not target.is_relative_to(folder):
         raise doc.error(path, f"mesh path '{rel}' leaves the manifest's folder "

@@ -307,6 +307,9 @@ def rotation_matrix(spec: Any, *, dimension: int, doc: _Located, path: tuple) ->
                               "or {axis: ..., angle: ...}")
     if "quaternion" in spec:
         q = np.asarray(spec["quaternion"], dtype=float)
+        # divided by its largest entry first: the norm of [1e308, ...] overflows to inf, and
+        # q / inf is the zero quaternion, which scipy refuses (a ValueError: exit 3)
+        q = q / max(np.abs(q).max(), np.finfo(float).tiny)
         if np.linalg.norm(q) < 1e-12:
             raise doc.error(path + ("quaternion",), "quaternion has zero length")
         w, x, y, z = q / np.linalg.norm(q)
