@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from helpers import box, run_cli, write_two_boxes
 
@@ -252,3 +253,17 @@ def test_config_file_that_is_not_utf8_is_an_input_error(tmp_path):
     cfg.write_bytes(b"motion: all\n# caf\xe9\n")
     p = write_two_boxes(tmp_path)
     _one_line_input_error(run_cli("analyze", p, "--config", cfg), "cfg.yaml: ", "not UTF-8")
+
+
+@pytest.mark.parametrize("brk", ["\n", "\r", "\x85", "\u2028"])
+def test_an_error_quoting_a_line_break_stays_one_line(tmp_path, brk):
+    """Found by the fuzzing campaign: a part id holding a line break (a unicode one, e.g.
+    U+2028, splits a line for ``str.splitlines`` and for many log viewers) split the one-line
+    error that quotes it."""
+    man = tmp_path / "odd.yaml"
+    (tmp_path / "a.stl").write_text("solid a\nendsolid a\n")
+    part = {"id": f"a{brk}b", "mesh": "a.stl"}
+    man.write_text(yaml.safe_dump({"name": "odd", "parts": [part]},
+                                  allow_unicode=True), encoding="utf-8")
+    r = run_cli("analyze", man, "--no-cache")  # the empty mesh is an error quoting the id
+    _one_line_input_error(r, "part 'a")  # (YAML reads U+0085 as a space)

@@ -12,6 +12,7 @@ import click
 
 from .._version import __version__
 from ..core.errors import InputError
+from ..core.files import one_line
 from ..core.options import SETTINGS, Options
 
 CONTEXT = {"help_option_names": ["-h", "--help"], "max_content_width": 100}
@@ -26,7 +27,7 @@ STATE = _State()
 
 
 def fail(message: str, code: int) -> None:
-    click.echo(f"ndbg: error: {message}", err=True)
+    click.echo(f"ndbg: error: {one_line(message)}", err=True)
     sys.exit(code)
 
 

@@ -14,7 +14,7 @@ import click
 
 from .._version import __version__
 from ..core.errors import EXIT_INPUT, EXIT_OK, EXIT_VIOLATION, InputError
-from ..core.files import write_atomic
+from ..core.files import one_line, write_atomic
 from ..core.options import MOTIONS, STRATEGIES, Options, setting_problem
 from ..report.detail import DETAILS, summarize
 from ._app import (
@@ -184,7 +184,7 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
             pictures.write(r, targets[k], stem, options)  # from the full report
             written = summarize(r) if detail == "summary" else r  # what JSON holds
             if "error" in r:
-                _note(f"ndbg: error: {r['error']['message']}")
+                _note(f"ndbg: error: {one_line(r['error']['message'])}")
             elif summary:
                 for line in _warning_lines(r):
                     _note(line)

@@ -51,6 +51,26 @@ def printable(text: str) -> str:
     return text.encode("utf-8", ESCAPE).decode("utf-8")
 
 
+#: What ``str.splitlines`` breaks a line at, as :func:`one_line` escapes it.
+_LINE_BREAKS = {c: c.encode("unicode_escape").decode("ascii")
+                for c in "\n\r\v\f\x1c\x1d\x1e\x85\u2028\u2029"}
+
+
+def one_line(text: str) -> str:
+    r"""``text`` with its line breaks escaped (``\n``, ``\x85``, ``\u2028``, ...): a message
+    quoting a part id or a file name that holds one stays the one line a shell pipeline or a
+    CI log reads as one error (the fuzzing campaign's unicode part ids split them).
+
+    Examples
+    --------
+    >>> one_line("part 'a\nb' is listed twice")
+    "part 'a\\nb' is listed twice"
+    """
+    if text.isprintable() or not any(c in text for c in _LINE_BREAKS):
+        return text
+    return "".join(_LINE_BREAKS.get(c, c) for c in text)
+
+
 def write_atomic(path: str | Path, data: str | bytes, *, durable: bool = True) -> None:
     """Write ``data`` (text as UTF-8, undecodable file-name bytes escaped as :func:`printable`
     does, or bytes) to ``path`` atomically: a temporary file in the same folder, renamed
