@@ -309,3 +309,18 @@ def test_a_contact_proof_of_none_is_cross_checked_by_the_exact_test():
     assert order.index(["block"]) < order.index(["bridge"])  # assembly order: block first
     for s in plan["sequence"]:
         assert _moves_apart(asm, s["moved"], s["onto"], s["removal_direction"])
+
+
+def test_directions_within_the_angle_tolerance_are_one():
+    # two cylinder axes fitted 3e-9 rad apart (two press fits on one shaft): one direction of
+    # D, whatever the frame; kept apart, a plan along "both" counted two directions after a
+    # turn (the press-fit example's min_directions 1 -> 2 under a rotation)
+    a = np.array([0.6, 0.8, 0.0])
+    t = 3e-9
+    b = np.array([0.6 * np.cos(t) - 0.8 * np.sin(t), 0.6 * np.sin(t) + 0.8 * np.cos(t), 0.0])
+    dirs = directions(3, [(a, "cylinder axis"), (b, "cylinder axis")], [])
+    assert [d.source for d in dirs].count("cylinder axis") == 2  # a and -a
+    far = np.array([np.cos(1e-5) * 0.6 - np.sin(1e-5) * 0.8,
+                    np.sin(1e-5) * 0.6 + np.cos(1e-5) * 0.8, 0.0])
+    dirs = directions(3, [(a, "cylinder axis"), (far, "cylinder axis")], [])
+    assert [d.source for d in dirs].count("cylinder axis") == 4  # 1e-5 rad: two axes

@@ -94,9 +94,12 @@ def snap(d: Sequence[float], tol: float = SNAP_TOL) -> tuple[float, ...]:
     return tuple(float(x) + 0.0 for x in v)
 
 
-def _key(v: Sequence[float]) -> tuple[float, ...]:
-    """A direction's identity in ``D``: its components rounded to 1e-9."""
-    return tuple(round(x, 9) + 0.0 for x in v)
+def _seen(kept: np.ndarray, u: Sequence[float]) -> bool:
+    """Whether unit ``u`` lies within :data:`~ndbg_cli.core.constants.ANGLE_TOL_RAD` of a row
+    of ``kept``: the same direction of ``D``."""
+    from ..core.constants import ANGLE_TOL_RAD
+
+    return bool(len(kept)) and float((kept @ np.asarray(u)).max()) >= np.cos(ANGLE_TOL_RAD)
 
 
 def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
@@ -104,7 +107,9 @@ def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
     """The candidate set ``D``: the ``2 dimension`` coordinate axes, then ``natural``
     (``(vector, source)``, e.g. contact normals and cylinder axes, in the given order) and
     ``regions`` (``(region, representative)``), each snapped (:func:`snap`) and followed by
-    its opposite; duplicates (equal after rounding to 1e-9) keep their first place.
+    its opposite; a direction within :data:`~ndbg_cli.core.constants.ANGLE_TOL_RAD` of an earlier
+    one is that one (two cylinder axes fitted 1e-9 rad apart are one axis, in any frame: kept
+    apart, they made one plan count two directions after a turn).
 
     A region's representative comes without its opposite (that is another region's).
 
@@ -114,15 +119,17 @@ def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
     [('axis', [1.0, 0.0]), ('axis', [-1.0, 0.0]), ('axis', [0.0, 1.0]), ('axis', [0.0, -1.0]),
      ('contact normal', [0.7071, 0.7071]), ('contact normal', [-0.7071, -0.7071])]
     """
-    seen: set[tuple[float, ...]] = set()
+    kept = np.zeros((0, dimension))
     out: list[Direction] = []
 
     def add(v: Sequence[float], source: str, signs=(1.0, -1.0), region=None) -> None:
+        nonlocal kept
         for s in signs:
             u = snap([s * x for x in v])
-            if _key(u) not in seen:
-                seen.add(_key(u))
-                out.append(Direction(u, source, region))
+            if _seen(kept, u):
+                continue
+            kept = np.vstack([kept, u])
+            out.append(Direction(u, source, region))
 
     for k in range(dimension):
         add([float(k == j) for j in range(dimension)], "axis")
@@ -163,13 +170,13 @@ class Rows:
         return got
 
     def extend(self, more: Sequence[Direction]) -> int:
-        """Append the directions of ``more`` not already in ``dirs`` (equal after rounding to
-        1e-9); returns how many were added."""
-        have = {_key(d.vector) for d in self.dirs}
+        """Append the directions of ``more`` not already in ``dirs`` (within
+        :data:`~ndbg_cli.core.constants.ANGLE_TOL_RAD`); returns how many were added."""
+        have = np.array([d.vector for d in self.dirs], dtype=float).reshape(-1, len(self._vec[0]))
         added = 0
         for d in more:
-            if _key(d.vector) not in have:
-                have.add(_key(d.vector))
+            if not _seen(have, d.vector):
+                have = np.vstack([have, d.vector])
                 self.dirs.append(d)
                 self._vec.append(np.asarray(d.vector, dtype=float))
                 added += 1
