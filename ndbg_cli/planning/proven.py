@@ -35,6 +35,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ..core.constants import ANGLE_TOL_RAD
 from ..ndbg.dbg import bits, tarjan
 from ..ndbg.model import NDBG, ConnectivityTest
 
@@ -94,12 +95,14 @@ def snap(d: Sequence[float], tol: float = SNAP_TOL) -> tuple[float, ...]:
     return tuple(float(x) + 0.0 for x in v)
 
 
+#: Cosine above which two unit directions are one (:data:`~ndbg_cli.core.constants.ANGLE_TOL_RAD`).
+_SAME = float(np.cos(ANGLE_TOL_RAD))
+
+
 def _seen(kept: np.ndarray, u: Sequence[float]) -> bool:
     """Whether unit ``u`` lies within :data:`~ndbg_cli.core.constants.ANGLE_TOL_RAD` of a row
     of ``kept``: the same direction of ``D``."""
-    from ..core.constants import ANGLE_TOL_RAD
-
-    return bool(len(kept)) and float((kept @ np.asarray(u)).max()) >= np.cos(ANGLE_TOL_RAD)
+    return bool(len(kept)) and float((kept @ np.asarray(u)).max()) >= _SAME
 
 
 def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
@@ -361,27 +364,22 @@ def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
         m = stack.pop()
         if m.bit_count() < 2:
             continue
-        options: list[Split] = []
-        if key.strategy == "linear":
-            # One part at a time is what this key ranks first: when a part of m leaves alone
-            # along a natural direction, with both sides connected where that is asked, no
-            # split of the strong components can rank before it, and their search (a Tarjan
-            # per direction: quadratic over a linear tree of many parts) is not needed.
-            options = [Split(m, s, k, sense) for k in range(min(natural, GREEDY_WIDE))
-                       for s, sense in _singletons(rows, k, m, base)]
-            sp = _best(key, options)
-            if sp is not None and key.head(m, sp.moved, sp.k, sp.sense)[0] == 0:
-                out.splits[m] = sp
-                used.add(sp.k)
-                stack.extend((sp.rest, sp.moved))
-                continue
-        for k in range(len(rows.dirs)):
-            if k >= min(natural, GREEDY_WIDE) and options:
-                break
-            if k >= natural and not rows.may_split(k, m):
-                continue
-            options += [Split(m, s, k, sense) for s, sense in _options(rows, k, m, base)]
+        # One part at a time is what the linear key ranks first: when a part of m leaves
+        # alone along a natural direction, with both sides connected where that is asked, no
+        # split of the strong components can rank before it, and their search (a Tarjan per
+        # direction: quadratic over a linear tree of many parts) is not needed.
+        options = [Split(m, s, k, sense) for k in range(min(natural, GREEDY_WIDE))
+                   for s, sense in _singletons(rows, k, m, base)
+                   ] if key.strategy == "linear" else []
         sp = _best(key, options)
+        if sp is None or key.head(m, sp.moved, sp.k, sp.sense)[0] != 0:
+            for k in range(len(rows.dirs)):
+                if k >= min(natural, GREEDY_WIDE) and options:
+                    break
+                if k >= natural and not rows.may_split(k, m):
+                    continue
+                options += [Split(m, s, k, sense) for s, sense in _options(rows, k, m, base)]
+            sp = _best(key, options)
         if sp is None:
             out.found, out.stuck, out.splits = False, m, {}
             return out
