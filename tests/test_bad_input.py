@@ -146,6 +146,12 @@ CASES = {
                        "(bounding-box diagonal 1.73205 mm)"),
     "manifest-huge-tolerance": (manifest("tolerance: 2.0\nparts:\n" + part()), [],
                                 "tolerance 2 mm is not smaller than the assembly's size"),
+    # found by the fuzz campaign: 5e-324 passed the schema (> 0) and the report wrote 0.0
+    "manifest-tiny-tolerance": (manifest("tolerance: 5.0e-324\nparts:\n" + part()), [],
+                                "tolerance 4.94066e-324 mm is below the smallest one ndbg can "
+                                "honour here, 1.73e-12 mm"),
+    "tiny-tolerance": (manifest("parts:\n" + part()), ["--tolerance", "1e-13"],
+                       "tolerance 1e-13 mm is below the smallest one"),
     "manifest-infinite-tolerance": (manifest("tolerance: .inf\nparts:\n" + part()), [],
                                     "bad.yaml:1: tolerance: not a finite number"),
     "cli-unknown-unit": (manifest("parts:\n" + part()), ["--units", "parsec"],

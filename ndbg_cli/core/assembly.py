@@ -19,11 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from .constants import DEFAULT_RELATIVE_TOLERANCE, MIN_TOLERANCE
 from .errors import InputError
-
-#: Default relative length tolerance: lengths below ``DEFAULT_RELATIVE_TOLERANCE`` times the
-#: assembly's bounding-box diagonal are treated as zero (gaps, overlaps, coplanarity).
-DEFAULT_RELATIVE_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -195,7 +192,7 @@ class Assembly:
         """
         if self.tolerance is not None:
             return float(self.tolerance)
-        return max(DEFAULT_RELATIVE_TOLERANCE * self.diagonal, 1e-12)
+        return max(DEFAULT_RELATIVE_TOLERANCE * self.diagonal, MIN_TOLERANCE)
 
     # -- derived assemblies ---------------------------------------------------------------
     def subset(self, part_ids: Iterable[str]) -> Assembly:

@@ -18,6 +18,18 @@ GENERALIZED = "generalized"
 #: Every family, in the order the reports list them.
 FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
 
+#: Default relative length tolerance: lengths below ``DEFAULT_RELATIVE_TOLERANCE`` times the
+#: assembly's bounding-box diagonal are treated as zero (gaps, overlaps, coplanarity).
+DEFAULT_RELATIVE_TOLERANCE = 1e-4
+
+#: Smallest length tolerance, in the assembly unit and relative to the bounding-box diagonal:
+#: the default is never below it and an explicit one below it is refused. Under 1e-12 of the
+#: model's size the coordinates' own rounding (2.2e-16 of their magnitude) is no longer
+#: negligible beside it, and under 1e-12 absolute a report, whose floats stop at 1e-15
+#: (``report.document.ZERO``), could not state it.
+MIN_TOLERANCE = 1e-12
+
+
 #: Work units an AND/OR search may spend by default (``planning.andor.Budget.max_work``;
 #: paper section 7.2). A unit is one DBG induced on a subassembly being expanded, one region
 #: listed for one of its candidate partitionings, or one node of its contact-connected set
