@@ -129,3 +129,89 @@ def test_an_open_cup_over_a_boss_is_blocked_sideways_whichever_way_it_is_wound(i
     free = [reg.direction for reg in nd.regions
             if reg.direction is not None and reg.dbg.is_free(0b10, 0b11)]
     assert len(free) == 1 and free[0][2] > 0.95
+
+
+def _twisted_rod(radius: float, sections: int, length: float) -> trimesh.Trimesh:
+    """A rod along z whose end circles are tessellated half a facet apart, as STEP exports
+    often are: its side triangles join a corner of one end to the facet between two corners
+    of the other, so they lean slightly off the axis and face along it (by about
+    ``pi / sections`` of the rod's radius over its length)."""
+    a = 2 * np.pi * np.arange(sections) / sections
+    ring = np.c_[radius * np.cos(a), radius * np.sin(a)]
+    ring2 = np.c_[radius * np.cos(a + np.pi / sections), radius * np.sin(a + np.pi / sections)]
+    v = np.vstack([np.c_[ring, np.full(sections, -length / 2)],
+                   np.c_[ring2, np.full(sections, length / 2)],
+                   [(0, 0, -length / 2), (0, 0, length / 2)]])
+    n, f = sections, []
+    for k in range(n):
+        k2 = (k + 1) % n
+        f += [(k, k2, n + k), (n + k, k2, n + k2), (2 * n, k2, k), (2 * n + 1, n + k, n + k2)]
+    rod = trimesh.Trimesh(v, np.array(f), process=True)
+    rod.fix_normals()
+    assert rod.is_watertight and rod.is_volume
+    return rod
+
+
+def _rod_in_ring(sections: int) -> Assembly:
+    """A twisted rod (:func:`_twisted_rod`, radius 5, 40 long) through a ring (hole of radius
+    5, outside 20, 4 thick), both with ``sections`` facets."""
+    ring = trimesh.creation.annulus(r_min=5.0, r_max=20.0, height=4.0, sections=sections)
+    rod = _twisted_rod(5.0, sections, 40.0)
+    return Assembly("rod", (make_part("ring", ring.vertices, ring.faces)[0],
+                            make_part("rod", rod.vertices, rod.faces)[0]))
+
+
+@pytest.mark.parametrize("sections", [96, 128])
+def test_a_faceted_rod_slides_through_a_faceted_hole_of_its_own_radius(sections):
+    # Worked out by hand: the rod's side facets lean off its axis (:func:`_twisted_rod`), so
+    # they face along it and their shadows, between the rod's two end polygons, cross the
+    # hole's chords; the slivers where they leave the hole's shadow are no wider than the
+    # sagitta
+    # 5 (1 - cos(pi / sections)) (0.0027 at 96 facets), under the tolerance (1e-4 of the
+    # diagonal: 0.0069). Each sliver has an area (about half the sagitta times a facet's
+    # chord, 4e-4 at 96) above the square of the tolerance, so the triangle-pair test alone
+    # blocked the rod; the real rod slides.
+    d = np.array([0, 0, 1.0])
+    asm = _rod_in_ring(sections)
+    sagitta = 5 * (1 - np.cos(np.pi / sections))
+    assert sagitta < 0.5 * asm.length_tolerance
+    assert sagitta * 2 * np.pi * 5 / sections / 2 > asm.length_tolerance ** 2
+    s = SweepChecker(asm)
+    for sense in (1, -1):
+        assert not s.blocked(1, 0, sense * d) and not s.blocked(0, 1, sense * d)
+    # sideways the rod meets the ring's inside wall
+    assert s.blocked(1, 0, np.array([1.0, 0, 0])) and s.blocked(1, 0, np.array([0, -1.0, 0]))
+
+
+def test_a_face_tessellated_into_slivers_still_blocks():
+    # A 10 x 10 x 1 slab whose top face is 1,000 strips 0.01 wide (each strip two triangles,
+    # every one narrower than the tolerance 0.02 given), under a 4 x 4 x 1 block resting on
+    # it: no single triangle pair's overlap holds a disk of diameter 0.02, their union (the
+    # block's whole footprint) does, so the block is blocked downwards; upwards it is free.
+    n, w = 1000, 0.01
+    xs = np.arange(n + 1) * w
+    top = [(x, y, 1.0) for x in xs for y in (0.0, 10.0)]
+    bottom = [(x, y, 0.0) for x in (0.0, 10.0) for y in (0.0, 10.0)]
+    v = np.array(top + bottom, float)
+    f = [(2 * k, 2 * k + 2, 2 * k + 3) for k in range(n)]
+    f += [(2 * k, 2 * k + 3, 2 * k + 1) for k in range(n)]
+    b = 2 * (n + 1)
+    f += [(b, b + 3, b + 2), (b, b + 1, b + 3)]  # bottom, two triangles
+    f += [(2 * k, b, 2 * k + 2) for k in range(n)]  # side y = 0: a fan from a bottom corner
+    f += [(2 * n, b, b + 2)]
+    f += [(2 * k + 1, 2 * k + 3, b + 3) for k in range(n)]  # side y = 10
+    f += [(1, b + 3, b + 1)]
+    f += [(0, 1, b + 1), (0, b + 1, b)]  # end x = 0
+    f += [(2 * n, b + 2, b + 3), (2 * n, b + 3, 2 * n + 1)]  # end x = 10
+    slab = trimesh.Trimesh(v, np.array(f), process=True)
+    slab.fix_normals()
+    assert slab.is_watertight and len(slab.faces) > 2 * n
+    block = trimesh.creation.box(bounds=[(3.0, 3.0, 1.0), (7.0, 7.0, 2.0)])
+    asm = Assembly("slivers", (make_part("slab", slab.vertices, slab.faces)[0],
+                               make_part("block", block.vertices, block.faces)[0]),
+                   tolerance=0.02)
+    s = SweepChecker(asm)
+    assert s.blocked(1, 0, np.array([0, 0, -1.0]))
+    assert not s.blocked(1, 0, np.array([0, 0, 1.0]))
+    at = s.witness(1, 0, np.array([0, 0, -1.0]))
+    assert at is not None and abs(at[2] - 1.0) < 1e-9 and 3 <= at[0] <= 7 and 3 <= at[1] <= 7

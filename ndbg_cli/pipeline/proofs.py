@@ -29,6 +29,7 @@ from ..planning.proven import (
     greedy,
     measures,
     prove,
+    prove_tree,
     snap,
     why_stuck,
 )
@@ -79,7 +80,9 @@ def _line(v: Any) -> tuple[float, ...]:
 def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                base: int | None, connected: ConnectivityTest,
                others: Sequence[str] = (), budget: int = 1_000_000,
-               exact_rounds: int = EXACT_ROUNDS) -> dict:
+               exact_rounds: int = EXACT_ROUNDS,
+               shallow: Sequence[tuple[int, int, Sequence[float] | None]] | None = None
+               ) -> dict:
     """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
     proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
     proven tree exists along the directions tried. Returns the report's ``verified``,
@@ -88,7 +91,9 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     (why, :func:`ndbg_cli.planning.proven.why_stuck`) and ``candidate`` (the unproven tree's
     steps, kept for what they are). ``chosen`` may have no tree (``found`` False): the
     search then starts from nothing. ``exact_rounds``: stuck subassemblies whose own infinite
-    NDBG may be computed (:data:`EXACT_ROUNDS`)."""
+    NDBG may be computed (:data:`EXACT_ROUNDS`). ``shallow``: the steps of a candidate tree of
+    the least candidate depth, proven step by step when ``chosen`` has a proven tree; proven,
+    it joins ``proofs`` (strategy ``shortest``) and decides the proven minimum depth."""
     from ..ndbg.infinite.sweep import SweepChecker
 
     nd = chosen.ndbg
@@ -146,6 +151,11 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
         out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
     out["proofs"] = [] if not got.found else [
         _other(rows, chosen.root, s, n_nat, base, room) for s in others]
+    if got.found and shallow:
+        splits, failed = prove_tree(rows, shallow, n_nat, room)
+        if failed is None:
+            out["proofs"].append({"strategy": "shortest",
+                                  **measures(rows, chosen.root, splits)})
     return out
 
 
@@ -398,7 +408,11 @@ def proven_classes(plan: dict, candidates: dict, base: str | None = None) -> dic
                                    "why": "guaranteed 1-handed monotone 1-prismatic: " + yes}}
         # every proven tree is a candidate tree: the candidates' least depth bounds it below
         cand = candidates.get("min_depth") or {}
-        lows = [plan.get("depth_lower_bound") or 1]
+        # the plan's own lower bound holds for all trees only when its search was not kept
+        # to connected sides (as1: 7 for connected trees, while a proven tree has depth 5)
+        n = len((plan.get("sequence") or [{}])[-1].get("produces") or ())
+        lows = [max(0, n - 1).bit_length() if plan.get("connected")  # ceil(log2 n)
+                else plan.get("depth_lower_bound") or 1]
         if cand.get("value") is not None and cand.get("exact", False):
             lows.append(cand["value"])
         elif cand.get("lower_bound") is not None:

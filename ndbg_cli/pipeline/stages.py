@@ -530,7 +530,29 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
     others = [s for s in PROOF_STRATEGIES if s != options.strategy
               and (not classes or (least[s] is not None and has[s] > least[s]))]
     return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
-                      connected=conn, others=others, budget=options.infinite_budget)
+                      connected=conn, others=others, budget=options.infinite_budget,
+                      shallow=_shallowest(chosen, classes, measures, base, budget))
+
+
+def _shallowest(chosen: Any, classes: dict, measures: Measures, base: int | None,
+                budget: Any) -> list | None:
+    """The steps of a candidate tree of the family's least depth, when that minimum is exact
+    and the chosen plan is deeper (its sides kept connected, or another strategy): proven,
+    it makes the proven minimum depth exact whatever tree the greedy proofs happen to find
+    (which depends on the frame and the part order; issue 34's invariance). ``None`` when
+    there is nothing to gain."""
+    depth = classes.get("min_depth") or {}
+    if not depth.get("exact") or depth.get("value") is None or chosen.depth() <= depth["value"]:
+        return None
+    from ..planning.plans import plan
+
+    p = plan(chosen.ndbg, "shortest", base=base, connected=None, budget=budget,
+             graph=measures.graphs.get(chosen.ndbg.family))
+    if not p.found or p.depth() != depth["value"]:
+        return None
+    nd = p.ndbg
+    return [(s.mask, s.moved, None if s.region is None else nd.regions[s.region].direction)
+            for s in p.sequence()]
 
 
 def run_stages(asm: Assembly, options: Options, timings: dict[str, float]

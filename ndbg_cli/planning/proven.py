@@ -29,7 +29,7 @@ strategies chose (optimal among candidates: each step along the best freeing dir
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -340,6 +340,11 @@ def chooser(strategy: str, connected: ConnectivityTest | None, used: set[int],
     return Chooser(strategy, connected, used, dirs, clearance)
 
 
+def _one_part(rows: Rows, mask: int, base: int | None, ks: Iterable[int]) -> list[Split]:
+    """The one-part splits (:func:`_singletons`) of ``mask`` along the directions ``ks``."""
+    return [Split(mask, s, k, sense) for k in ks for s, sense in _singletons(rows, k, mask, base)]
+
+
 def _best(key: Chooser, options: list[Split]) -> Split | None:
     """The split of ``options`` with the least ``key``: heads first, tails among the ties."""
     if not options:
@@ -368,13 +373,18 @@ def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
         # alone along a natural direction, with both sides connected where that is asked, no
         # split of the strong components can rank before it, and their search (a Tarjan per
         # direction: quadratic over a linear tree of many parts) is not needed.
-        options = [Split(m, s, k, sense) for k in range(min(natural, GREEDY_WIDE))
-                   for s, sense in _singletons(rows, k, m, base)
-                   ] if key.strategy == "linear" else []
+        wide = min(natural, GREEDY_WIDE)
+        options = _one_part(rows, m, base, range(wide)) if key.strategy == "linear" else []
+        if key.strategy == "linear" and not options:
+            # then along any direction that may split m: one part at a time wherever one is
+            # free keeps the search complete for linear trees along D (a linear tree
+            # restricts to a linear tree of every subassembly)
+            options = _one_part(rows, m, base, (k for k in range(wide, len(rows.dirs))
+                                                if k < natural or rows.may_split(k, m)))
         sp = _best(key, options)
         if sp is None or key.head(m, sp.moved, sp.k, sp.sense)[0] != 0:
             for k in range(len(rows.dirs)):
-                if k >= min(natural, GREEDY_WIDE) and options:
+                if k >= wide and options:
                     break
                 if k >= natural and not rows.may_split(k, m):
                     continue

@@ -66,18 +66,19 @@ def plane(t: np.ndarray) -> tuple[float, float, float]:
 
 
 @njit(cache=True)
-def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
-                     area_min: float, buf: np.ndarray) -> bool:
-    """Whether projected triangles ``ti``, ``tj`` ``(3, 3)`` (u, v, z) overlap over an area above
-    ``amin`` and ``tj`` is not behind ``ti`` (``z_j - z_i >= -tau``) over an area above
-    ``area_min`` of that overlap. ``buf`` ``(4, MAX_VERTICES)`` is scratch space."""
+def front_overlap(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float, buf: np.ndarray,
+                  out: np.ndarray) -> int:
+    """The part of the overlap of projected triangles ``ti``, ``tj`` ``(3, 3)`` (u, v, z) where
+    ``tj`` is not behind ``ti`` (``z_j - z_i >= -tau``), written to ``out`` ``(2,
+    MAX_VERTICES)`` (u, v rows); returns its vertex count, 0 when the whole overlap's area is
+    at most ``amin``. ``buf`` ``(4, MAX_VERTICES)`` is scratch space."""
     ox, oy = buf[0], buf[1]
     qx, qy = buf[2], buf[3]
     e0u, e0v = tj[1, 0] - tj[0, 0], tj[1, 1] - tj[0, 1]
     e1u, e1v = tj[2, 0] - tj[1, 0], tj[2, 1] - tj[1, 1]
     cr = e0u * e1v - e0v * e1u
     if cr == 0:
-        return False  # an edge-on t_j (zero projected area) overlaps nothing
+        return 0  # an edge-on t_j (zero projected area) overlaps nothing
     orient = 1.0 if cr > 0 else -1.0
     for k in range(3):
         ox[k] = ti[k, 0]
@@ -90,14 +91,39 @@ def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
         n = clip_half_plane(ox, oy, n, ax, ay, ax * tj[k, 0] + ay * tj[k, 1], qx, qy)
         ox, oy, qx, qy = qx, qy, ox, oy
         if n == 0:
-            return False
+            return 0
     if polygon_area(ox, oy, n) <= amin:
-        return False
+        return 0
     ci0, ciu, civ = plane(ti)
     cj0, cju, cjv = plane(tj)
     # z_j - z_i >= -tau  <=>  -(dc_u u + dc_v v) <= tau + dc_0
     n = clip_half_plane(ox, oy, n, -(cju - ciu), -(cjv - civ), tau + (cj0 - ci0), qx, qy)
-    return polygon_area(qx, qy, n) > area_min
+    for k in range(n):
+        out[0, k] = qx[k]
+        out[1, k] = qy[k]
+    return n
+
+
+@njit(cache=True)
+def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
+                     area_min: float, buf: np.ndarray) -> bool:
+    """Whether projected triangles ``ti``, ``tj`` ``(3, 3)`` (u, v, z) overlap over an area above
+    ``amin`` and ``tj`` is not behind ``ti`` (``z_j - z_i >= -tau``) over an area above
+    ``area_min`` of that overlap (:func:`front_overlap`). ``buf`` ``(4, MAX_VERTICES)`` is
+    scratch space."""
+    out = np.empty((2, MAX_VERTICES))
+    n = front_overlap(ti, tj, amin, tau, buf, out)
+    return polygon_area(out[0], out[1], n) > area_min
+
+
+@njit(cache=True)
+def polygon_perimeter(px: np.ndarray, py: np.ndarray, n: int) -> float:
+    """The perimeter of the polygon ``(px, py)[:n]``."""
+    s = 0.0
+    for k in range(n):
+        k2 = (k + 1) % n
+        s += np.hypot(px[k2] - px[k], py[k2] - py[k])
+    return s
 
 
 @njit(cache=True)
@@ -116,23 +142,31 @@ def boxes(t: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarray,
-                   eps: float, amin: float, tiny: float) -> tuple[int, int]:
-    """The first triangle pair ``(k_i, k_j)`` (``(-1, -1)`` when none) of ``pi`` ``(a, 3, 3)``
-    (the moved part's, facing the direction) and ``pj`` ``(b, 3, 3)`` (the blocker's, facing
-    against it), projected (u, v, z), with their :func:`boxes` ``bi``, ``bj``, that passes
-    :func:`overlap_in_front` (``tau = 1e-3 eps``, area ``eps^2``) after their boxes meet by
-    more than ``tiny`` and ``t_j`` reaches in front of ``t_i - eps``.
+                   eps: float, amin: float, tiny: float
+                   ) -> tuple[int, int, np.ndarray, int]:
+    """The first *wide* triangle pair ``(k_i, k_j)`` (``(-1, -1)`` when none) of ``pi``
+    ``(a, 3, 3)`` (the moved part's, facing the direction) and ``pj`` ``(b, 3, 3)`` (the
+    blocker's, facing against it), projected (u, v, z), with their :func:`boxes` ``bi``,
+    ``bj``: their boxes meet by more than ``tiny``, ``t_j`` reaches in front of ``t_i - eps``,
+    and the part of their overlap where ``t_j`` is in front (:func:`front_overlap`, ``tau =
+    1e-3 eps``) has area over ``amin`` and holds a disk of diameter ``eps`` for sure (area over
+    ``eps / 2`` times its perimeter: a convex polygon's inradius is at least area /
+    perimeter). The narrower pairs met before are returned too, ``(m, 2)`` rows of which the
+    first ``count`` are used: together they may still hold such a disk (a ring tessellated
+    into slivers), which the caller decides.
 
     Only the triangles meeting the common box of both shadows are binned, on a grid of about
     one ``t_j`` per cell, so the cost follows the triangle pairs that really meet."""
+    thin = np.empty((16, 2), np.int64)
+    count = 0
     if pi.shape[0] == 0 or pj.shape[0] == 0:
-        return -1, -1
+        return -1, -1, thin, count
     lo_u = max(bi[:, 0].min(), bj[:, 0].min())
     lo_v = max(bi[:, 1].min(), bj[:, 1].min())
     hi_u = min(bi[:, 2].max(), bj[:, 2].max())
     hi_v = min(bi[:, 3].max(), bj[:, 3].max())
     if lo_u >= hi_u - tiny or lo_v >= hi_v - tiny:
-        return -1, -1
+        return -1, -1, thin, count
     zi_lo = bi[:, 4].min()
     sel = np.empty(bj.shape[0], np.int64)
     m = 0
@@ -142,7 +176,7 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
             sel[m] = k
             m += 1
     if m == 0:
-        return -1, -1
+        return -1, -1, thin, count
     g = max(1, min(256, int(np.sqrt(m))))
     su, sv = (hi_u - lo_u) / g, (hi_v - lo_v) / g
     # cells each selected t_j covers, as a CSR list per cell
@@ -166,7 +200,8 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
                 fill[c] += 1
     stamp = np.full(bj.shape[0], -1, np.int64)
     buf = np.empty((4, MAX_VERTICES))
-    tau, area_min = 1e-3 * eps, eps * eps
+    poly = np.empty((2, MAX_VERTICES))
+    tau, half = 1e-3 * eps, 0.5 * eps
     for i in range(bi.shape[0]):
         b = bi[i]
         if b[2] <= lo_u or b[0] >= hi_u or b[3] <= lo_v or b[1] >= hi_v:
@@ -181,11 +216,23 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
                         continue
                     stamp[k] = i
                     o = bj[k]
-                    if b[0] < o[2] - tiny and o[0] < b[2] - tiny and b[1] < o[3] - tiny \
-                            and o[1] < b[3] - tiny and o[5] > b[4] - eps \
-                            and overlap_in_front(pi[i], pj[k], amin, tau, area_min, buf):
-                        return i, k
-    return -1, -1
+                    if not (b[0] < o[2] - tiny and o[0] < b[2] - tiny and b[1] < o[3] - tiny
+                            and o[1] < b[3] - tiny and o[5] > b[4] - eps):
+                        continue
+                    n = front_overlap(pi[i], pj[k], amin, tau, buf, poly)
+                    area = polygon_area(poly[0], poly[1], n)
+                    if area <= amin:
+                        continue
+                    if area > half * polygon_perimeter(poly[0], poly[1], n):
+                        return i, k, thin, count
+                    if count == thin.shape[0]:
+                        more = np.empty((2 * count, 2), np.int64)
+                        more[:count] = thin
+                        thin = more
+                    thin[count, 0] = i
+                    thin[count, 1] = k
+                    count += 1
+    return -1, -1, thin, count
 
 
 @njit(cache=True)

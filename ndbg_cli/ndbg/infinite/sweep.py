@@ -5,7 +5,11 @@ arrangement in :mod:`ndbg_cli.ndbg.infinite.build` (it shares no code with it).
 and a triangle of ``P_j`` facing against it (``n_j . d < 0``) overlap with positive area in
 the orthographic projection along ``d``, and somewhere in the overlap ``t_j`` is not behind
 ``t_i`` (``z_j - z_i > -eps``). A direction parallel to a contact face
-(``|n . d| <= FACING_TOL``) does not cross it: sliding does not block. The triangle pairs
+(``|n . d| <= FACING_TOL``) does not cross it: sliding does not block. Nor does an overlap
+narrower than the length tolerance ``eps``: the blocking region (the union, over the triangle
+pairs, of where ``t_j`` is in front) must hold a disk of diameter ``eps``, as two parts closer
+than ``eps`` touch (a faceted rod in a faceted hole: slivers no wider than the facets'
+sagitta; a press fit within tolerance). The triangle pairs
 whose shadows meet are found on a grid and tested exactly by the compiled
 :mod:`ndbg_cli.ndbg.infinite._sweep_kernels`: one direction's whole DBG costs milliseconds to
 a second on real products, fine for plan proofs (:mod:`ndbg_cli.planning.proven`) and single
@@ -19,7 +23,14 @@ import numpy as np
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
-from ._sweep_kernels import boxes, first_blocking, overlap_centroid, plane
+from ._sweep_kernels import (
+    MAX_VERTICES,
+    boxes,
+    first_blocking,
+    front_overlap,
+    overlap_centroid,
+    plane,
+)
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
@@ -131,13 +142,40 @@ class SweepChecker:
         return near
 
     def _pair(self, v: _View, i: int, j: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """The kernel on ``i``'s triangles facing ``d`` and ``j``'s facing against it."""
+        """The kernel on ``i``'s triangles facing ``d`` and ``j``'s facing against it: a
+        blocking triangle pair, or ``None``."""
         pi, bi = v.facing(i, 1)
         pj, bj = v.facing(j, -1)
         if not len(pi) or not len(pj):
             return None
-        ki, kj = first_blocking(pi, pj, bi, bj, self.eps, self._amin, self._tiny)
-        return None if ki < 0 else (pi[ki], pj[kj])
+        ki, kj, thin, count = first_blocking(pi, pj, bi, bj, self.eps, self._amin, self._tiny)
+        if ki >= 0:
+            return pi[ki], pj[kj]
+        return self._wide_union(pi, pj, thin[:count]) if count else None
+
+    def _wide_union(self, pi: np.ndarray, pj: np.ndarray, pairs: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray] | None:
+        """Whether the narrow overlaps of ``pairs`` (each too narrow alone to hold a disk of
+        diameter ``eps``) hold one together: their union, closed over cracks of
+        :attr:`_tiny` (adjacent triangles' overlaps are clipped apart in floating point),
+        shrunk by ``eps / 2``. A faceted rod in a faceted hole leaves slivers around the
+        rod no wider than the facets' sagitta, within the tolerance: it slides; a face
+        tessellated into slivers still blocks. Returns a pair of the union where it holds
+        one (the witness), else ``None``."""
+        import shapely
+
+        buf, out = np.empty((4, MAX_VERTICES)), np.empty((2, MAX_VERTICES))
+        polys = []
+        for a, b in pairs.tolist():
+            n = front_overlap(pi[a], pj[b], self._amin, 1e-3 * self.eps, buf, out)
+            polys.append(shapely.Polygon(out[:, :n].T) if n >= 3 else shapely.Polygon())
+        core = shapely.union_all(shapely.buffer(polys, self._tiny)).buffer(
+            -(0.5 * self.eps + self._tiny))
+        if core.is_empty:
+            return None
+        hit = shapely.intersects(polys, core)
+        a, b = pairs[int(np.flatnonzero(hit)[0]) if hit.any() else 0]
+        return pi[a], pj[b]
 
     def blockers(self, i: int, d: np.ndarray) -> int:
         """The bitmask of the parts that block part ``i`` along ``d`` (the box culls of every
@@ -168,6 +206,7 @@ def warm_up() -> None:
     t[0, 1, 0] = t[0, 2, 1] = 1.0
     b = boxes(t)
     first_blocking(t, t, b, b, 1e-9, 1e-18, 1e-9)
+    front_overlap(t[0], t[0], 0.0, 0.0, np.empty((4, MAX_VERTICES)), np.empty((2, MAX_VERTICES)))
 
 
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
