@@ -324,3 +324,28 @@ def test_directions_within_the_angle_tolerance_are_one():
                     np.sin(1e-5) * 0.6 + np.cos(1e-5) * 0.8, 0.0])
     dirs = directions(3, [(a, "cylinder axis"), (far, "cylinder axis")], [])
     assert [d.source for d in dirs].count("cylinder axis") == 4  # 1e-5 rad: two axes
+
+
+def test_a_connected_plans_own_depth_bound_does_not_bound_every_proven_tree():
+    # AS1's case: the plan keeps both sides of each step connected, and no connected tree is
+    # shallower than 7 (its depth_lower_bound), while a proven tree of depth 6 exists and
+    # the candidates' exact least depth is 5. The proven minimum depth is then between 5 and
+    # 6, not "exactly 6" (the connected plan's bound is no bound on other trees).
+    from ndbg_cli.pipeline.proofs import proven_classes
+
+    names = [f"p{k}" for k in range(18)]
+    plan = {"found": True, "verified": {"value": True}, "connected": True, "depth": 7,
+            "depth_lower_bound": 7, "nonlinear_steps": 2,
+            "sequence": [{"moved": names[:1], "onto": names[1:], "produces": names,
+                          "removal_direction": [0.0, 0.0, 1.0]}],
+            "proofs": [{"strategy": "fewest-directions", "depth": 6, "nonlinear_steps": 6,
+                        "directions": 2}]}
+    cands = {"min_depth": {"value": 5, "exact": True, "lower_bound": 5, "upper_bound": 5}}
+    d = proven_classes(plan, cands)["min_depth"]
+    assert (d["value"], d["exact"], d["lower_bound"], d["upper_bound"]) == (6, False, 5, 6)
+    # without the candidates, ceil(log2 18) = 5 still bounds every tree
+    d = proven_classes(plan, {})["min_depth"]
+    assert (d["lower_bound"], d["upper_bound"]) == (5, 6)
+    # a plan searched over all trees bounds them all: its 7 against a proven 6 is capped
+    d = proven_classes({**plan, "connected": False, "depth_lower_bound": 6}, cands)["min_depth"]
+    assert (d["value"], d["exact"]) == (6, True)

@@ -10,7 +10,7 @@ cylinder axes: where a designer expects parts to move) and from the NDBG's regio
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -81,8 +81,8 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                base: int | None, connected: ConnectivityTest,
                others: Sequence[str] = (), budget: int = 1_000_000,
                exact_rounds: int = EXACT_ROUNDS,
-               shallow: Sequence[tuple[int, int, Sequence[float] | None]] | None = None
-               ) -> dict:
+               shallow: Callable[[int], Sequence[tuple[int, int, Sequence[float] | None]]
+                                 | None] | None = None) -> dict:
     """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
     proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
     proven tree exists along the directions tried. Returns the report's ``verified``,
@@ -91,9 +91,10 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     (why, :func:`ndbg_cli.planning.proven.why_stuck`) and ``candidate`` (the unproven tree's
     steps, kept for what they are). ``chosen`` may have no tree (``found`` False): the
     search then starts from nothing. ``exact_rounds``: stuck subassemblies whose own infinite
-    NDBG may be computed (:data:`EXACT_ROUNDS`). ``shallow``: the steps of a candidate tree of
-    the least candidate depth, proven step by step when ``chosen`` has a proven tree; proven,
-    it joins ``proofs`` (strategy ``shortest``) and decides the proven minimum depth."""
+    NDBG may be computed (:data:`EXACT_ROUNDS`). ``shallow``: given the least depth of the proven
+    trees found, the steps of a shallower candidate tree of the least candidate depth (or
+    ``None``), proven step by step; proven, it joins ``proofs`` (strategy ``shortest``) and
+    decides the proven minimum depth."""
     from ..ndbg.infinite.sweep import SweepChecker
 
     nd = chosen.ndbg
@@ -151,8 +152,11 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
         out.update(_no_plan(rows, sweep, nd, chosen, got.stuck, exact.get(got.stuck)))
     out["proofs"] = [] if not got.found else [
         _other(rows, chosen.root, s, n_nat, base, room) for s in others]
-    if got.found and shallow:
-        splits, failed = prove_tree(rows, shallow, n_nat, room)
+    steps = None if not got.found or shallow is None else shallow(min(
+        [measures(rows, chosen.root, got.splits)["depth"]]
+        + [t["depth"] for t in out["proofs"]]))
+    if steps:
+        splits, failed = prove_tree(rows, steps, n_nat, room)
         if failed is None:
             out["proofs"].append({"strategy": "shortest",
                                   **measures(rows, chosen.root, splits)})

@@ -531,18 +531,19 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
               and (not classes or (least[s] is not None and has[s] > least[s]))]
     return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
                       connected=conn, others=others, budget=options.infinite_budget,
-                      shallow=_shallowest(chosen, classes, measures, base, budget))
+                      shallow=lambda best: _shallowest(chosen, classes, measures, base,
+                                                       budget, best))
 
 
 def _shallowest(chosen: Any, classes: dict, measures: Measures, base: int | None,
-                budget: Any) -> list | None:
+                budget: Any, best: int) -> list | None:
     """The steps of a candidate tree of the family's least depth, when that minimum is exact
-    and the chosen plan is deeper (its sides kept connected, or another strategy): proven,
-    it makes the proven minimum depth exact whatever tree the greedy proofs happen to find
-    (which depends on the frame and the part order; issue 34's invariance). ``None`` when
-    there is nothing to gain."""
+    and the proven trees found so far are deeper (``best``; the plan's sides are kept
+    connected, the other proofs follow other objectives): proven, it makes the proven
+    minimum depth exact whatever trees the greedy proofs happen to find (they depend on the
+    frame and the part order; issue 34's invariance). ``None`` when there is nothing to gain."""
     depth = classes.get("min_depth") or {}
-    if not depth.get("exact") or depth.get("value") is None or chosen.depth() <= depth["value"]:
+    if not depth.get("exact") or depth.get("value") is None or best <= depth["value"]:
         return None
     from ..planning.plans import plan
 
