@@ -239,10 +239,12 @@ def answers(report: dict) -> dict[str, object]:
         fams.setdefault(p["family"], set()).add((tuple(sorted(p["moved"])),
                                                  tuple(sorted(p["rest"]))))
     for fam, parts in sorted(fams.items()):
-        if ((report.get("ndbg") or {}).get(fam) or {}).get("partitionings_truncated"):
-            # cut by --max-partitions: past the parts that come out on their own (all listed
-            # first, whatever the cut) the list is a sample in the order of the regions and
-            # part indices, which the frame and the part order change; the report says so
+        section = (report.get("ndbg") or {}).get(fam) or {}
+        if section.get("partitionings_truncated") or section.get("candidates_truncated"):
+            # cut by --max-partitions (or, generalized, its candidate limit): past the parts
+            # that come out on their own (all listed first, whatever the cut) the list is a
+            # sample in the order of the regions and part indices, which the frame and the
+            # part order change; the report says so
             out[f"partitionings.{fam}"] = {"truncated": len(parts), "single parts": sorted(
                 p for p in parts if len(p[0]) == 1)}
         else:

@@ -105,9 +105,12 @@ def suggested_motions(asm: Assembly, contacts: Iterable[Any]) -> list[dict]:
                     "sources": [source]})
         flat.append((fa, fp))
 
-    for c in contacts:
-        if getattr(c, "surface", None) != "cylinder" or getattr(c, "axis", None) is None:
-            continue
+    # Merging is first come, first kept (a line near two others may join either): the
+    # contacts are read by their parts' names, so that the merged lines, and the
+    # partitionings they give, do not depend on the part order (stable within a pair)
+    cyl = [c for c in contacts
+           if getattr(c, "surface", None) == "cylinder" and getattr(c, "axis", None) is not None]
+    for c in sorted(cyl, key=lambda c: sorted((_pid(asm, c.a), _pid(asm, c.b)))):
         a, b = _pid(asm, c.a), _pid(asm, c.b)
         center = getattr(c, "center", None)
         src = f"cylinder contact {a}-{b}"
