@@ -725,7 +725,10 @@ def test_2d_pick_prefers_the_sliding_direction_to_tolerance_bands():
                for s in plan(nd).sequence())
     # the block: its three regions, by hand
     eps, eta = asm.length_tolerance, nd.stats["angular_tolerance"]
-    assert eps == pytest.approx(1e-4 * np.sqrt(125.0)) and eta == pytest.approx(5e-3)
+    # the default tolerance, 1e-4 of the model's size (twice its farthest corner from its
+    # hull's centroid: a little under the 11 x 2 bounding box's diagonal, sqrt(125))
+    assert eps == pytest.approx(1e-4 * asm.size) and eta == pytest.approx(5e-3)
+    assert 0.99 * np.sqrt(125.0) < asm.size < np.sqrt(125.0)
     mask = nd.mask(["block"])
     free = [k for k, r in enumerate(nd.regions) if r.dbg.is_free(mask)]
     assert len(free) == 3

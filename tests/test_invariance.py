@@ -154,3 +154,33 @@ def test_a_press_fit_stays_a_press_fit_in_any_frame(tmp_path):
     assert [k for _, _, k in want] == ["press_fit", "press_fit"]
     for seed in (1, 34):
         assert kinds(_transformed("press-fit", tmp_path, "rotation", seed)) == want, seed
+
+
+def test_the_default_tolerance_is_the_same_in_any_frame():
+    # The default tolerance is 1e-4 of the model's size. A box 40 x 20 x 10 (the L of two
+    # boxes below keeps the hull's centroid off the corners' symmetry) measured by its
+    # bounding-box diagonal changes when it turns (the engine's 0.084 became 0.098 and a
+    # face contact became an interference); Assembly.size, twice the farthest vertex from the
+    # hull's centroid, does not. By hand: one box alone has size = its diagonal, sqrt(2100).
+    from ndbg_cli.core.assembly import Assembly
+    from ndbg_cli.io.validate import make_part
+
+    def asm(turn: np.ndarray) -> Assembly:
+        a = trimesh.creation.box(bounds=[(0, 0, 0), (40, 20, 10)])
+        b = trimesh.creation.box(bounds=[(0, 20, 0), (10, 50, 10)])
+        parts = []
+        for name, m in (("a", a), ("b", b)):
+            m = m.copy()
+            m.apply_transform(turn)
+            parts.append(make_part(name, m.vertices, m.faces)[0])
+        return Assembly("l", tuple(parts))
+
+    turn = np.eye(4)
+    turn[:3, :3] = Rotation.from_euler("xyz", [31, -47, 12], degrees=True).as_matrix()
+    turn[:3, 3] = (5.0, -7.0, 100.0)
+    flat, turned = asm(np.eye(4)), asm(turn)
+    assert abs(turned.diagonal - flat.diagonal) > 1.0  # the bounding box does change
+    assert turned.size == pytest.approx(flat.size, rel=1e-12)
+    assert turned.length_tolerance == pytest.approx(flat.length_tolerance, rel=1e-12)
+    one = Assembly("box", (flat.parts[0],))
+    assert one.size == pytest.approx(np.sqrt(40 ** 2 + 20 ** 2 + 10 ** 2), rel=1e-12)

@@ -183,16 +183,31 @@ class Assembly:
         return float(np.linalg.norm(hi - lo))
 
     @property
+    def size(self) -> float:
+        """The model's size, in the assembly unit, the same in any frame: twice the largest
+        distance of a vertex from the centroid of the parts' convex hull (a box's diagonal,
+        as :attr:`diagonal` gives it in the box's own frame). The bounding box's diagonal
+        changes when the model turns (by up to a factor of 1.7), and so did every tolerance
+        derived from it: the engine's default tolerance was 0.084 in its file's frame and
+        0.098 after a turn, and a contact became an interference (issue 34's invariance)."""
+        got = self.__dict__.get("_size")
+        if got is None:
+            got = _size(self)
+            object.__setattr__(self, "_size", got)
+        return got
+
+    @property
     def length_tolerance(self) -> float:
         """The length tolerance in the assembly unit.
 
         The explicit ``tolerance`` when one was given, else ``DEFAULT_RELATIVE_TOLERANCE``
-        (1e-4) times the bounding-box diagonal: 0.02 mm for a 200 mm product. It scales with
-        the model, so converting the same model from mm to m changes no answer.
+        (1e-4) times the model's :attr:`size`: 0.02 mm for a 200 mm product. It scales with
+        the model and turns with it, so converting the same model from mm to m, or turning
+        it, changes no answer.
         """
         if self.tolerance is not None:
             return float(self.tolerance)
-        return max(DEFAULT_RELATIVE_TOLERANCE * self.diagonal, MIN_TOLERANCE)
+        return max(DEFAULT_RELATIVE_TOLERANCE * self.size, MIN_TOLERANCE)
 
     # -- derived assemblies ---------------------------------------------------------------
     def subset(self, part_ids: Iterable[str]) -> Assembly:
@@ -213,3 +228,29 @@ class Assembly:
     @property
     def warnings(self) -> list[Diagnostic]:
         return [d for d in self.diagnostics if d.level == "warning"]
+
+
+def _size(asm: Assembly) -> float:
+    """:attr:`Assembly.size`: from the convex hull of every vertex (2D: polygon corner), its
+    volume (area) centroid; points that span no volume (a flat or empty model) are measured
+    from their mean instead."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    pts = [np.asarray(p.mesh.vertices, float) if p.mesh is not None
+           else np.asarray(p.polygon.exterior.coords, float)[:, :asm.dimension]
+           for p in asm.parts if p.mesh is not None or p.polygon is not None]
+    if not pts:
+        return float(np.linalg.norm(np.diff(asm.bounds, axis=0)))
+    x = np.unique(np.concatenate(pts), axis=0)
+    try:
+        hull = ConvexHull(x)
+        v = x[hull.vertices]
+        o = v.mean(axis=0)
+        simplices = x[hull.simplices] - o  # (f, dim, dim): simplices with the apex o
+        w = np.abs(np.linalg.det(simplices))
+        c = o + (simplices.sum(axis=1) * w[:, None]).sum(axis=0) / (
+            (len(o) + 1) * max(float(w.sum()), 1e-300))
+    except (QhullError, ValueError):
+        v = x
+        c = x.mean(axis=0)
+    return 2.0 * float(np.sqrt(((v - c) ** 2).sum(axis=1).max()))

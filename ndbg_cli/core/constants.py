@@ -19,10 +19,11 @@ GENERALIZED = "generalized"
 FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
 
 #: Default relative length tolerance: lengths below ``DEFAULT_RELATIVE_TOLERANCE`` times the
-#: assembly's bounding-box diagonal are treated as zero (gaps, overlaps, coplanarity).
+#: model's size (``Assembly.size``, the same in any frame) are treated as zero (gaps, overlaps,
+#: coplanarity).
 DEFAULT_RELATIVE_TOLERANCE = 1e-4
 
-#: Smallest length tolerance, in the assembly unit and relative to the bounding-box diagonal:
+#: Smallest length tolerance, in the assembly unit and relative to the model's size:
 #: the default is never below it and an explicit one below it is refused. Under 1e-12 of the
 #: model's size the coordinates' own rounding (2.2e-16 of their magnitude) is no longer
 #: negligible beside it, and under 1e-12 absolute a report, whose floats stop at 1e-15

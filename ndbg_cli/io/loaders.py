@@ -161,18 +161,18 @@ def _load(p: Path, path: str, reading: Reading, allow_outside_paths: bool) -> As
 
 def _check_tolerance(asm: Assembly, file: str) -> None:
     """An explicit tolerance (manifest, config or --tolerance) must be smaller than the
-    assembly's bounding-box diagonal: lengths below it count as zero, so one that large
-    makes every gap a contact and every part a point (a unit slip, such as mm for m). It must
-    also be at least :data:`~ndbg_cli.core.constants.MIN_TOLERANCE` (absolute, and relative to
-    that diagonal): a smaller one is below the coordinates' rounding and the report's floats."""
+    assembly's size (:attr:`~ndbg_cli.core.assembly.Assembly.size`): lengths below it count as
+    zero, so one that large makes every gap a contact and every part a point (a unit slip,
+    such as mm for m). It must also be at least :data:`~ndbg_cli.core.constants.MIN_TOLERANCE`
+    (absolute, and relative to that size): a smaller one is below the coordinates' rounding
+    and the report's floats."""
     t = asm.tolerance
     if t is None:
         return
-    if not t < asm.diagonal:
+    if not t < asm.size:
         raise InputError(f"tolerance {t:g} {asm.units} is not smaller than the assembly's "
-                         f"size (bounding-box diagonal {asm.diagonal:.6g} {asm.units})",
-                         file=file)
-    least = MIN_TOLERANCE * max(1.0, asm.diagonal)
+                         f"size ({asm.size:.6g} {asm.units})", file=file)
+    least = MIN_TOLERANCE * max(1.0, asm.size)
     if t < least:
         raise InputError(f"tolerance {t:g} {asm.units} is below the smallest one ndbg can "
                          f"honour here, {least:.3g} {asm.units} (1e-12 of the assembly's "

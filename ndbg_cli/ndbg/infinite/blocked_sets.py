@@ -347,7 +347,7 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     for fd in geoms:
         for g in fd.values():
             shapely.prepare(g)
-    eta = ANGULAR_FACTOR * eps / max(asm.diagonal, 1e-300)
+    eta = ANGULAR_FACTOR * eps / max(asm.size, 1e-300)
     stats = {"pieces": npieces, "convex_pairs": len(fast),
              "time_cones_s": t_cones, "time_union_s": t_union,
              "time_blocked_sets_s": time.perf_counter() - t0}

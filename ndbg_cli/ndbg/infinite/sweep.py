@@ -90,7 +90,7 @@ class SweepChecker:
                             for a in (0, 1) for b in (0, 1) for c in (0, 1)])
         self._corners = np.array(corners, dtype=float).reshape(-1, 8, 3)
         self._views: dict[tuple[float, ...], _View] = {}
-        diag = max(asm.diagonal, 1e-300)
+        diag = max(asm.size, 1e-300)
         # overlaps below these are edges or points touching (areas: the test's resolution)
         self._amin, self._tiny = (1e-6 * diag) ** 2, 1e-9 * diag
 
