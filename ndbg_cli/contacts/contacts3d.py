@@ -136,7 +136,7 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     Tolerance model (lengths in the assembly unit):
 
     * ``tol``: ``asm.length_tolerance`` unless given (the manifest's or command line's, else
-      1e-4 times the bounding-box diagonal, so a change of unit changes no answer). Planes
+      1e-4 times the model's size, so a change of unit or frame changes no answer). Planes
       closer than ``tol`` coincide, gaps up to ``tol`` touch, contact polygons thinner than
       ``tol`` are edges.
     * chord sag: a tessellated curved surface departs from the true one by the sag
