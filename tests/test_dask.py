@@ -13,7 +13,7 @@ import pytest
 distributed = pytest.importorskip("distributed")
 
 from ndbg_cli.core.options import Options  # noqa: E402
-from ndbg_cli.pipeline import batch  # noqa: E402
+from ndbg_cli.pipeline import batch, cluster  # noqa: E402
 
 from helpers import run_cli  # noqa: E402
 
@@ -79,7 +79,7 @@ def test_without_distributed_the_cli_says_what_to_install(tmp_path):
             f"main(['analyze', {str(src)!r}, '--scheduler', 'local'])\n")
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
-    assert r.stderr == f"ndbg: error: {batch.DASK_MISSING}\n"
+    assert r.stderr == f"ndbg: error: {cluster.DASK_MISSING}\n"
 
 
 def test_a_task_failing_on_the_cluster_becomes_an_error_record(tmp_path, monkeypatch):
