@@ -147,11 +147,11 @@ def test_one_assembly_on_a_local_cluster_gives_the_report_of_one_process(tmp_pat
 
 def test_one_assembly_pair_work_runs_on_the_cluster_workers(tmp_path, monkeypatch):
     """``--scheduler ADDRESS`` on one assembly sends its per-pair work to that cluster (two
-    worker processes started here): the scheduler's task stream holds one task per part pair
-    the run computed (its cache misses, in the report's timings) for both per-pair stages, the
-    contacts' narrow phase and the infinite NDBG's blocked sets, and both workers took some.
-    Work that stayed in the CLI's process would leave no task. The report, timings removed, is
-    ``--jobs 1``'s."""
+    worker processes started here): the scheduler's task stream holds, for both per-pair
+    stages (the contacts' narrow phase, the infinite NDBG's blocked sets), the tasks that the
+    part pairs the run computed (its cache misses, in the report's timings) are dealt into,
+    and both workers took some. Work that stayed in the CLI's process would leave no task.
+    The report, timings removed, is ``--jobs 1``'s."""
     path = EX / "fig2-sandwich-5.yaml"
     args = ("analyze", path, "--format", "json", "--detail", "full", "--timings")
     monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-plain"))
@@ -170,11 +170,23 @@ def test_one_assembly_pair_work_runs_on_the_cluster_workers(tmp_path, monkeypatc
     want.pop("timings")
     assert got == want
     tasks = Counter(key_split(t["key"]) for t in stream.data)
+
+    def dealt(pairs: int) -> int:  # the tasks a map of that many items makes on two threads
+        return len(cluster.deal(range(pairs), cluster.TASKS_PER_THREAD * 2))
+
     assert tasks == {
-        cluster.task_prefix(contacts3d._narrow_phase): timings["cache_contacts_misses"],
-        cluster.task_prefix(pair_workers._pair_blocked_sets): timings["cache_infinite_misses"]}
-    assert min(tasks.values()) > 0
+        cluster.task_prefix(contacts3d._narrow_phase): dealt(timings["cache_contacts_misses"]),
+        cluster.task_prefix(pair_workers._pair_blocked_sets):
+            dealt(timings["cache_infinite_misses"])}
+    assert min(tasks.values()) > 1
     assert {t["worker"] for t in stream.data} == workers and len(workers) == 2
+
+
+def test_items_are_dealt_round_robin_from_the_costliest():
+    assert cluster.deal([5, 4, 3, 2, 1], 2) == [[5, 3, 1], [4, 2]]
+    assert cluster.deal([2, 0, 1], 8) == [[2], [0], [1]]
+    assert cluster.deal([1, 0], 0) == [[1, 0]]
+    assert cluster.deal([], 8) == []
 
 
 def _fails_on_a_worker(context: int, item: int) -> int:

@@ -96,15 +96,37 @@ def task_prefix(fn: Callable) -> str:
     return "-".join(["ndbg", *fn.__name__.strip("_").split("_")])
 
 
+#: Tasks a map is cut into per thread of the cluster's workers. Enough for the scheduler to even
+#: out unequal items (dealt round-robin from the costliest, so each task holds a like mix),
+#: few enough that dask's cost per task (milliseconds, more on a loaded machine) stays small
+#: beside theirs: rack-296's 472 contact pairs took 12 s as 472 tasks on a loaded 2-core
+#: machine, 3 to 4 s as 8 to 59 (benchmarks/NOTES.md, stop 42).
+TASKS_PER_THREAD = 4
+
+
+def deal(order: Sequence[int], tasks: int) -> list[list[int]]:
+    """The items ``order`` lists dealt round-robin into ``tasks`` hands (at most one per
+    item): hand ``j`` holds ``order[j::tasks]``."""
+    tasks = min(max(1, tasks), len(order))
+    return [list(order[j::tasks]) for j in range(tasks)]
+
+
+def _hand(context: Any, job: tuple[Callable[[Any, Any], Any], list]) -> list:
+    """One task of :class:`ClusterMapper`: ``job`` is ``(fn, items)``; their values in order."""
+    fn, items = job
+    return [fn(context, x) for x in items]
+
+
 class ClusterMapper(Mapper):
     """:class:`~ndbg_cli.core.pools.Mapper` on a dask.distributed cluster, through ``client``.
 
     ``context`` is scattered once to every worker (each keeps one copy, which its tasks share:
-    a cache in it is filled per worker); each item is one task, ``fn`` pickled by name, so the
-    workers must import this version of ndbg; the values are gathered here. Every item goes
-    to the cluster, however ``small`` (a running cluster has no start-up to save). An item
-    whose task fails on the cluster (a worker died, the cluster lost it, ``fn`` raised) is
-    computed here: an error of ``fn``'s own is then raised here, as in a loop."""
+    a cache in it is filled per worker); the items, in the order handed out, are dealt into
+    :data:`TASKS_PER_THREAD` tasks per worker thread (:func:`deal`), ``fn`` pickled by name, so
+    the workers must import this version of ndbg; the values are gathered here. Every item
+    goes to the cluster, however ``small`` (a running cluster has no start-up to save). The
+    items of a task that fails on the cluster (a worker died, the cluster lost it, ``fn``
+    raised) are computed here: an error of ``fn``'s own is then raised here, as in a loop."""
 
     def __init__(self, client: Any) -> None:
         self.client = client
@@ -112,30 +134,33 @@ class ClusterMapper(Mapper):
     def imap(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
              order: Sequence[int] | None = None, *, small: bool = False,
              meanwhile: Callable[[], Any] | None = None) -> Iterator[tuple[int, Any]]:
-        n = len(items)
-        order = list(range(n)) if order is None else list(order)
-        if n == 0:
+        order = list(range(len(items))) if order is None else list(order)
+        if not order:
             if meanwhile is not None:
                 meanwhile()
             return
+        threads = sum(self.client.nthreads().values())
+        hands = deal(order, TASKS_PER_THREAD * max(1, threads))
         # a list, so that a tuple context is one piece of data, not one per element
         [shared] = self.client.scatter([context], broadcast=True, hash=False)
-        # handed out in ``order``: the scheduler runs a map's tasks first come, first served;
-        futures = dict(zip(order, self.client.map(
-            fn, [shared] * n, [items[k] for k in order], key=task_prefix(fn), pure=False)))
+        # the scheduler starts a map's tasks first come, first served; named after fn
+        futures = self.client.map(_hand, [shared] * len(hands),
+                                  [(fn, [items[k] for k in hand]) for hand in hands],
+                                  key=task_prefix(fn), pure=False)
         try:
             if meanwhile is not None:
                 meanwhile()
-            for k in order:
-                future = futures.pop(k)
+            for j, hand in enumerate(hands):
+                future, futures[j] = futures[j], None
                 try:
-                    value = future.result()
+                    values = future.result()
                 except (Exception, asyncio.CancelledError):  # failed there: computed here
-                    value = fn(context, items[k])
+                    values = [fn(context, items[k]) for k in hand]
                 finally:
                     future.release()  # the cluster may forget it
-                yield k, value
+                yield from zip(hand, values)
         finally:
-            if futures:  # an error here, or the caller stopped: nothing left to compute
-                self.client.cancel(list(futures.values()))
+            pending = [f for f in futures if f is not None]
+            if pending:  # an error here, or the caller stopped: nothing left to compute
+                self.client.cancel(pending)
             shared.release()
