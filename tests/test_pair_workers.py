@@ -92,10 +92,12 @@ def test_workers_do_not_outlive_a_killed_parent():
     assert alive == []
 
 
-def test_workers_cannot_come_from_a_config_file(tmp_path):
+@pytest.mark.parametrize("setting", ["workers: 4", "mapper: local"])
+def test_workers_cannot_come_from_a_config_file(tmp_path, setting):
+    # --jobs and --scheduler only
     cfg = tmp_path / "c.yaml"
-    cfg.write_text("workers: 4\n")
-    with pytest.raises(InputError, match="unknown setting 'workers'"):
+    cfg.write_text(setting + "\n")
+    with pytest.raises(InputError, match=f"unknown setting '{setting.split(':')[0]}'"):
         read_config(cfg)
 
 
