@@ -16,6 +16,7 @@ import pytest
 import trimesh
 
 from ndbg_cli.core.errors import InputError
+from ndbg_cli.core.pools import ORPHAN_POLL, ForkMapper
 from ndbg_cli.io.config import read_config
 from ndbg_cli.ndbg.infinite import pair_workers as pw
 
@@ -31,22 +32,23 @@ def _spheres(n: int, subdivisions: int = 2) -> list[tuple[np.ndarray, np.ndarray
     return out
 
 
-_WORK = pw._work
+_WORK = pw._pair_blocked_sets
+_PARENT = os.getpid()
 
 
-def _dies_on_one(pair):  # the pool forks: its workers run this
-    if pair == (0, 3):
+def _dies_on_one(context, pair):  # the pool forks: a worker dies on (0, 3), the parent not
+    if pair == (0, 3) and os.getpid() != _PARENT:
         os._exit(3)
-    return _WORK(pair)
+    return _WORK(context, pair)
 
 
 def test_a_dead_worker_leaves_its_pairs_to_the_parent(monkeypatch):
     monkeypatch.setattr(pw, "MIN_PARALLEL_PAIRS", 0)
-    monkeypatch.setattr(pw, "_work", _dies_on_one)
+    monkeypatch.setattr(pw, "_pair_blocked_sets", _dies_on_one)
     tris = _spheres(4)
     pairs = [(i, j) for i in range(4) for j in range(i + 1, 4)]
-    two = dict(pw.pair_sets(tris, pairs, 1e-4, None, 2))
-    one = dict(pw.pair_sets(tris, pairs, 1e-4, None, 1))
+    two = dict(pw.pair_sets(tris, pairs, 1e-4, None, ForkMapper(2)))
+    one = dict(pw.pair_sets(tris, pairs, 1e-4, None))
     assert sorted(two) == list(range(len(pairs)))
     assert all(np.array_equal(two[k][0], one[k][0]) for k in one)
 
@@ -55,6 +57,7 @@ SCRIPT = """
 import os, sys
 sys.path.insert(0, {root!r})
 import numpy as np, trimesh
+from ndbg_cli.core.pools import ForkMapper
 from ndbg_cli.ndbg.infinite import pair_workers as pw
 pw.MIN_PARALLEL_PAIRS = 0
 tris = []
@@ -64,7 +67,7 @@ for k in range(6):
     tris.append((np.asarray(m.triangles), np.asarray(m.face_normals)))
 print(os.getpid(), flush=True)
 for k, r in pw.pair_sets(tris, [(i, j) for i in range(6) for j in range(i + 1, 6)], 1e-4,
-                         None, 2):
+                         None, ForkMapper(2)):
     print(k, flush=True)
 """
 
@@ -83,16 +86,18 @@ def test_workers_do_not_outlive_a_killed_parent():
     assert len(kids) >= 2
     os.kill(parent, signal.SIGTERM)
     proc.wait(timeout=30)
-    time.sleep(3 * pw.ORPHAN_POLL + 1.0)
+    time.sleep(3 * ORPHAN_POLL + 1.0)
     alive = [k for k in kids if os.path.exists(f"/proc/{k}")
              and "zombie" not in open(f"/proc/{k}/status").read()]
     assert alive == []
 
 
-def test_workers_cannot_come_from_a_config_file(tmp_path):
+@pytest.mark.parametrize("setting", ["workers: 4", "mapper: local"])
+def test_workers_cannot_come_from_a_config_file(tmp_path, setting):
+    # --jobs and --scheduler only
     cfg = tmp_path / "c.yaml"
-    cfg.write_text("workers: 4\n")
-    with pytest.raises(InputError, match="unknown setting 'workers'"):
+    cfg.write_text(setting + "\n")
+    with pytest.raises(InputError, match=f"unknown setting '{setting.split(':')[0]}'"):
         read_config(cfg)
 
 

@@ -50,12 +50,14 @@ from ._pictures import Pictures
               "is its file).")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
               help="Worker processes: one assembly each in a batch; for a single assembly, "
-              "its infinite-translation NDBG's part pairs (default: the number of cores). "
-              "Same reports.")
-@click.option("--scheduler", metavar="ADDRESS", help="Run the batch on a dask.distributed "
-              "cluster: tcp://HOST:PORT of a running scheduler (its workers must see the input "
-              "files at the same paths), or 'local' to start one on this machine with --jobs "
-              "worker processes. Same reports, same order. Needs pip install 'ndbg-cli[dask]'.")
+              "its part pairs (contacts, infinite-translation NDBG) (default: the number of "
+              "cores; with --scheduler local, the cluster's workers). Same reports.")
+@click.option("--scheduler", metavar="ADDRESS", help="Run on a dask.distributed cluster: "
+              "a batch one assembly per task; a single assembly here, with its part pairs "
+              "(contacts, infinite-translation NDBG) on the cluster. tcp://HOST:PORT of a "
+              "running scheduler (its workers must see the input files at the same paths), or "
+              "'local' to start one on this machine with --jobs worker processes. Same "
+              "reports, same order. Needs pip install 'ndbg-cli[dask]'.")
 @click.option("--motion", type=click.Choice(MOTIONS), default="all", show_default=True,
               help="Motion family of the blocking graphs.")
 @click.option("--interference", type=click.Choice(["error", "warn", "ignore"]), default="warn",
@@ -168,7 +170,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     code = EXIT_OK
     faults = CacheFaults()
     if scheduler:
-        stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug)
+        stream = run_batch_dask(targets, options, scheduler, jobs, debug=STATE.debug,
+                                on_loaded=pictures.keep if pictures.wanted else None)
     else:
         stream = run_batch(targets, options, jobs, debug=STATE.debug,
                            on_loaded=pictures.keep if pictures.wanted else None)

@@ -24,7 +24,7 @@ from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
-from ..core.pools import fork_map
+from ..core.pools import ForkMapper, Mapper
 from ..geometry.vectors import plane_basis
 from .facets import (
     PartGeometry,
@@ -121,17 +121,18 @@ class ContactAnalysis:
 def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                      angle_tolerance: float = CONTACT_ANGLE_TOL_RAD,
                      cache: PairCache | None = None, workers: int = 1,
-                     meanwhile: Callable[[], Any] | None = None) -> ContactAnalysis:
+                     meanwhile: Callable[[], Any] | None = None,
+                     mapper: Mapper | None = None) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 
     ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
     radians. With ``cache``, each
     candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
-    tolerances (:mod:`ndbg_cli.core.cache`). ``workers`` > 1: the pairs not in the cache
-    are tested in that many forked processes (:func:`ndbg_cli.core.pools.fork_map`) when they
-    hold :data:`MIN_PARALLEL_TRIANGLES` triangles; the result does not depend on it;
-    ``meanwhile`` is called here while they work (:func:`~ndbg_cli.core.pools.fork_map`). Raises
-    :class:`InputError` for a 2D assembly or a non-positive tolerance.
+    tolerances (:mod:`ndbg_cli.core.cache`). The pairs not in the cache are tested by ``mapper``
+    (:class:`~ndbg_cli.core.pools.Mapper`; default: ``workers`` forked processes, when the pairs
+    hold :data:`MIN_PARALLEL_TRIANGLES` triangles); the result does not depend on it;
+    ``meanwhile`` is called here while they work. Raises :class:`InputError` for a 2D assembly
+    or a non-positive tolerance.
 
     Tolerance model (lengths in the assembly unit):
 
@@ -195,8 +196,9 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
     # by their triangles
     order = sorted(range(len(todo)), key=lambda x: (-bool(pairs[todo[x]][2]), -size[x], x))
-    got = fork_map(lambda k: _pair_result(asm, geos, *pairs[k], tol, ang), todo,
-                   workers if sum(size) >= MIN_PARALLEL_TRIANGLES else 1, order, meanwhile)
+    mapper = ForkMapper(workers) if mapper is None else mapper
+    got = mapper.map(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo], order,
+                     small=sum(size) < MIN_PARALLEL_TRIANGLES, meanwhile=meanwhile)
     for k, res in zip(todo, got):
         results[k] = res
         if keys[k] is not None:
@@ -230,13 +232,24 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                            tol, ang, stats)
 
 
-def _pair_result(asm: Assembly, geos: list[PartGeometry], a: int, b: int, crossing: bool,
-                 tol: float, ang: float
+def _narrow_phase(context: tuple[Assembly, float, float], pair: tuple[int, int, bool]) -> tuple:
+    """:func:`_pair_result` of the candidate pair ``(a, b, crossing)``, as a
+    :class:`~ndbg_cli.core.pools.Mapper` computes it: ``context`` is ``(asm, tol, ang)``. The
+    parts' geometry comes from :func:`~ndbg_cli.contacts.facets.part_geometry`'s per-process
+    cache: the caller's in its forked workers, built once per part in a cluster's worker."""
+    asm, tol, ang = context
+    a, b, crossing = pair
+    return _pair_result(asm, part_geometry(asm.parts[a], tol, ang),
+                        part_geometry(asm.parts[b], tol, ang), a, b, crossing, tol, ang)
+
+
+def _pair_result(asm: Assembly, ga: PartGeometry, gb: PartGeometry, a: int, b: int,
+                 crossing: bool, tol: float, ang: float
                  ) -> tuple[Interference | None, bool, list[Contact], int, float]:
-    """One candidate pair's narrow phase: ``(interference or None, approximate, contacts,
-    triangle pairs, seconds of the interference test)``. A pair whose surfaces cross is
-    tested for interference first; one that interferes gets its fit's contacts only."""
-    ga, gb = geos[a], geos[b]
+    """One candidate pair's narrow phase (``ga``, ``gb``: the parts' geometry): ``(interference
+    or None, approximate, contacts, triangle pairs, seconds of the interference test)``. A pair
+    whose surfaces cross is tested for interference first; one that interferes gets its fit's
+    contacts only."""
     found, approximate, contacts, count, seconds = None, False, [], 0, 0.0
     if crossing:
         ti = time.perf_counter()

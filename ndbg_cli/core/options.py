@@ -6,8 +6,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from .constants import LOAD_MEMORY_GIB, LOAD_TIMEOUT_S, MAX_TRIANGLES, WORK_LIMIT
+
+if TYPE_CHECKING:  # the pools are imported by the stages that use them
+    from .pools import Mapper
 
 MOTIONS = ("all", "translation", "infinite", "generalized")
 STRATEGIES = ("shortest", "linear", "fewest-directions", "balanced")
@@ -38,7 +42,11 @@ class Options:
     time_limit: float | None = None  # AND/OR graph budget: seconds per search (None: none)
     infinite_budget: int = 1_000_000  # facing triangle pairs beyond which `infinite` is skipped
     cache: str | None = None  # per-part-pair result cache directory (None: no cache)
-    workers: int = 1  # processes for one assembly's infinite NDBG (results do not depend on it)
+    workers: int = 1  # processes and threads for one assembly (results do not depend on it)
+    # where one assembly's per-pair work runs (contacts, the infinite NDBG's blocked sets): None,
+    # ``workers`` forked processes here; a dask cluster (pipeline.cluster.ClusterMapper) for
+    # ``analyze --scheduler`` on one assembly. Results do not depend on it
+    mapper: Mapper | None = None
     progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
     # the folder the report's paths (sources, files) are written relative to (None: the
     # current working folder; ndbg_cli.core.paths.portable)

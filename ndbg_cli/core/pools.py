@@ -1,20 +1,28 @@
-"""Ending a process pool at once (Ctrl-C, SIGTERM, an error, a consumer that stops early):
-:func:`end_pool`, shared by the batch (:mod:`ndbg_cli.pipeline.batch`) and one assembly's pair
-workers (:mod:`ndbg_cli.ndbg.infinite.pair_workers`); and one function run beside the caller
-in a forked process (:class:`Forked`), or over a list in forked workers (:func:`fork_map`).
+"""Process pools: ending one at once (Ctrl-C, SIGTERM, an error, a consumer that stops early),
+:func:`end_pool`, shared by the batch (:mod:`ndbg_cli.pipeline.batch`) and :class:`ForkMapper`;
+one function run beside the caller in a forked process (:class:`Forked`); and where one
+assembly's per-pair work runs (:class:`Mapper`: :class:`ForkMapper`, forked processes on this
+machine, or :class:`ndbg_cli.pipeline.cluster.ClusterMapper`, a dask.distributed cluster).
 """
 
 from __future__ import annotations
 
 import multiprocessing
+import os
+import signal
+import threading
 import time
-from collections.abc import Callable
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from typing import Any
 
 #: Seconds to wait for a terminated worker before killing it.
 JOIN_S = 5.0
+#: Seconds between a :class:`ForkMapper` worker's checks that its parent is alive.
+ORPHAN_POLL = 0.5
 
 
 def end_pool(pool: ProcessPoolExecutor) -> None:
@@ -114,55 +122,151 @@ def _forked_child(send: Any, fn: Callable[..., Any], args: tuple) -> None:
     send.close()
 
 
-#: What :func:`fork_map`'s workers compute (set before they are forked, read by
-#: :func:`_fork_call`: nothing but an index is pickled on the way in).
-_FORK_JOB: tuple | None = None
+class Mapper(ABC):
+    """Where one assembly's per-pair work runs: ``fn(context, item)`` for each item.
+
+    ``fn`` is a pure function of its arguments defined at a module's top level (a cluster's
+    workers unpickle it by name); ``context`` is what every item needs (the parts' geometry,
+    the tolerances), sent once to each worker; ``items`` are small (part pairs). Whichever
+    implementation computes them, the values are those of a loop in this process, so no
+    report depends on it: :class:`ForkMapper` (forked processes here, the default) or
+    :class:`ndbg_cli.pipeline.cluster.ClusterMapper` (a dask.distributed cluster). The stages
+    receive one and do not know which. A cache in ``context`` (filled by ``fn``) is filled
+    per process: each worker has its own copy."""
+
+    @abstractmethod
+    def imap(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
+             order: Sequence[int] | None = None, *, small: bool = False,
+             meanwhile: Callable[[], Any] | None = None) -> Iterator[tuple[int, Any]]:
+        """``(k, fn(context, items[k]))`` for every ``k``, each as soon as it is known.
+
+        Parameters
+        ----------
+        fn, context, items
+            As in the class's description.
+        order : sequence of int, optional
+            The order in which the items are handed out (e.g. the costliest first, so that no
+            worker is left with a long one at the end); the values may come in that order.
+        small : bool
+            The caller's estimate that the work is too small to pay for starting processes: a
+            pool that would start them computes it in this process instead.
+        meanwhile : callable, optional
+            Called here once while the workers compute (work this process needs later, e.g.
+            loading compiled kernels), or first when there are none.
+
+        Yields
+        ------
+        tuple of (int, object)
+            ``k`` and ``fn(context, items[k])``. An exception ``fn`` raises is raised here,
+            as in a loop; an item whose worker failed otherwise (it died, the cluster lost
+            it) is computed here.
+        """
+
+    def map(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
+            order: Sequence[int] | None = None, *, small: bool = False,
+            meanwhile: Callable[[], Any] | None = None) -> list:
+        """``[fn(context, x) for x in items]``, computed by :meth:`imap` (same parameters)."""
+        out: list = [None] * len(items)
+        for k, value in self.imap(fn, context, items, order, small=small, meanwhile=meanwhile):
+            out[k] = value
+        return out
 
 
-def fork_map(fn: Callable[[Any], Any], items: list, workers: int,
-             order: list[int] | None = None,
-             meanwhile: Callable[[], Any] | None = None) -> list:
-    """``[fn(x) for x in items]``, computed by up to ``workers`` forked processes when
-    ``workers`` > 1 (each takes the next item when done: ``order``, e.g. the costliest first,
-    is the order they are handed out). ``fn`` and ``items`` reach the workers through fork;
-    only the results are pickled. In this process instead when it cannot fork (no ``fork``,
-    a daemonic process), and for what is left when a worker dies. An exception ``fn`` raises
-    is raised here, as in a loop. ``meanwhile``: called here while the workers compute (work
-    this process needs later, e.g. loading compiled kernels), or first without workers."""
-    global _FORK_JOB
-    n = len(items)
-    ctx = None
-    if workers > 1 and n > 1 and not multiprocessing.current_process().daemon:
+@dataclass(frozen=True)
+class ForkMapper(Mapper):
+    """:class:`Mapper` over up to ``workers`` forked processes of this machine; ``workers`` 1
+    (:data:`IN_PROCESS`), or work the caller calls ``small``, is computed in this process, in
+    index order, and so is everything where this process cannot fork (no ``fork``, a daemonic
+    pool worker).
+
+    ``fn``, ``context`` and ``items`` reach the workers through fork (nothing but an index is
+    pickled on the way in; only the values come back pickled). The workers leave Ctrl-C to
+    the parent, which then ends them at once, and exit by themselves within
+    :data:`ORPHAN_POLL` seconds when their parent has died (SIGTERM, SIGKILL); if one dies
+    (out of memory, say), the items not yet done are computed here."""
+
+    workers: int = 1
+
+    def imap(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
+             order: Sequence[int] | None = None, *, small: bool = False,
+             meanwhile: Callable[[], Any] | None = None) -> Iterator[tuple[int, Any]]:
+        n = len(items)
+        ctx = None if small or self.workers <= 1 or n <= 1 else _fork_context()
+        if ctx is None:
+            if meanwhile is not None:
+                meanwhile()
+            for k in range(n):
+                yield k, fn(context, items[k])
+            return
+        order = list(range(n)) if order is None else list(order)
+        pool = ProcessPoolExecutor(max_workers=min(self.workers, n), mp_context=ctx,
+                                   initializer=_fork_init,
+                                   initargs=((fn, context, items), os.getpid()))
+        futures: dict = {}
+        done: set[int] = set()
         try:
-            ctx = multiprocessing.get_context("fork")
-        except ValueError:  # no fork here
-            pass
-    if ctx is None:
-        if meanwhile is not None:
-            meanwhile()
-        return [fn(x) for x in items]
-    _FORK_JOB = (fn, items)
-    pool = ProcessPoolExecutor(max_workers=min(workers, n), mp_context=ctx)
-    done = False
-    futures: dict = {}
+            try:
+                futures = {k: pool.submit(_fork_call, k) for k in order}
+                if meanwhile is not None:
+                    meanwhile()
+                for k in order:
+                    value = futures[k].result()
+                    done.add(k)
+                    yield k, value
+            except BrokenProcessPool:  # a worker died: its values known so far, the rest here
+                for k in order:
+                    if k not in done:
+                        f = futures.get(k)
+                        ok = (f is not None and f.done() and not f.cancelled()
+                              and f.exception() is None)
+                        value = f.result() if ok else fn(context, items[k])
+                        done.add(k)
+                        yield k, value
+        finally:
+            # normal end: the workers are idle; else (Ctrl-C, an error, the caller stopping)
+            # they are ended now rather than after the items under way
+            if len(done) < n:
+                end_pool(pool)
+            else:
+                pool.shutdown(wait=True)
+
+
+#: Computes every item in this process (:class:`ForkMapper` with one worker).
+IN_PROCESS = ForkMapper(1)
+
+
+def _fork_context() -> Any:
+    """The ``fork`` multiprocessing context, or ``None`` where this process cannot start
+    workers by fork (no ``fork`` here, or a daemonic process: a batch's pool worker)."""
+    if multiprocessing.current_process().daemon:
+        return None
     try:
-        futures = {k: pool.submit(_fork_call, k) for k in (order or range(n))}
-        if meanwhile is not None:
-            meanwhile()
-        out = [futures[k].result() for k in range(n)]
-        done = True
-    except BrokenProcessPool:  # a worker died (out of memory, killed): the rest here
-        out = [futures[k].result() if k in futures and futures[k].done()
-               and not futures[k].exception() else fn(items[k]) for k in range(n)]
-    finally:
-        _FORK_JOB = None
-        if done:
-            pool.shutdown(wait=True)
-        else:
-            end_pool(pool)
-    return out
+        return multiprocessing.get_context("fork")
+    except ValueError:  # no fork here
+        return None
+
+
+#: In a :class:`ForkMapper` worker: ``(fn, context, items)``, set by :func:`_fork_init`.
+_FORK_JOB: list = []
+
+
+def _fork_init(job: tuple, parent: int) -> None:
+    """A :class:`ForkMapper` worker's start: ``job`` (inherited through fork, not pickled)
+    kept for :func:`_fork_call`; Ctrl-C left to the parent, SIGTERM fatal, and an exit of its
+    own once the parent is gone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+    _FORK_JOB[:] = [job]
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(ORPHAN_POLL)
+        if os.getppid() != parent:
+            os._exit(1)
 
 
 def _fork_call(k: int) -> Any:
-    fn, items = _FORK_JOB
-    return fn(items[k])
+    fn, context, items = _FORK_JOB[0]
+    return fn(context, items[k])

@@ -7,7 +7,8 @@ reports is byte-identical for ``--jobs 1`` and ``--jobs 8``. An internal error i
 assembly becomes its error record (exit code 3); the others go on. SIGTERM stops the batch:
 pending work is cancelled, the workers are ended, and since reports are written atomically
 (:func:`ndbg_cli.core.files.write_atomic`) only complete files remain. :func:`run_batch_dask`
-does the same on a dask.distributed cluster (``distributed`` is imported only there).
+does the same on a dask.distributed cluster (:mod:`ndbg_cli.pipeline.cluster`, the one module
+that imports ``distributed``), where a single assembly's pair work is spread instead.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
 from ..core.assembly import Assembly
-from ..core.errors import InputError, NdbgError
+from ..core.errors import NdbgError
 from ..core.options import Options
 from ..core.pools import end_pool
 from .analysis import analyze_path, error_record
@@ -117,8 +118,9 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
               debug: bool = False,
               on_loaded: Callable[[Path, Assembly], None] | None = None) -> Iterator[dict]:
     """Yield one report or error record per target, in the order of ``targets``. A single
-    target is analysed here, with ``jobs`` processes for its infinite-translation NDBG
-    (``Options.workers``; same report).
+    target is analysed here, with ``jobs`` processes for its per-pair work (contacts, the
+    infinite-translation NDBG; ``Options.workers``, or ``Options.mapper`` when given; same
+    report).
 
     A worker process that dies (SIGKILL from the out-of-memory killer, a segfault in a
     native library) breaks its pool: the assembly it was analysing gets an error record
@@ -132,6 +134,7 @@ def run_batch(targets: list[Path], options: Options, jobs: int = 1, *,
     # and the batch's own progress bar only
     one = len(targets) == 1
     options = dataclasses.replace(options, workers=jobs if one else 1,
+                                  mapper=options.mapper if one else None,
                                   progress=options.progress and one)
     if jobs <= 1 or len(targets) <= 1:
         for t in targets:
@@ -218,73 +221,57 @@ def _collect(futures: dict[int, Future], ready: dict[int, dict], taken,
             ready[j] = _worker_died(targets[j], code, root)
 
 
-DASK_MISSING = "--scheduler needs dask.distributed: pip install 'ndbg-cli[dask]'"
-#: Seconds to reach an existing scheduler (``$NDBG_SCHEDULER_TIMEOUT`` overrides).
-CONNECT_TIMEOUT = 10.0
-
-
-def connect_timeout() -> float:
-    """:data:`CONNECT_TIMEOUT`, or ``$NDBG_SCHEDULER_TIMEOUT`` seconds when set to a positive
-    number (a malformed value is ignored)."""
-    try:
-        value = float(os.environ.get("NDBG_SCHEDULER_TIMEOUT", ""))
-    except ValueError:
-        return CONNECT_TIMEOUT
-    return value if value > 0 else CONNECT_TIMEOUT
-
-
 def run_batch_dask(targets: list[Path], options: Options, address: str, jobs: int = 1, *,
-                   debug: bool = False) -> Iterator[dict]:
+                   debug: bool = False,
+                   on_loaded: Callable[[Path, Assembly], None] | None = None) -> Iterator[dict]:
     """Like :func:`run_batch`, on a dask.distributed cluster (``ndbg analyze --scheduler``);
-    yields in the order of ``targets``. It submits the same :func:`analyze_one`, so the
-    reports are byte-identical to a local run (``pip install 'ndbg-cli[dask]'``).
+    yields in the order of ``targets``; the reports are byte-identical to a local run
+    (``pip install 'ndbg-cli[dask]'``).
+
+    Several targets: each is one task, the same :func:`analyze_one` on a worker. A single
+    target is analysed here, as by :func:`run_batch`, and its per-pair work (contacts, the
+    infinite-translation NDBG's blocked sets) is computed on the cluster
+    (:class:`~ndbg_cli.pipeline.cluster.ClusterMapper`); ``jobs`` threads and forks here the
+    rest, and ``on_loaded`` is called as by :func:`run_batch`.
 
     ``address`` is ``tcp://HOST:PORT`` of a running scheduler (its workers must see the input
-    files at the same paths), or ``local`` to start a :class:`distributed.LocalCluster` on
-    loopback with ``jobs`` single-threaded worker processes for the duration of the batch.
+    files at the same paths, and import this version of ndbg), or ``local`` to start a
+    :class:`distributed.LocalCluster` on loopback with ``jobs`` single-threaded worker
+    processes (at most one per target in a batch) for the duration of the run.
 
     Connects before returning: a missing ``distributed`` or an unreachable scheduler raises
     :class:`InputError` (exit code 2) here, not while iterating. A task that fails on the
     cluster (a worker died, a result could not be sent) becomes the error record
     :func:`analyze_one` would make (exit code 3); the other targets go on.
     """
+    from .cluster import ClusterMapper, connect
+
+    one = len(targets) == 1
+    client, cluster = connect(address, jobs if one else min(jobs, len(targets)), debug)
+    if one:
+        options = dataclasses.replace(options, workers=jobs, mapper=ClusterMapper(client))
+        return _one_here(client, cluster, targets[0], options, debug, on_loaded)
     # dask workers are daemons (no pools) and their stderr is not ours
-    options = dataclasses.replace(options, workers=1, progress=False)
-    try:
-        import distributed
-    except ImportError:
-        raise InputError(DASK_MISSING) from None
-    if address != "local":
-        from distributed.comm import get_address_host_port
-        try:  # a malformed address would leave a half-made Client behind
-            get_address_host_port(address)
-        except ValueError as exc:
-            raise InputError(f"--scheduler {address}: {exc} (give tcp://HOST:PORT or local)"
-                             ) from None
-    cluster = None
-    try:
-        if address == "local":
-            import logging
-            cluster = distributed.LocalCluster(
-                n_workers=max(1, min(jobs, len(targets))), threads_per_worker=1,
-                processes=True, host="127.0.0.1", dashboard_address=None,
-                # shutdown races (a worker's last heartbeat to a closed scheduler) are logged
-                # as errors with tracebacks: not ours to show unless --debug
-                silence_logs=logging.ERROR if debug else logging.CRITICAL + 1)
-            client = distributed.Client(cluster, set_as_default=False)
-        else:
-            client = distributed.Client(address, timeout=connect_timeout(), set_as_default=False)
-    except Exception as exc:
-        if cluster is not None:
-            cluster.close()
-        where = "start a local dask cluster" if address == "local" else \
-            f"reach the dask scheduler at {address}"
-        raise InputError(f"cannot {where}: {exc.__class__.__name__}: {exc}") from None
+    options = dataclasses.replace(options, workers=1, mapper=None, progress=False)
     return _gather_in_order(client, cluster, targets, options, debug)
+
+
+def _one_here(client, cluster, target: Path, options: Options, debug: bool,
+              on_loaded: Callable[[Path, Assembly], None] | None) -> Iterator[dict]:
+    """:func:`run_batch_dask`'s single target, analysed in this process (its pair work on the
+    cluster); the client and the cluster are closed once it is done or abandoned."""
+    from .cluster import disconnect
+
+    try:
+        yield analyze_one(target, options, debug, on_loaded)
+    finally:
+        disconnect(client, cluster, debug)
 
 
 def _gather_in_order(client, cluster, targets: list[Path], options: Options,
                      debug: bool) -> Iterator[dict]:
+    from .cluster import disconnect
+
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
     futures: list = []
     try:
@@ -303,19 +290,4 @@ def _gather_in_order(client, cluster, targets: list[Path], options: Options,
             yield result
     finally:
         signal.signal(signal.SIGTERM, previous)
-        pending = [f for f in futures if f is not None]
-        quiet = None
-        if cluster is not None and not debug:
-            import logging
-            quiet = logging.getLogger("distributed")
-            level = quiet.level
-            quiet.setLevel(logging.CRITICAL + 1)
-        try:
-            if pending:
-                client.cancel(pending)
-            client.close()
-        finally:
-            if cluster is not None:
-                cluster.close()
-            if quiet is not None:
-                quiet.setLevel(level)
+        disconnect(client, cluster, debug, [f for f in futures if f is not None])

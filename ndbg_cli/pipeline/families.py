@@ -86,7 +86,8 @@ def infinite(asm: Assembly, options: Options, threaded: set, connected, cache=No
         if domain is None:
             return None
     nd = block_threads(build_infinite(asm, cache, domain, workers=options.workers,
-                                           progress=options.progress), threaded)
+                                      progress=options.progress, mapper=options.mapper),
+                       threaded)
     parts, trunc = partitionings(nd, limit=options.max_partitions, connected=connected)
     sec = infinite_section(asm, nd, parts, trunc)
     if domain is not None:

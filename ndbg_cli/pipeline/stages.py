@@ -145,7 +145,7 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
 
         ca = clock("contacts_s", lambda: analyze_contacts(
             asm, tolerance=options.tolerance, cache=cache, workers=options.workers,
-            meanwhile=_load_kernels if options.workers > 1 else None))
+            meanwhile=_load_kernels if options.workers > 1 else None, mapper=options.mapper))
         warnings += check_interference_policy(asm, ca, options.interference)
         sec = contacts_section(asm, ca)
         # wall-clock phases go to the report's timings (kept out unless asked for)

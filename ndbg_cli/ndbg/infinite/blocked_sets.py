@@ -19,6 +19,7 @@ import shapely
 
 from ...core.assembly import Assembly, content_hash
 from ...core.cache import PairCache
+from ...core.pools import ForkMapper, Mapper
 from ...core.progress import progress as bar
 from ..dbg import DBG
 from .blocking_cones import closed_parts, part_triangles, unique_circles
@@ -253,16 +254,17 @@ def triangle_pairs(asm: Assembly) -> int:
 
 def blocked_sets(asm: Assembly, cache: PairCache | None = None,
                  domain: np.ndarray | None = None, workers: int = 1,
-                 progress: bool = False) -> BlockedSets:
+                 progress: bool = False, mapper: Mapper | None = None) -> BlockedSets:
     """``B_ij`` for every ordered pair of parts, on the cube map. Each unordered pair is computed
     once, the part with fewer triangles moving, and the other order is its antipodal image
     (:func:`reverse_entries`; exact: ``B_ji = -B_ij``). With ``cache``, each computed pair's cones
     and chart polygons are looked up by the two parts' content hashes and the tolerance
     (:mod:`ndbg_cli.core.cache`). With ``domain`` (``(6, r, r)`` bool cube-map cells, symmetric
     under ``d -> -d``, :func:`ndbg_cli.ndbg.infinite.domain.free_domain`) the sets are right only
-    inside those cells, and computed only there. ``workers``: processes computing the pairs
-    (:func:`ndbg_cli.ndbg.infinite.pair_workers.pair_sets`; the result does not depend on it);
-    ``progress``: a bar over the pairs on stderr (a terminal only)."""
+    inside those cells, and computed only there. ``mapper`` computes the pairs
+    (:func:`ndbg_cli.ndbg.infinite.pair_workers.pair_sets`; default: ``workers`` forked
+    processes; the result does not depend on it); ``progress``: a bar over the pairs on stderr
+    (a terminal only)."""
     if domain is not None and not antipodal_symmetric(domain):
         # B_ji is made from B_ij on the opposite face: both must lie in the domain
         raise ValueError("the domain must be symmetric under d -> -d")
@@ -324,7 +326,8 @@ def blocked_sets(asm: Assembly, cache: PairCache | None = None,
     # each pair cached as soon as it is done (an interrupted run keeps them); the times are
     # summed over the workers (CPU seconds, not wall time, with several)
     dom = None if domain is None else domain_polygons(domain)
-    done = pair_sets(tris, todo, eps, domain, workers, dom)
+    done = pair_sets(tris, todo, eps, domain, ForkMapper(workers) if mapper is None else mapper,
+                     dom)
     cuts: list[dict] = [{} for _ in range(6)]
     for k, (cones, circ, entries, dt_cones, dt_union, made) in bar(
             done, len(todo), "part pairs", quiet=not progress):

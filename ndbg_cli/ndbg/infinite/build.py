@@ -23,6 +23,7 @@ from ...core.cache import PairCache
 from ...core.constants import INFINITE
 from ...core.errors import NdbgError
 from ...core.gc_pause import gc_paused
+from ...core.pools import Mapper
 from ..dbg import DBG
 from ..model import NDBG, Region
 from . import equator
@@ -213,22 +214,26 @@ SLIDING_BLOCK = 1024
 # with exactly zero clearance counts as blocked.
 def build_infinite(asm: Assembly, cache: PairCache | None = None,
                    domain: np.ndarray | None = None, workers: int = 1,
-                   progress: bool = False) -> NDBG:
+                   progress: bool = False, mapper: Mapper | None = None) -> NDBG:
     """The NDBG for infinite translations of ``asm``: one region per cell of the arrangement
     (2/1/0-dimensional on S^2; 1/0 on S^1 for 2D assemblies), each with its DBG. ``cache`` reuses
     per-pair blocked sets (:func:`blocked_sets`). With ``domain`` (3D only; cube-map cells,
     :func:`ndbg_cli.ndbg.infinite.domain.free_domain`) only the cells of the arrangement inside it
     are regions, cut by its boundary: right for the whole assembly's partitionings (none lies
     outside), not for its subassemblies'; the stats say ``restricted``. ``progress``: a bar on
-    stderr over the part pairs (:mod:`ndbg_cli.core.progress`: on a terminal only)."""
+    stderr over the part pairs (:mod:`ndbg_cli.core.progress`: on a terminal only). ``mapper``
+    computes the part pairs' blocked sets (:class:`~ndbg_cli.core.pools.Mapper`; default:
+    ``workers`` forked processes), ``workers`` threads the arrangement here; the NDBG does not
+    depend on either."""
     with gc_paused():
-        return _build(asm, cache, domain, workers, progress)
+        return _build(asm, cache, domain, workers, progress, mapper)
 
 
 def _build(asm: Assembly, cache: PairCache | None, domain: np.ndarray | None, workers: int,
-           progress: bool) -> NDBG:
+           progress: bool, mapper: Mapper | None) -> NDBG:
     t0 = time.perf_counter()
-    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers, progress)
+    bs = blocked_sets(asm, cache, domain if asm.dimension == 3 else None, workers, progress,
+                      mapper)
     t1 = time.perf_counter()
     skipped = 0
     if asm.dimension == 2:

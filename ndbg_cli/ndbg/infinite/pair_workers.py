@@ -1,30 +1,22 @@
-"""The blocked sets of many part pairs, in worker processes or not (:func:`pair_sets`).
+"""The blocked sets of many part pairs, by a :class:`~ndbg_cli.core.pools.Mapper`
+(:func:`pair_sets`).
 
 Each pair's set (:func:`one_pair`: the pruned terms, their chart polygons and union) is a pure
 function of the two parts' triangles, the tolerance and the domain, so the results do not
-depend on how many workers compute them, nor on which, and the NDBG built from them is
-byte-identical for any ``workers``. A pool is started only when the work is worth it
-(:data:`MIN_PARALLEL_PAIRS` triangle pairs). Workers leave Ctrl-C to the parent, which then
-ends them at once; a worker whose parent has died (SIGTERM, SIGKILL) exits by itself within
-:data:`ORPHAN_POLL` seconds; if a worker dies (out of memory, say), the pairs not yet done are
-computed in this process.
+depend on how many workers compute them, nor on which, nor where (forked processes here, a
+dask cluster), and the NDBG built from them is byte-identical for any. Forked workers are
+started only when the work is worth it (:data:`MIN_PARALLEL_PAIRS` triangle pairs).
 """
 
 from __future__ import annotations
 
-import gc
-import os
-import signal
-import threading
 import time
 from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 import shapely
 
-from ...core.pools import end_pool
+from ...core.pools import IN_PROCESS, Mapper
 from .blocking_cones import pruned_pair_cones
 from .chart_union import antipodal, cones_to_face_geoms, cut_to_domain
 from .domain import domain_polygons, domain_windows
@@ -33,16 +25,11 @@ from .tritree import LEAF, tri_tree
 #: Fewest (moving x blocking) triangle pairs, summed over the pairs to compute, for which
 #: worker processes are started (below it their start-up costs more than they save).
 MIN_PARALLEL_PAIRS = 1_000_000
-#: Seconds between a worker's checks that its parent is alive.
-ORPHAN_POLL = 0.5
-
 #: Leaf size of the triangle trees with a domain (the NDBG restricted to small caps): larger
 #: leaves than on the whole sphere, since most of a leaf pair's terms are then dropped by
 #: the cheap window tests before their facets are computed, and fewer node pairs are tested
 #: (benchmarks/NOTES.md). The whole sphere keeps :data:`~ndbg_cli.ndbg.infinite.tritree.LEAF`.
 DOMAIN_LEAF = 16
-
-_STATE: dict = {}
 
 
 def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: int,
@@ -83,63 +70,27 @@ def one_pair(tris: list[tuple[np.ndarray, np.ndarray]], trees: list, a: int, b: 
     return cones, circ, faces, t1 - t0, time.perf_counter() - t1, cuts
 
 
-def _watch_parent(parent: int) -> None:
-    while True:
-        time.sleep(ORPHAN_POLL)
-        if os.getppid() != parent:
-            os._exit(1)
-
-
-def _init(tris: list, eps: float, domain: np.ndarray | None, dom: list | None,
-          parent: int) -> None:
-    gc.disable()  # as in the parent (ndbg_cli.core.gc_pause.gc_paused); the pool is short-lived
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
-    _STATE.update(tris=tris, eps=eps, domain=domain, trees=[None] * len(tris), dom=dom,
-                  memo=[{} for _ in range(6)])
-
-
-def _work(pair: tuple[int, int]) -> tuple:
-    return one_pair(_STATE["tris"], _STATE["trees"], pair[0], pair[1], _STATE["eps"],
-                    _STATE["domain"], _STATE["dom"], _STATE["memo"])
+def _pair_blocked_sets(context: tuple, pair: tuple[int, int]) -> tuple:
+    """:func:`one_pair` of ``pair``, as :func:`pair_sets`'s mapper computes it: ``context`` is
+    ``(tris, eps, domain, dom, trees, memo)``, the last two caches filled per process."""
+    tris, eps, domain, dom, trees, memo = context
+    return one_pair(tris, trees, pair[0], pair[1], eps, domain, dom, memo)
 
 
 def pair_sets(tris: list[tuple[np.ndarray, np.ndarray]], pairs: list[tuple[int, int]],
-              eps: float, domain: np.ndarray | None = None, workers: int = 1,
+              eps: float, domain: np.ndarray | None = None, mapper: Mapper = IN_PROCESS,
               dom: list | None = None) -> Iterator[tuple[int, tuple]]:
     """:func:`one_pair` for each ordered pair ``(a, b)`` of ``pairs``, as ``(k, result)`` for
-    ``pairs[k]``, each as soon as it is done (so that a caller can cache it), with up to ``workers``
-    processes (one: in this process, in order). ``dom``: the domain's polygons
-    (:func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`) when the caller has them, else made
-    here."""
+    ``pairs[k]``, each as soon as it is done (so that a caller can cache it), computed by
+    ``mapper`` (:class:`~ndbg_cli.core.pools.Mapper`; default: in this process, in order).
+    ``dom``: the domain's polygons (:func:`~ndbg_cli.ndbg.infinite.domain.domain_polygons`)
+    when the caller has them, else made here."""
     cost = sum(len(tris[a][0]) * len(tris[b][0]) for a, b in pairs)
-    trees: list = [None] * len(tris)
     if dom is None and domain is not None:
         dom = domain_polygons(domain)
-    if workers <= 1 or len(pairs) < 2 or cost < MIN_PARALLEL_PAIRS:
-        memo: list[dict] = [{} for _ in range(6)]
-        for k, (a, b) in enumerate(pairs):
-            yield k, one_pair(tris, trees, a, b, eps, domain, dom, memo)
-        return
     # the costliest pairs first, so that no worker is left with a long one at the end
     order = sorted(range(len(pairs)), key=lambda k: -len(tris[pairs[k][0]][0])
                    * len(tris[pairs[k][1]][0]))
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(pairs)), initializer=_init,
-                               initargs=(tris, eps, domain, dom, os.getpid()))
-    done: set[int] = set()
-    try:
-        for k, r in zip(order, pool.map(_work, [pairs[k] for k in order])):
-            done.add(k)
-            yield k, r
-    except BrokenProcessPool:  # a worker died: the rest here
-        for k in order:
-            if k not in done:
-                yield k, one_pair(tris, trees, *pairs[k], eps, domain)  # cut by the caller
-    finally:
-        # normal end: the workers are idle; else (Ctrl-C, an error, the caller stopping)
-        # they are ended now rather than after the pairs under way
-        if len(done) < len(pairs):
-            end_pool(pool)
-        else:
-            pool.shutdown(wait=True)
+    context = (tris, eps, domain, dom, [None] * len(tris), [{} for _ in range(6)])
+    yield from mapper.imap(_pair_blocked_sets, context, pairs, order,
+                           small=cost < MIN_PARALLEL_PAIRS)
