@@ -394,6 +394,28 @@ def _other(rows: Rows, root: int, strategy: str, natural: int, base: int | None,
     return {"strategy": strategy, **measures(rows, root, got.splits)}
 
 
+def shallowest(chosen: Plan, depth: dict | None, graph: Any, base: int | None, budget: Any,
+               best: int) -> list | None:
+    """The steps of a candidate tree of the family's least depth (``depth``, its classes'
+    ``min_depth``), when that minimum is exact and the proven trees found so far are deeper
+    (``best``; the plan's sides are kept connected, the other proofs follow other
+    objectives): proven, it makes the proven minimum depth exact whatever trees the greedy
+    proofs happen to find (they depend on the frame and the part order; issue 34's
+    invariance). ``graph``: the family's AND/OR graph, reused. ``None`` when there is nothing
+    to gain (:func:`prove_plan`'s ``shallow``)."""
+    depth = depth or {}
+    if not depth.get("exact") or depth.get("value") is None or best <= depth["value"]:
+        return None
+    from ..planning.plans import plan
+
+    p = plan(chosen.ndbg, "shortest", base=base, connected=None, budget=budget, graph=graph)
+    if not p.found or p.depth() != depth["value"]:
+        return None
+    nd = p.ndbg
+    return [(s.mask, s.moved, None if s.region is None else nd.regions[s.region].direction)
+            for s in p.sequence()]
+
+
 def proven_classes(plan: dict, candidates: dict, base: str | None = None) -> dict:
     """The infinite-translation classes a proven plan (or a proof that none exists) decides,
     for a report whose infinite NDBG was not computed over the whole sphere: ``plan`` is the

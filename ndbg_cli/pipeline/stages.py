@@ -519,7 +519,7 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
     """:func:`~ndbg_cli.pipeline.proofs.prove_plan` on the chosen plan, with the
     :data:`PROOF_STRATEGIES` whose proven trees could prove more than it (fewer directions,
     or a linear tree, when the candidates' minimum allows it) as ``others``."""
-    from .proofs import prove_plan
+    from .proofs import prove_plan, shallowest
 
     classes = measures.classes.get(chosen.ndbg.family) or {}
     least = {"fewest-directions": (classes.get("min_directions") or {}).get("value"),
@@ -531,29 +531,9 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
               and (not classes or (least[s] is not None and has[s] > least[s]))]
     return prove_plan(asm, contacts.analysis, chosen, strategy=options.strategy, base=base,
                       connected=conn, others=others, budget=options.infinite_budget,
-                      shallow=lambda best: _shallowest(chosen, classes, measures, base,
-                                                       budget, best))
-
-
-def _shallowest(chosen: Any, classes: dict, measures: Measures, base: int | None,
-                budget: Any, best: int) -> list | None:
-    """The steps of a candidate tree of the family's least depth, when that minimum is exact
-    and the proven trees found so far are deeper (``best``; the plan's sides are kept
-    connected, the other proofs follow other objectives): proven, it makes the proven
-    minimum depth exact whatever trees the greedy proofs happen to find (they depend on the
-    frame and the part order; issue 34's invariance). ``None`` when there is nothing to gain."""
-    depth = classes.get("min_depth") or {}
-    if not depth.get("exact") or depth.get("value") is None or best <= depth["value"]:
-        return None
-    from ..planning.plans import plan
-
-    p = plan(chosen.ndbg, "shortest", base=base, connected=None, budget=budget,
-             graph=measures.graphs.get(chosen.ndbg.family))
-    if not p.found or p.depth() != depth["value"]:
-        return None
-    nd = p.ndbg
-    return [(s.mask, s.moved, None if s.region is None else nd.regions[s.region].direction)
-            for s in p.sequence()]
+                      shallow=lambda best: shallowest(chosen, classes.get("min_depth"),
+                                                      measures.graphs.get(chosen.ndbg.family),
+                                                      base, budget, best))
 
 
 def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
