@@ -44,15 +44,23 @@ def own_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache"))
 
 
-def test_local_cluster_is_byte_identical_to_a_local_run(tmp_path, monkeypatch):
-    src, _ = make_three(tmp_path)
-    args = ("analyze", src, "--format", "jsonl", "--motion", "translation")
+def _plain_and_local_cluster(tmp_path, monkeypatch, *args):
+    """``ndbg *args`` with ``--jobs 1``, then with ``--scheduler local --jobs 2``, each with a
+    cache folder of its own (the second computes, it does not read the first's results);
+    both must succeed. Returns the two runs."""
     monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-plain"))
     plain = run_cli(*args, "--jobs", "1")
-    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-dask"))  # computed, not read
+    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-dask"))
     dask = run_cli(*args, "--scheduler", "local", "--jobs", "2")
     assert plain.returncode == 0, plain.stderr
     assert dask.returncode == 0, dask.stderr
+    return plain, dask
+
+
+def test_local_cluster_is_byte_identical_to_a_local_run(tmp_path, monkeypatch):
+    src, _ = make_three(tmp_path)
+    plain, dask = _plain_and_local_cluster(tmp_path, monkeypatch, "analyze", src, "--format",
+                                           "jsonl", "--motion", "translation")
     assert len(plain.stdout.splitlines()) == 3
     assert dask.stdout == plain.stdout
     assert "Traceback" not in dask.stderr
@@ -131,13 +139,8 @@ def test_one_assembly_on_a_local_cluster_gives_the_report_of_one_process(tmp_pat
     byte-identical to ``--jobs 1``'s. A rack of 5 boards (21 parts), translations only (its
     whole-sphere infinite NDBG alone takes half a minute; the next test has that stage)."""
     path = _rack(tmp_path / "src", 5)
-    args = ("analyze", path, "--format", "json", "--detail", "full", "--motion", "translation")
-    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-plain"))
-    plain = run_cli(*args, "--jobs", "1")
-    monkeypatch.setenv("NDBG_CACHE_DIR", str(tmp_path / "cache-dask"))  # computed, not read
-    dask = run_cli(*args, "--scheduler", "local", "--jobs", "2")
-    assert plain.returncode == 0, plain.stderr
-    assert dask.returncode == 0, dask.stderr
+    plain, dask = _plain_and_local_cluster(tmp_path, monkeypatch, "analyze", path, "--format",
+                                           "json", "--detail", "full", "--motion", "translation")
     report = json.loads(plain.stdout)
     assert len(report["assembly"]["parts"]) == 21
     assert len(report["contact_stats"]["touching_pairs"]) == 32
