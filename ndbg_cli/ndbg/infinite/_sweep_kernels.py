@@ -117,6 +117,29 @@ def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
 
 
 @njit(cache=True)
+def front_polygons(pi: np.ndarray, pj: np.ndarray, pairs: np.ndarray, amin: float,
+                   tau: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`front_overlap` of each row ``(k_i, k_j)`` of ``pairs``: the vertices, closed
+    rings one after another ``(v, 2)``, and each ring's vertex count (its first vertex
+    repeated; 0 for a pair whose overlap is empty), for shapely's ragged constructors."""
+    buf = np.empty((4, MAX_VERTICES))
+    poly = np.empty((2, MAX_VERTICES))
+    coords = np.empty((pairs.shape[0] * (MAX_VERTICES + 1), 2))
+    counts = np.zeros(pairs.shape[0], np.int64)
+    m = 0
+    for q in range(pairs.shape[0]):
+        n = front_overlap(pi[pairs[q, 0]], pj[pairs[q, 1]], amin, tau, buf, poly)
+        if n < 3:
+            continue
+        for k in range(n + 1):
+            coords[m, 0] = poly[0, k % n]
+            coords[m, 1] = poly[1, k % n]
+            m += 1
+        counts[q] = n + 1
+    return coords[:m], counts
+
+
+@njit(cache=True)
 def polygon_perimeter(px: np.ndarray, py: np.ndarray, n: int) -> float:
     """The perimeter of the polygon ``(px, py)[:n]``."""
     s = 0.0

@@ -28,6 +28,7 @@ from ._sweep_kernels import (
     boxes,
     first_blocking,
     front_overlap,
+    front_polygons,
     overlap_centroid,
     plane,
 )
@@ -157,24 +158,37 @@ class SweepChecker:
                     ) -> tuple[np.ndarray, np.ndarray] | None:
         """Whether the narrow overlaps of ``pairs`` (each too narrow alone to hold a disk of
         diameter ``eps``) hold one together: their union, closed over cracks of
-        :attr:`_tiny` (adjacent triangles' overlaps are clipped apart in floating point),
-        shrunk by ``eps / 2``. A faceted rod in a faceted hole leaves slivers around the
-        rod no wider than the facets' sagitta, within the tolerance: it slides; a face
-        tessellated into slivers still blocks. Returns a pair of the union where it holds
-        one (the witness), else ``None``."""
+        :attr:`_tiny` (adjacent triangles' overlaps, clipped apart in floating point, leave
+        cracks that would split it), shrunk by ``eps / 2``. A faceted rod in a faceted hole
+        leaves slivers around the rod no wider than the facets' sagitta, within the
+        tolerance: it slides; a face tessellated into slivers still blocks. Returns a pair
+        of the union where it holds one (the witness), else ``None``."""
         import shapely
 
-        buf, out = np.empty((4, MAX_VERTICES)), np.empty((2, MAX_VERTICES))
-        polys = []
-        for a, b in pairs.tolist():
-            n = front_overlap(pi[a], pj[b], self._amin, 1e-3 * self.eps, buf, out)
-            polys.append(shapely.Polygon(out[:, :n].T) if n >= 3 else shapely.Polygon())
-        core = shapely.union_all(shapely.buffer(polys, self._tiny)).buffer(
-            -(0.5 * self.eps + self._tiny))
+        coords, counts = front_polygons(pi, pj, pairs, self._amin, 1e-3 * self.eps)
+        kept = np.flatnonzero(counts)
+        if not len(kept):
+            return None
+        rings = shapely.linearrings(coords, indices=np.repeat(np.arange(len(kept)),
+                                                              counts[kept]))
+        polys = shapely.polygons(rings)
+        # the union holds a disk of diameter eps only if their areas add up to the disk's
+        if float(shapely.area(polys).sum()) < np.pi * (0.5 * self.eps) ** 2:
+            return None
+        bad = ~shapely.is_valid(polys)  # clipped to slivers with repeated vertices
+        polys[bad] = shapely.make_valid(polys[bad])
+        try:
+            core = shapely.union_all(polys).buffer(self._tiny)
+        except shapely.errors.GEOSException:  # a degenerate union: each closed first
+            try:
+                core = shapely.union_all(shapely.buffer(polys, self._tiny))
+            except shapely.errors.GEOSException:  # undecided: blocked, never freed wrongly
+                return pi[pairs[kept[0], 0]], pj[pairs[kept[0], 1]]
+        core = core.buffer(-(0.5 * self.eps + self._tiny))
         if core.is_empty:
             return None
-        hit = shapely.intersects(polys, core)
-        a, b = pairs[int(np.flatnonzero(hit)[0]) if hit.any() else 0]
+        hit = np.flatnonzero(shapely.intersects(polys, core))
+        a, b = pairs[kept[hit[0]] if len(hit) else kept[0]]
         return pi[a], pj[b]
 
     def blockers(self, i: int, d: np.ndarray) -> int:
