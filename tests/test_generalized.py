@@ -389,9 +389,9 @@ def test_contact_rows_turns_each_cylinder_about_its_own_axis():
             blocking="all")]
     idx = {"a": 0, "b": 1, "c": 2}
 
-    class _Asm:  # contact_rows needs ids, bounds and the tolerance only
+    class _Asm:  # contact_rows needs ids, the size, the centre and the tolerance only
         length_tolerance = 1e-6
-        bounds = np.array([[-10, -10, -10], [10, 10, 10.0]])
+        size, centre = float(np.sqrt(1200.0)), np.zeros(3)  # a 20 mm cube's, at the origin
 
         def __len__(self):
             return 3
@@ -424,9 +424,9 @@ def test_edge_contact_blocks_only_when_every_normal_does():
     asm_like = [e]
     idx = {"a": 0, "b": 1}
 
-    class _Asm:  # contact_rows needs ids, bounds and the tolerance only
+    class _Asm:  # contact_rows needs ids, the size, the centre and the tolerance only
         length_tolerance = 1e-9
-        bounds = np.array([[0, 0, 0], [1, 1, 1.0]])
+        size, centre = float(np.sqrt(3.0)), np.full(3, 0.5)  # the unit cube's
         parts = (0, 1)
 
         def __len__(self):

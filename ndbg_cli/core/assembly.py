@@ -190,6 +190,15 @@ class Assembly:
         changes when the model turns (by up to a factor of 1.7), and so did every tolerance
         derived from it: the engine's default tolerance was 0.084 in its file's frame and
         0.098 after a turn, and a contact became an interference (issue 34's invariance)."""
+        return self._measure()[0]
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The centroid of the parts' convex hull (the point :attr:`size` is measured from):
+        a point of the model that moves with it, unlike the bounding box's centre."""
+        return self._measure()[1].copy()
+
+    def _measure(self) -> tuple[float, np.ndarray]:
         got = self.__dict__.get("_size")
         if got is None:
             got = _size(self)
@@ -230,17 +239,18 @@ class Assembly:
         return [d for d in self.diagnostics if d.level == "warning"]
 
 
-def _size(asm: Assembly) -> float:
-    """:attr:`Assembly.size`: from the convex hull of every vertex (2D: polygon corner), its
-    volume (area) centroid; points that span no volume (a flat or empty model) are measured
-    from their mean instead."""
+def _size(asm: Assembly) -> tuple[float, np.ndarray]:
+    """:attr:`Assembly.size` and :attr:`Assembly.centre`: from the convex hull of every vertex
+    (2D: polygon corner), its volume (area) centroid; points that span no volume (a flat or
+    empty model) are measured from their mean instead."""
     from scipy.spatial import ConvexHull, QhullError
 
     pts = [np.asarray(p.mesh.vertices, float) if p.mesh is not None
            else np.asarray(p.polygon.exterior.coords, float)[:, :asm.dimension]
            for p in asm.parts if p.mesh is not None or p.polygon is not None]
     if not pts:
-        return float(np.linalg.norm(np.diff(asm.bounds, axis=0)))
+        lo, hi = asm.bounds
+        return float(np.linalg.norm(hi - lo)), (lo + hi) / 2
     x = np.unique(np.concatenate(pts), axis=0)
     try:
         hull = ConvexHull(x)
@@ -253,4 +263,4 @@ def _size(asm: Assembly) -> float:
     except (QhullError, ValueError):
         v = x
         c = x.mean(axis=0)
-    return 2.0 * float(np.sqrt(((v - c) ** 2).sum(axis=1).max()))
+    return 2.0 * float(np.sqrt(((v - c) ** 2).sum(axis=1).max())), c

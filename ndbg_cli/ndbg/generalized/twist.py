@@ -24,7 +24,8 @@ from scipy.spatial import ConvexHull
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 
-# Scaling. With L the bounding-box diagonal and c its centre, the LP works with the scaled,
+# Scaling. With L the model's size and c its centre (Assembly.size and .centre: they turn with
+# the model, as the bounding box's diagonal and centre do not), the LP works with the scaled,
 # centred twist x = (v + w x c, L w): both halves are speeds in assembly units (the rotational
 # half is that of a point at distance L from the axis), so the box |x_i| <= 1 treats
 # translation and rotation alike and every row g' = (n, (p - c) x n / L) has speeds of order 1.
@@ -384,14 +385,12 @@ def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
         info.append((k, a, b))
         pts_l.append(pts)
         nrm_l.append(pn)
-    lo, hi = asm.bounds if len(asm) else (np.zeros(3), np.ones(3))
-    lo, hi = _pad3(np.asarray(lo, float)), _pad3(np.asarray(hi, float))
-    scale = max(float(np.linalg.norm(hi - lo)), tol, 1e-12)
+    centre, scale = _frame_free(asm, tol)
     planar = getattr(asm, "dimension", 3) == 2
     if not info:
         z = np.zeros((0, 3))
         e = np.zeros(0, dtype=int)
-        return ContactRows(z, z, e, e, e, len(asm), (lo + hi) / 2, scale, tol, e, planar)
+        return ContactRows(z, z, e, e, e, len(asm), centre, scale, tol, e, planar)
     if todo:  # unit point normals, signed per contact
         normed = unit(np.concatenate([nrm_l[i] for i, _ in todo]))
         at = np.cumsum([0] + [len(nrm_l[i]) for i, _ in todo]).tolist()
@@ -428,7 +427,7 @@ def contact_rows(asm: Assembly, contacts: Iterable[Any]) -> ContactRows:
         P, N, new = (np.concatenate(x) for x in zip(*parts))
         seg = np.repeat(np.arange(len(info)), [len(x[0]) for x in parts])
     ids = np.array(info, dtype=np.int64)[seg]
-    return ContactRows(P, N, ids[:, 1], ids[:, 2], ids[:, 0], len(asm), (lo + hi) / 2, scale,
+    return ContactRows(P, N, ids[:, 1], ids[:, 2], ids[:, 0], len(asm), centre, scale,
                        tol, np.cumsum(new) - 1, planar)
 
 
@@ -575,3 +574,14 @@ def classify(xi: np.ndarray, *, length_tol: float, scale: float,
         kind, pitch = "rotation", 0.0
     return Motion(kind, tuple(np.concatenate([v, w]).tolist()), tuple(w.tolist()),
                   tuple(q.tolist()), pitch, broken, margin)
+
+
+def _frame_free(asm: Assembly, tol: float) -> tuple[np.ndarray, float]:
+    """The LP's centre ``c`` and scale ``L`` (see the scaling note above): the model's
+    :attr:`~ndbg_cli.core.assembly.Assembly.centre` and
+    :attr:`~ndbg_cli.core.assembly.Assembly.size`, which move and turn with it (a bounding
+    box's centre and diagonal do not: the engine's generalized partitionings changed with a
+    turn); an empty model's, the unit box's."""
+    if not len(asm):
+        return np.full(3, 0.5), max(float(np.sqrt(3.0)), tol)
+    return _pad3(np.asarray(asm.centre, float)), max(float(asm.size), tol, 1e-12)
