@@ -251,7 +251,8 @@ def _size(asm: Assembly) -> tuple[float, np.ndarray]:
     if not pts:
         lo, hi = asm.bounds
         return float(np.linalg.norm(hi - lo)), (lo + hi) / 2
-    x = np.unique(np.concatenate(pts), axis=0)
+    x = np.concatenate(pts)
+    x = x[np.lexsort(x.T[::-1])]  # one order whatever the part order: the same float sums
     try:
         hull = ConvexHull(x)
         v = x[hull.vertices]
