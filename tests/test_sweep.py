@@ -10,7 +10,7 @@ from ndbg_cli.io.validate import make_part
 from ndbg_cli.ndbg.infinite._sweep_kernels import (
     MAX_VERTICES,
     clip_half_plane,
-    overlap_in_front,
+    front_overlap,
     plane,
     polygon_area,
 )
@@ -69,6 +69,14 @@ def test_box_on_box_blocked_down_free_up_and_sideways_only_when_clear():
     assert s.dbg(np.array([0, 0, -1.0])).succ != s.dbg(np.array([0, 0, 1.0])).succ
 
 
+def _in_front(ti, tj, amin, tau, area_min, buf):
+    """Whether ``ti`` and ``tj`` overlap over an area above ``amin`` and ``tj`` is in front
+    over an area above ``area_min``, by the kernel (:func:`front_overlap`'s polygon)."""
+    out = np.empty((2, MAX_VERTICES))
+    n = front_overlap(ti, tj, amin, tau, buf, out)
+    return polygon_area(out[0], out[1], n) > area_min
+
+
 def test_triangle_pair_test_matches_shapely_on_random_pairs():
     # an independent reference: shapely's intersection of the two triangles (their overlap),
     # then of that with the region where t_j is in front of t_i (z_j - z_i >= -tau)
@@ -94,7 +102,7 @@ def test_triangle_pair_test_matches_shapely_on_random_pairs():
             want = ref.area > amin and front > amin2
             if abs(ref.area - amin) < 1e-9 or abs(front - amin2) < 1e-9:
                 continue
-            assert overlap_in_front(ti[q], tj[q], amin, 0.0, amin2, buf) == want, q
+            assert _in_front(ti[q], tj[q], amin, 0.0, amin2, buf) == want, q
         seen["overlap"] += ref.area > 0
         seen["in_front"] += front > 0
         seen["partly"] += 0 < front < ref.area - 1e-9

@@ -105,18 +105,6 @@ def front_overlap(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float, buf: 
 
 
 @njit(cache=True)
-def overlap_in_front(ti: np.ndarray, tj: np.ndarray, amin: float, tau: float,
-                     area_min: float, buf: np.ndarray) -> bool:
-    """Whether projected triangles ``ti``, ``tj`` ``(3, 3)`` (u, v, z) overlap over an area above
-    ``amin`` and ``tj`` is not behind ``ti`` (``z_j - z_i >= -tau``) over an area above
-    ``area_min`` of that overlap (:func:`front_overlap`). ``buf`` ``(4, MAX_VERTICES)`` is
-    scratch space."""
-    out = np.empty((2, MAX_VERTICES))
-    n = front_overlap(ti, tj, amin, tau, buf, out)
-    return polygon_area(out[0], out[1], n) > area_min
-
-
-@njit(cache=True)
 def front_polygons(pi: np.ndarray, pj: np.ndarray, pairs: np.ndarray, amin: float,
                    tau: float) -> tuple[np.ndarray, np.ndarray]:
     """:func:`front_overlap` of each row ``(k_i, k_j)`` of ``pairs``: the vertices, closed

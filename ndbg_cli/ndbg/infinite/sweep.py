@@ -24,10 +24,8 @@ from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
 from ._sweep_kernels import (
-    MAX_VERTICES,
     boxes,
     first_blocking,
-    front_overlap,
     front_polygons,
     overlap_centroid,
     plane,
@@ -223,7 +221,7 @@ def warm_up() -> None:
     t[0, 1, 0] = t[0, 2, 1] = 1.0
     b = boxes(t)
     first_blocking(t, t, b, b, 1e-9, 1e-18, 1e-9)
-    front_overlap(t[0], t[0], 0.0, 0.0, np.empty((4, MAX_VERTICES)), np.empty((2, MAX_VERTICES)))
+    front_polygons(t, t, np.zeros((1, 2), np.int64), 0.0, 0.0)  # the narrow overlaps' union
 
 
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
