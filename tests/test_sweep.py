@@ -224,3 +224,77 @@ def test_a_face_tessellated_into_slivers_still_blocks():
     assert not s.blocked(1, 0, np.array([0, 0, 1.0]))
     at = s.witness(1, 0, np.array([0, 0, -1.0]))
     assert at is not None and abs(at[2] - 1.0) < 1e-9 and 3 <= at[0] <= 7 and 3 <= at[1] <= 7
+
+
+def _disk_search(polys, eps):
+    """:class:`sweep._DiskSearch` on convex polygons (vertex lists), as ``_wide_union`` calls
+    it, and the answer of one union of them all (closed by ``tiny``, shrunk by ``eps / 2``)."""
+    import shapely
+
+    from ndbg_cli.ndbg.infinite.sweep import _DiskSearch
+
+    rings = [np.vstack([p, p[:1]]) for p in map(np.asarray, polys)]
+    coords = np.vstack(rings).astype(float)
+    counts = np.array([len(r) for r in rings], np.int64)
+    shapes = shapely.polygons([shapely.linearrings(r) for r in rings])
+    tiny = 1e-9
+    found = _DiskSearch(coords, counts, shapes, eps, tiny).run()
+    one = shapely.union_all(shapes).buffer(tiny, join_style="mitre", mitre_limit=2.0)
+    one = one.buffer(-(0.5 * eps + tiny), join_style="mitre", mitre_limit=2.0)
+    return found is not None, not one.is_empty
+
+
+def _strips(x0, y0, width, height, n):
+    """A ``width`` x ``height`` rectangle cut into ``n`` vertical strips."""
+    xs = x0 + np.linspace(0.0, width, n + 1)
+    return [[(a, y0), (b, y0), (b, y0 + height), (a, y0 + height)] for a, b in zip(xs, xs[1:])]
+
+
+@pytest.mark.parametrize("side, holds", [(1.2, True), (0.9, False)])
+def test_the_window_search_finds_a_disk_astride_its_windows(side, holds):
+    # A square of ``side`` eps, cut into 300 slivers, sits across the middle of a field of
+    # 400 thin strips spread over 40 eps: the search splits the field into windows (more
+    # than 64 overlaps, wider than 4 eps) whose halves overlap by eps, so the disk of
+    # diameter eps inside the square (side 1.2) lies inside one window; none fits in 0.9.
+    eps = 1.0
+    field = [[(x, -20.0), (x + 0.01, -20.0), (x + 0.01, 20.0), (x, 20.0)]
+             for x in np.linspace(-20.0, 19.9, 400)]
+    square = _strips(-0.5 * side, -0.5 * side, side, side, 300)
+    found, one = _disk_search(field + square, eps)
+    assert one is holds and found is holds
+
+
+def test_the_window_search_agrees_with_one_union_on_random_slivers():
+    rng = np.random.default_rng(7)
+    agree = []
+    for _ in range(40):
+        polys = []
+        for _ in range(rng.integers(50, 300)):
+            x, y = rng.uniform(-5.0, 5.0, 2)
+            a = rng.uniform(0, np.pi)
+            u, v = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+            length, width = rng.uniform(0.5, 4.0), rng.uniform(0.01, 0.3)
+            c = np.array([x, y])
+            polys.append([c, c + length * u, c + length * u + width * v, c + width * v])
+        agree.append(_disk_search(polys, 0.5))
+    assert all(found == one for found, one in agree)
+    assert {one for _, one in agree} == {True, False}  # both answers met
+
+
+def test_meets_cell_and_clipped_areas_match_shapely():
+    import shapely
+
+    from ndbg_cli.ndbg.infinite._sweep_kernels import _meets_cell, clipped_areas
+
+    rng = np.random.default_rng(3)
+    for _ in range(300):
+        t = np.c_[rng.uniform(0, 4, (3, 2)), np.zeros(3)]
+        cu, cv = rng.integers(0, 4, 2)
+        cell = shapely.box(cu, cv, cu + 1, cv + 1)
+        tri = shapely.Polygon(t[:, :2])
+        if tri.area > 1e-9 and shapely.box(*tri.bounds).intersects(cell):  # as the kernel asks
+            assert _meets_cell(t, 0.0, 0.0, 1.0, 1.0, cu, cv, 0.0) == tri.intersects(cell)
+        ring = np.vstack([t[:, :2], t[:1, :2]])
+        got = clipped_areas(ring, np.zeros(1, np.int64), np.array([4]), np.zeros(1, np.int64),
+                            float(cu), float(cv), cu + 1.0, cv + 1.0)[0]
+        assert got == pytest.approx(tri.intersection(cell).area, abs=1e-12)

@@ -167,7 +167,9 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
     into slivers), which the caller decides.
 
     Only the triangles meeting the common box of both shadows are binned, on a grid of about
-    one ``t_j`` per cell, so the cost follows the triangle pairs that really meet."""
+    one ``t_j`` per cell, each in the cells the triangle itself meets (not its box: a long
+    diagonal sliver of a tessellated planar face has a box of many cells), so the cost follows
+    the triangle pairs that really meet."""
     thin = np.empty((16, 2), np.int64)
     count = 0
     if pi.shape[0] == 0 or pj.shape[0] == 0:
@@ -197,7 +199,8 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
         u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, g)
         for cu in range(u0, u1 + 1):
             for cv in range(v0, v1 + 1):
-                cnt[cu * g + cv + 1] += 1
+                if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, tiny):
+                    cnt[cu * g + cv + 1] += 1
     start = np.cumsum(cnt)
     fill = start[:-1].copy()
     items = np.empty(start[-1], np.int64)
@@ -206,9 +209,10 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
         u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, g)
         for cu in range(u0, u1 + 1):
             for cv in range(v0, v1 + 1):
-                c = cu * g + cv
-                items[fill[c]] = k
-                fill[c] += 1
+                if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, tiny):
+                    c = cu * g + cv
+                    items[fill[c]] = k
+                    fill[c] += 1
     stamp = np.full(bj.shape[0], -1, np.int64)
     buf = np.empty((4, MAX_VERTICES))
     poly = np.empty((2, MAX_VERTICES))
@@ -221,6 +225,9 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
         for cu in range(u0, u1 + 1):
             for cv in range(v0, v1 + 1):
                 c = cu * g + cv
+                if start[c] == start[c + 1] or not _meets_cell(pi[i], lo_u, lo_v, su, sv, cu,
+                                                               cv, tiny):
+                    continue
                 for q in range(start[c], start[c + 1]):
                     k = items[q]
                     if stamp[k] == i:
@@ -280,3 +287,51 @@ def _cells(box: np.ndarray, lo_u: float, lo_v: float, su: float, sv: float, g: i
     v0 = min(max(int((box[1] - lo_v) / sv), 0), g - 1)
     v1 = min(max(int((box[3] - lo_v) / sv), 0), g - 1)
     return u0, u1, v0, v1
+
+
+@njit(cache=True)
+def _meets_cell(t: np.ndarray, lo_u: float, lo_v: float, su: float, sv: float, cu: int,
+                cv: int, pad: float) -> bool:
+    """Whether projected triangle ``t`` meets grid cell ``(cu, cv)`` grown by ``pad`` (the
+    cell lies inside the triangle's box range already: only the triangle's three edge lines
+    can separate them; an edge-on triangle meets every cell of its box)."""
+    cr = (t[1, 0] - t[0, 0]) * (t[2, 1] - t[0, 1]) - (t[1, 1] - t[0, 1]) * (t[2, 0] - t[0, 0])
+    if cr == 0:
+        return True
+    o = 1.0 if cr > 0 else -1.0
+    u0, v0 = lo_u + cu * su - pad, lo_v + cv * sv - pad
+    u1, v1 = lo_u + (cu + 1) * su + pad, lo_v + (cv + 1) * sv + pad
+    for k in range(3):
+        k2 = (k + 1) % 3
+        eu, ev = o * (t[k2, 0] - t[k, 0]), o * (t[k2, 1] - t[k, 1])
+        # the triangle's inside of edge k: eu (v - t_v) - ev (u - t_u) >= 0; a cell wholly
+        # outside it has its best corner outside too
+        cu_ = u0 if ev > 0 else u1
+        cv_ = v1 if eu > 0 else v0
+        if eu * (cv_ - t[k, 1]) - ev * (cu_ - t[k, 0]) < 0:
+            return False
+    return True
+
+
+@njit(cache=True)
+def clipped_areas(coords: np.ndarray, starts: np.ndarray, counts: np.ndarray,
+                  idx: np.ndarray, u0: float, v0: float, u1: float, v1: float) -> np.ndarray:
+    """The area inside the window ``[u0, u1] x [v0, v1]`` of each convex ring ``idx`` of
+    :func:`front_polygons`' output (``starts``, ``counts``: where each ring begins and its
+    vertex count, first vertex repeated)."""
+    out = np.zeros(idx.shape[0])
+    buf = np.empty((4, MAX_VERTICES + 5))
+    for q in range(idx.shape[0]):
+        r = idx[q]
+        n = counts[r] - 1
+        ox, oy, qx, qy = buf[0], buf[1], buf[2], buf[3]
+        for k in range(n):
+            ox[k] = coords[starts[r] + k, 0]
+            oy[k] = coords[starts[r] + k, 1]
+        for ax, ay, b in ((-1.0, 0.0, -u0), (1.0, 0.0, u1), (0.0, -1.0, -v0), (0.0, 1.0, v1)):
+            n = clip_half_plane(ox, oy, n, ax, ay, b, qx, qy)
+            ox, oy, qx, qy = qx, qy, ox, oy
+            if n == 0:
+                break
+        out[q] = polygon_area(ox, oy, n)
+    return out

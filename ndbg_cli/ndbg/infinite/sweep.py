@@ -25,6 +25,7 @@ from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
 from ._sweep_kernels import (
     boxes,
+    clipped_areas,
     first_blocking,
     front_polygons,
     overlap_centroid,
@@ -55,17 +56,28 @@ class _View:
         c = checker._corners @ self.frame.T  # (n, 8, 3)
         self.lo, self.hi = c[:, :, :2].min(axis=1), c[:, :, :2].max(axis=1)
         self.zlo, self.zhi = c[:, :, 2].min(axis=1), c[:, :, 2].max(axis=1)
-        self._facing: dict[tuple[int, int], np.ndarray] = {}
+        self._facing: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
 
-    def facing(self, i: int, sense: int) -> tuple[np.ndarray, np.ndarray]:
+    def facing(self, i: int, sense: int) -> tuple[np.ndarray, ...]:
         """Part ``i``'s triangles facing along ``d`` (``sense`` 1) or against it (-1),
-        projected ``(a, 3, 3)`` (u, v, z), and their boxes (:func:`_sweep_kernels.boxes`)."""
+        projected ``(a, 3, 3)`` (u, v, z), their boxes (:func:`_sweep_kernels.boxes`), and the
+        same two of the *wide* ones only: those whose shadow's inradius ``2 A / P`` exceeds
+        ``eps / 2``. A convex overlap's area over perimeter is at most its inradius, which is
+        at most either triangle's, so only two wide triangles can make a pair that blocks
+        alone."""
         key = (i, sense)
         if key not in self._facing:
             sd = self.checker.normals[i] @ self.frame[2]
             sel = sd > FACING_TOL if sense > 0 else sd < -FACING_TOL
             t = np.ascontiguousarray(self.checker.tris[i][sel] @ self.frame.T)
-            self._facing[key] = (t, boxes(t))
+            uv = t[:, :, :2]
+            e = uv[:, [1, 2, 0]] - uv
+            area = 0.5 * np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
+            perimeter = np.linalg.norm(e, axis=2).sum(axis=1)
+            wide = 2.0 * area > 0.5 * self.checker.eps * perimeter
+            b = boxes(t)
+            self._facing[key] = (t, b, np.ascontiguousarray(t[wide]),
+                                 np.ascontiguousarray(b[wide]))
         return self._facing[key]
 
 
@@ -143,10 +155,16 @@ class SweepChecker:
     def _pair(self, v: _View, i: int, j: int) -> tuple[np.ndarray, np.ndarray] | None:
         """The kernel on ``i``'s triangles facing ``d`` and ``j``'s facing against it: a
         blocking triangle pair, or ``None``."""
-        pi, bi = v.facing(i, 1)
-        pj, bj = v.facing(j, -1)
+        pi, bi, wpi, wbi = v.facing(i, 1)
+        pj, bj, wpj, wbj = v.facing(j, -1)
         if not len(pi) or not len(pj):
             return None
+        # a wide pair first, among the wide triangles only: on a fine tessellation most
+        # pairs are slivers, and a blocking face is usually met by a wide pair somewhere
+        if len(wpi) and len(wpj):
+            ki, kj, _, _ = first_blocking(wpi, wpj, wbi, wbj, self.eps, self._amin, self._tiny)
+            if ki >= 0:
+                return wpi[ki], wpj[kj]
         ki, kj, thin, count = first_blocking(pi, pj, bi, bj, self.eps, self._amin, self._tiny)
         if ki >= 0:
             return pi[ki], pj[kj]
@@ -170,26 +188,12 @@ class SweepChecker:
         rings = shapely.linearrings(coords, indices=np.repeat(np.arange(len(kept)),
                                                               counts[kept]))
         polys = shapely.polygons(rings)
-        # the union holds a disk of diameter eps only if their areas add up to the disk's
-        if float(shapely.area(polys).sum()) < np.pi * (0.5 * self.eps) ** 2:
-            return None
         bad = ~shapely.is_valid(polys)  # clipped to slivers with repeated vertices
         polys[bad] = shapely.make_valid(polys[bad])
-        # mitred offsets: fewer vertices than round ones, and never a smaller closing nor a
-        # deeper erosion (a mitre reaches past the disk), so never a wrong "free"
-        grow = {"join_style": "mitre", "mitre_limit": 2.0}
-        try:
-            core = shapely.union_all(polys).buffer(self._tiny, **grow)
-        except shapely.errors.GEOSException:  # a degenerate union: each closed first
-            try:
-                core = shapely.union_all(shapely.buffer(polys, self._tiny, **grow))
-            except shapely.errors.GEOSException:  # undecided: blocked, never freed wrongly
-                return pi[pairs[kept[0], 0]], pj[pairs[kept[0], 1]]
-        core = core.buffer(-(0.5 * self.eps + self._tiny), **grow)
-        if core.is_empty:
+        hit = _DiskSearch(coords, counts[kept], polys, self.eps, self._tiny).run()
+        if hit is None:
             return None
-        hit = np.flatnonzero(shapely.intersects(polys, core))
-        a, b = pairs[kept[hit[0]] if len(hit) else kept[0]]
+        a, b = pairs[kept[hit]]
         return pi[a], pj[b]
 
     def blockers(self, i: int, d: np.ndarray) -> int:
@@ -212,6 +216,96 @@ class SweepChecker:
     def dbg(self, d: np.ndarray) -> DBG:
         """The DBG for infinite translation along ``d``: arc ``i -> j`` iff ``j`` blocks ``i``."""
         return DBG(tuple(self.blockers(i, d) for i in range(len(self.tris))))
+
+
+#: A window of at most this many narrow overlaps is decided by one union; larger ones are
+#: split (:class:`_DiskSearch`).
+LEAF_OVERLAPS = 64
+
+
+class _DiskSearch:
+    """Whether the union of polygons ``polys`` holds a disk of diameter ``eps`` (closed over
+    cracks of ``tiny`` first), searched window by window instead of by one union of all.
+
+    Windows split in two along each side longer than ``4 eps`` into halves that overlap by
+    ``eps``, so a disk inside a window lies inside one of its children: the search is exact.
+    A window whose clipped overlaps' areas add up to less than the disk's holds none (the
+    union's area is at most that sum), so a ring of slivers (a faceted rod in a faceted hole)
+    is dismissed window by window, and a face tessellated into slivers is found blocking in
+    the first small window it covers: the cost follows one window, not the whole union (one
+    union of tens of thousands of fan slivers took seconds per part pair)."""
+
+    def __init__(self, coords: np.ndarray, counts: np.ndarray, polys: np.ndarray, eps: float,
+                 tiny: float) -> None:
+        self.coords, self.counts, self.polys = coords, counts, polys
+        self.starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
+        self.eps, self.tiny = eps, tiny
+        self.disk = np.pi * (0.5 * eps) ** 2
+        self.bounds = np.stack([np.minimum.reduceat(coords, self.starts)[:, 0],
+                                np.minimum.reduceat(coords, self.starts)[:, 1],
+                                np.maximum.reduceat(coords, self.starts)[:, 0],
+                                np.maximum.reduceat(coords, self.starts)[:, 1]], axis=1)
+        self.areas = clipped_areas(coords, self.starts, counts, np.arange(len(counts)),
+                                   -np.inf, -np.inf, np.inf, np.inf)
+
+    def run(self) -> int | None:
+        """The index of a polygon meeting a held disk, or ``None`` when none is held."""
+        if float(self.areas.sum()) < self.disk:
+            return None
+        b = self.bounds
+        window = (b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max())
+        return self._search(window, np.arange(len(self.polys)))
+
+    def _search(self, w: tuple[float, ...], idx: np.ndarray) -> int | None:
+        g = 2.0 * self.tiny  # the closing reaches this far past the window
+        box = (w[0] - g, w[1] - g, w[2] + g, w[3] + g)
+        area = clipped_areas(self.coords, self.starts, self.counts, idx, *box)
+        if float(area.sum()) < self.disk:
+            return None
+        idx = idx[area > 0]
+        halves = [self._halves(w[0], w[2]), self._halves(w[1], w[3])]
+        if len(idx) <= LEAF_OVERLAPS or (len(halves[0]) == 1 and len(halves[1]) == 1):
+            return self._leaf(idx, box)
+        children = [(u0, v0, u1, v1) for u0, u1 in halves[0] for v0, v1 in halves[1]]
+        b = self.bounds[idx]
+        members = [idx[(b[:, 2] > c[0]) & (b[:, 0] < c[2]) & (b[:, 3] > c[1])
+                       & (b[:, 1] < c[3])] for c in children]
+        weight = [-float(self.areas[m].sum()) for m in members]
+        for k in np.argsort(weight, kind="stable"):
+            got = self._search(children[k], members[k]) if len(members[k]) else None
+            if got is not None:
+                return got
+        return None
+
+    def _halves(self, lo: float, hi: float) -> list[tuple[float, float]]:
+        """``[lo, hi]`` split into two halves that overlap by ``eps`` (a segment of length
+        ``eps`` inside it lies inside one), or kept whole when at most ``4 eps`` long."""
+        if hi - lo <= 4.0 * self.eps:
+            return [(lo, hi)]
+        mid = 0.5 * (lo + hi)
+        return [(lo, mid + self.eps), (mid, hi)]
+
+    def _leaf(self, idx: np.ndarray, box: tuple[float, ...]) -> int | None:
+        """One window (``box``) decided by the union of its clipped overlaps, closed by
+        ``tiny`` and shrunk by ``eps / 2``."""
+        import shapely
+
+        clipped = shapely.intersection(self.polys[idx], shapely.box(*box))
+        # mitred offsets: fewer vertices than round ones, and never a smaller closing nor a
+        # deeper erosion (a mitre reaches past the disk), so never a wrong "free"
+        grow = {"join_style": "mitre", "mitre_limit": 2.0}
+        try:
+            core = shapely.union_all(clipped).buffer(self.tiny, **grow)
+        except shapely.errors.GEOSException:  # a degenerate union: each closed first
+            try:
+                core = shapely.union_all(shapely.buffer(clipped, self.tiny, **grow))
+            except shapely.errors.GEOSException:  # undecided: blocked, never freed wrongly
+                return int(idx[0])
+        core = core.buffer(-(0.5 * self.eps + self.tiny), **grow)
+        if core.is_empty:
+            return None
+        hit = np.flatnonzero(shapely.intersects(self.polys[idx], core))
+        return int(idx[hit[0]] if len(hit) else idx[0])
 
 
 def warm_up() -> None:
