@@ -238,7 +238,7 @@ def _disk_search(polys, eps):
     counts = np.array([len(r) for r in rings], np.int64)
     shapes = shapely.polygons([shapely.linearrings(r) for r in rings])
     tiny = 1e-9
-    found = _DiskSearch(coords, counts, shapes, eps, tiny).run()
+    found = _DiskSearch(coords, counts, eps, tiny).run()
     one = shapely.union_all(shapes).buffer(tiny, join_style="mitre", mitre_limit=2.0)
     one = one.buffer(-(0.5 * eps + tiny), join_style="mitre", mitre_limit=2.0)
     return found is not None, not one.is_empty

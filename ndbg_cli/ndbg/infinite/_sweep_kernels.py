@@ -152,6 +152,46 @@ def boxes(t: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
+def _grid(bj: np.ndarray, sel: np.ndarray, lo_u: float, lo_v: float, hi_u: float,
+          hi_v: float) -> tuple[int, int]:
+    """Cells along u and v of :func:`first_blocking`'s grid over ``[lo_u, hi_u] x [lo_v,
+    hi_v]``: about the mean size of the selected boxes ``bj[sel]`` along each side (the long
+    thin facets of a finely tessellated cylinder, seen from the side, each fill a cell or two,
+    not a column of square ones), at most four cells per box."""
+    m = sel.shape[0]
+    wu, wv = 0.0, 0.0
+    for q in range(m):
+        k = sel[q]
+        wu += min(bj[k, 2], hi_u) - max(bj[k, 0], lo_u)
+        wv += min(bj[k, 3], hi_v) - max(bj[k, 1], lo_v)
+    lu, lv = hi_u - lo_u, hi_v - lo_v
+    gu = min(4096, int(lu / max(wu / m, 1e-300 + lu / 4096)) + 1)
+    gv = min(4096, int(lv / max(wv / m, 1e-300 + lv / 4096)) + 1)
+    cap = 4 * m + 16
+    if gu * gv > cap:
+        f = np.sqrt(gu * gv / cap)
+        gu, gv = max(1, int(gu / f)), max(1, int(gv / f))
+    return gu, gv
+
+
+@njit(cache=True)
+def wide_triangles(t: np.ndarray, eps: float) -> np.ndarray:
+    """``(a,)`` whether each projected triangle's inradius ``2 A / P`` exceeds ``eps / 2``
+    (only two such triangles can overlap in a region that holds a disk of diameter ``eps``)."""
+    out = np.zeros(t.shape[0], np.bool_)
+    for k in range(t.shape[0]):
+        p = 0.0
+        for e in range(3):
+            e2 = (e + 1) % 3
+            p += np.hypot(t[k, e2, 0] - t[k, e, 0],
+                          t[k, e2, 1] - t[k, e, 1])
+        a = 0.5 * abs((t[k, 1, 0] - t[k, 0, 0]) * (t[k, 2, 1] - t[k, 0, 1])
+                      - (t[k, 1, 1] - t[k, 0, 1]) * (t[k, 2, 0] - t[k, 0, 0]))
+        out[k] = 2.0 * a > 0.5 * eps * p
+    return out
+
+
+@njit(cache=True)
 def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarray,
                    eps: float, amin: float, tiny: float
                    ) -> tuple[int, int, np.ndarray, int]:
@@ -166,10 +206,10 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
     first ``count`` are used: together they may still hold such a disk (a ring tessellated
     into slivers), which the caller decides.
 
-    Only the triangles meeting the common box of both shadows are binned, on a grid of about
-    one ``t_j`` per cell, each in the cells the triangle itself meets (not its box: a long
-    diagonal sliver of a tessellated planar face has a box of many cells), so the cost follows
-    the triangle pairs that really meet."""
+    Only the triangles meeting the common box of both shadows are binned, on a grid of cells
+    about their mean size (:func:`_grid`), each in the cells the triangle itself meets (not
+    its box: a long diagonal sliver of a tessellated planar face has a box of many cells), so
+    the cost follows the triangle pairs that really meet."""
     thin = np.empty((16, 2), np.int64)
     count = 0
     if pi.shape[0] == 0 or pj.shape[0] == 0:
@@ -190,27 +230,27 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
             m += 1
     if m == 0:
         return -1, -1, thin, count
-    g = max(1, min(256, int(np.sqrt(m))))
-    su, sv = (hi_u - lo_u) / g, (hi_v - lo_v) / g
+    gu, gv = _grid(bj, sel[:m], lo_u, lo_v, hi_u, hi_v)
+    su, sv = (hi_u - lo_u) / gu, (hi_v - lo_v) / gv
     # cells each selected t_j covers, as a CSR list per cell
-    cnt = np.zeros(g * g + 1, np.int64)
+    cnt = np.zeros(gu * gv + 1, np.int64)
     for q in range(m):
         k = sel[q]
-        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, g)
+        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, gu, gv)
         for cu in range(u0, u1 + 1):
             for cv in range(v0, v1 + 1):
                 if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, tiny):
-                    cnt[cu * g + cv + 1] += 1
+                    cnt[cu * gv + cv + 1] += 1
     start = np.cumsum(cnt)
     fill = start[:-1].copy()
     items = np.empty(start[-1], np.int64)
     for q in range(m):
         k = sel[q]
-        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, g)
+        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, gu, gv)
         for cu in range(u0, u1 + 1):
             for cv in range(v0, v1 + 1):
                 if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, tiny):
-                    c = cu * g + cv
+                    c = cu * gv + cv
                     items[fill[c]] = k
                     fill[c] += 1
     stamp = np.full(bj.shape[0], -1, np.int64)
@@ -221,10 +261,10 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
         b = bi[i]
         if b[2] <= lo_u or b[0] >= hi_u or b[3] <= lo_v or b[1] >= hi_v:
             continue
-        u0, u1, v0, v1 = _cells(b, lo_u, lo_v, su, sv, g)
+        u0, u1, v0, v1 = _cells(b, lo_u, lo_v, su, sv, gu, gv)
         for cu in range(u0, u1 + 1):
             for cv in range(v0, v1 + 1):
-                c = cu * g + cv
+                c = cu * gv + cv
                 if start[c] == start[c + 1] or not _meets_cell(pi[i], lo_u, lo_v, su, sv, cu,
                                                                cv, tiny):
                     continue
@@ -279,13 +319,13 @@ def overlap_centroid(ti: np.ndarray, tj: np.ndarray) -> tuple[float, float]:
 
 
 @njit(cache=True)
-def _cells(box: np.ndarray, lo_u: float, lo_v: float, su: float, sv: float, g: int
-           ) -> tuple[int, int, int, int]:
+def _cells(box: np.ndarray, lo_u: float, lo_v: float, su: float, sv: float, gu: int,
+           gv: int) -> tuple[int, int, int, int]:
     """The grid cells (first and last along u, then v) a triangle's box covers, clamped."""
-    u0 = min(max(int((box[0] - lo_u) / su), 0), g - 1)
-    u1 = min(max(int((box[2] - lo_u) / su), 0), g - 1)
-    v0 = min(max(int((box[1] - lo_v) / sv), 0), g - 1)
-    v1 = min(max(int((box[3] - lo_v) / sv), 0), g - 1)
+    u0 = min(max(int((box[0] - lo_u) / su), 0), gu - 1)
+    u1 = min(max(int((box[2] - lo_u) / su), 0), gu - 1)
+    v0 = min(max(int((box[1] - lo_v) / sv), 0), gv - 1)
+    v1 = min(max(int((box[3] - lo_v) / sv), 0), gv - 1)
     return u0, u1, v0, v1
 
 

@@ -30,6 +30,7 @@ from ._sweep_kernels import (
     front_polygons,
     overlap_centroid,
     plane,
+    wide_triangles,
 )
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
@@ -70,12 +71,8 @@ class _View:
             sd = self.checker.normals[i] @ self.frame[2]
             sel = sd > FACING_TOL if sense > 0 else sd < -FACING_TOL
             t = np.ascontiguousarray(self.checker.tris[i][sel] @ self.frame.T)
-            uv = t[:, :, :2]
-            e = uv[:, [1, 2, 0]] - uv
-            area = 0.5 * np.abs(e[:, 0, 0] * e[:, 1, 1] - e[:, 0, 1] * e[:, 1, 0])
-            perimeter = np.linalg.norm(e, axis=2).sum(axis=1)
-            wide = 2.0 * area > 0.5 * self.checker.eps * perimeter
             b = boxes(t)
+            wide = wide_triangles(t, self.checker.eps)
             self._facing[key] = (t, b, np.ascontiguousarray(t[wide]),
                                  np.ascontiguousarray(b[wide]))
         return self._facing[key]
@@ -179,18 +176,11 @@ class SweepChecker:
         leaves slivers around the rod no wider than the facets' sagitta, within the
         tolerance: it slides; a face tessellated into slivers still blocks. Returns a pair
         of the union where it holds one (the witness), else ``None``."""
-        import shapely
-
         coords, counts = front_polygons(pi, pj, pairs, self._amin, 1e-3 * self.eps)
         kept = np.flatnonzero(counts)
         if not len(kept):
             return None
-        rings = shapely.linearrings(coords, indices=np.repeat(np.arange(len(kept)),
-                                                              counts[kept]))
-        polys = shapely.polygons(rings)
-        bad = ~shapely.is_valid(polys)  # clipped to slivers with repeated vertices
-        polys[bad] = shapely.make_valid(polys[bad])
-        hit = _DiskSearch(coords, counts[kept], polys, self.eps, self._tiny).run()
+        hit = _DiskSearch(coords, counts[kept], self.eps, self._tiny).run()
         if hit is None:
             return None
         a, b = pairs[kept[hit]]
@@ -235,16 +225,14 @@ class _DiskSearch:
     the first small window it covers: the cost follows one window, not the whole union (one
     union of tens of thousands of fan slivers took seconds per part pair)."""
 
-    def __init__(self, coords: np.ndarray, counts: np.ndarray, polys: np.ndarray, eps: float,
-                 tiny: float) -> None:
-        self.coords, self.counts, self.polys = coords, counts, polys
+    def __init__(self, coords: np.ndarray, counts: np.ndarray, eps: float, tiny: float
+                 ) -> None:
+        self.coords, self.counts = coords, counts
         self.starts = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
         self.eps, self.tiny = eps, tiny
         self.disk = np.pi * (0.5 * eps) ** 2
-        self.bounds = np.stack([np.minimum.reduceat(coords, self.starts)[:, 0],
-                                np.minimum.reduceat(coords, self.starts)[:, 1],
-                                np.maximum.reduceat(coords, self.starts)[:, 0],
-                                np.maximum.reduceat(coords, self.starts)[:, 1]], axis=1)
+        self.bounds = np.hstack([np.minimum.reduceat(coords, self.starts),
+                                 np.maximum.reduceat(coords, self.starts)])
         self.areas = clipped_areas(coords, self.starts, counts, np.arange(len(counts)),
                                    -np.inf, -np.inf, np.inf, np.inf)
 
@@ -254,7 +242,7 @@ class _DiskSearch:
             return None
         b = self.bounds
         window = (b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max())
-        return self._search(window, np.arange(len(self.polys)))
+        return self._search(window, np.arange(len(self.counts)))
 
     def _search(self, w: tuple[float, ...], idx: np.ndarray) -> int | None:
         g = 2.0 * self.tiny  # the closing reaches this far past the window
@@ -290,7 +278,14 @@ class _DiskSearch:
         ``tiny`` and shrunk by ``eps / 2``."""
         import shapely
 
-        clipped = shapely.intersection(self.polys[idx], shapely.box(*box))
+        # the window's polygons only (shapely's constructors cost more than the search)
+        rows = self.starts[idx][:, None] + np.arange(int(self.counts[idx].max()))
+        rows = rows[rows < (self.starts[idx] + self.counts[idx])[:, None]]
+        polys = shapely.polygons(shapely.linearrings(
+            self.coords[rows], indices=np.repeat(np.arange(len(idx)), self.counts[idx])))
+        bad = ~shapely.is_valid(polys)  # clipped to slivers with repeated vertices
+        polys[bad] = shapely.make_valid(polys[bad])
+        clipped = shapely.intersection(polys, shapely.box(*box))
         # mitred offsets: fewer vertices than round ones, and never a smaller closing nor a
         # deeper erosion (a mitre reaches past the disk), so never a wrong "free"
         grow = {"join_style": "mitre", "mitre_limit": 2.0}
@@ -304,7 +299,7 @@ class _DiskSearch:
         core = core.buffer(-(0.5 * self.eps + self.tiny), **grow)
         if core.is_empty:
             return None
-        hit = np.flatnonzero(shapely.intersects(self.polys[idx], core))
+        hit = np.flatnonzero(shapely.intersects(polys, core))
         return int(idx[hit[0]] if len(hit) else idx[0])
 
 
@@ -315,7 +310,11 @@ def warm_up() -> None:
     t[0, 1, 0] = t[0, 2, 1] = 1.0
     b = boxes(t)
     first_blocking(t, t, b, b, 1e-9, 1e-18, 1e-9)
-    front_polygons(t, t, np.zeros((1, 2), np.int64), 0.0, 0.0)  # the narrow overlaps' union
+    wide_triangles(t, 1e-9)
+    # the narrow overlaps' union
+    coords, counts = front_polygons(t, t, np.zeros((1, 2), np.int64), 0.0, 0.0)
+    clipped_areas(coords, np.zeros(1, np.int64), counts, np.zeros(1, np.int64), 0.0, 0.0,
+                  1.0, 1.0)
 
 
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
