@@ -37,6 +37,7 @@ from .facets import (
     min3,
     part_geometry,
     sat_gap,
+    triangle_gap,
 )
 from .features import classify_pairs, curved_contacts, edge_point_contacts
 from .interference import Interference, interference, meshes_intersect
@@ -513,6 +514,15 @@ def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.nda
     separating-axis test. ``faces``: the planar contacts found facet by facet, whose
     triangles are not among the pairs (:func:`ndbg_cli.contacts.planar.coplanar_facets`)."""
     planar, curved = classify_pairs(ga, gb, i, j, tol, ang, offsets)
+    # the curved pairs, whatever the frame: the plane filter only asks each triangle to cross
+    # the other's slab, so which pairs it sees depends on the candidate boxes, which a turn
+    # of the model enlarges (the engine gained a curved contact of two parts 0.39 mm apart
+    # after a turn). Every pair within the boxes' reach is a candidate in any frame: the
+    # pairs farther apart are dropped (those nearer, a tessellated rim's next facets, stay)
+    k = np.flatnonzero(curved)
+    if len(k):
+        reach = tol + float(ga.sag.max()) + float(gb.sag.max())
+        curved[k[triangle_gap(ga.triangles[i[k]], gb.triangles[j[k]])[0] > reach]] = False
     feats, used = planar_contacts(ga, gb, i[planar], j[planar], tol, ang)
     feats = list(faces or []) + feats  # the facet-level planar contacts (coplanar_facets)
     planar_used = np.zeros(len(i), dtype=bool)
