@@ -363,6 +363,13 @@ def _apart(ga: PartGeometry, gb: PartGeometry, box_b: tuple[np.ndarray, np.ndarr
     return len(_near_box(gb, lo - gap, hi + gap)) == 0
 
 
+def _reach(ga: PartGeometry, gb: PartGeometry, tol: float) -> float:
+    """How far apart two triangles of the pair may be and still be candidates
+    (:func:`_triangle_candidates`' boxes are grown by it): ``tol`` plus both parts' largest
+    chord sags, the most any pair's own allowance can be."""
+    return tol + float(ga.sag.max()) + float(gb.sag.max())
+
+
 def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
                          skip_a: np.ndarray | None = None, skip_b: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:
@@ -375,7 +382,7 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
     with numpy (:func:`ndbg_cli.contacts.facets.box_pairs`), the targets taken in R-tree
     order (:func:`_tree_rank`): the same pairs in the same order as the R-tree query, which
     bigger pairs of parts use."""
-    reach = tol + float(ga.sag.max()) + float(gb.sag.max())
+    reach = _reach(ga, gb, tol)
     (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
     sa = _near_box(ga, lo_b - reach, hi_b + reach)
     sb = _near_box(gb, lo_a - reach, hi_a + reach)
@@ -521,8 +528,8 @@ def _pair_contacts(a: int, b: int, ga: PartGeometry, gb: PartGeometry, i: np.nda
     # pairs farther apart are dropped (those nearer, a tessellated rim's next facets, stay)
     k = np.flatnonzero(curved)
     if len(k):
-        reach = tol + float(ga.sag.max()) + float(gb.sag.max())
-        curved[k[triangle_gap(ga.triangles[i[k]], gb.triangles[j[k]])[0] > reach]] = False
+        far = triangle_gap(ga.triangles[i[k]], gb.triangles[j[k]])[0] > _reach(ga, gb, tol)
+        curved[k[far]] = False
     feats, used = planar_contacts(ga, gb, i[planar], j[planar], tol, ang)
     feats = list(faces or []) + feats  # the facet-level planar contacts (coplanar_facets)
     planar_used = np.zeros(len(i), dtype=bool)

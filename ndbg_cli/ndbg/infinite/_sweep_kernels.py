@@ -157,7 +157,7 @@ def _grid(bj: np.ndarray, sel: np.ndarray, lo_u: float, lo_v: float, hi_u: float
     """Cells along u and v of :func:`first_blocking`'s grid over ``[lo_u, hi_u] x [lo_v,
     hi_v]``: about the mean size of the selected boxes ``bj[sel]`` along each side (the long
     thin facets of a finely tessellated cylinder, seen from the side, each fill a cell or two,
-    not a column of square ones), at most four cells per box."""
+    not a column of square ones), and at most about four cells per selected box in all."""
     m = sel.shape[0]
     wu, wv = 0.0, 0.0
     for q in range(m):
@@ -180,14 +180,8 @@ def wide_triangles(t: np.ndarray, eps: float) -> np.ndarray:
     (only two such triangles can overlap in a region that holds a disk of diameter ``eps``)."""
     out = np.zeros(t.shape[0], np.bool_)
     for k in range(t.shape[0]):
-        p = 0.0
-        for e in range(3):
-            e2 = (e + 1) % 3
-            p += np.hypot(t[k, e2, 0] - t[k, e, 0],
-                          t[k, e2, 1] - t[k, e, 1])
-        a = 0.5 * abs((t[k, 1, 0] - t[k, 0, 0]) * (t[k, 2, 1] - t[k, 0, 1])
-                      - (t[k, 1, 1] - t[k, 0, 1]) * (t[k, 2, 0] - t[k, 0, 0]))
-        out[k] = 2.0 * a > 0.5 * eps * p
+        u, v = t[k, :, 0], t[k, :, 1]
+        out[k] = 2.0 * polygon_area(u, v, 3) > 0.5 * eps * polygon_perimeter(u, v, 3)
     return out
 
 

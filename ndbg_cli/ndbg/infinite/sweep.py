@@ -214,8 +214,9 @@ LEAF_OVERLAPS = 64
 
 
 class _DiskSearch:
-    """Whether the union of polygons ``polys`` holds a disk of diameter ``eps`` (closed over
-    cracks of ``tiny`` first), searched window by window instead of by one union of all.
+    """Whether the union of the convex rings ``coords`` (:func:`_sweep_kernels.front_polygons`'
+    output; ``counts``: each ring's vertex count) holds a disk of diameter ``eps`` (closed
+    over cracks of ``tiny`` first), searched window by window instead of by one union of all.
 
     Windows split in two along each side longer than ``4 eps`` into halves that overlap by
     ``eps``, so a disk inside a window lies inside one of its children: the search is exact.
@@ -237,9 +238,8 @@ class _DiskSearch:
                                    -np.inf, -np.inf, np.inf, np.inf)
 
     def run(self) -> int | None:
-        """The index of a polygon meeting a held disk, or ``None`` when none is held."""
-        if float(self.areas.sum()) < self.disk:
-            return None
+        """The index of a polygon meeting a held disk, or ``None`` when none is held (the
+        whole window's areas are checked first, as every window's are)."""
         b = self.bounds
         window = (b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max())
         return self._search(window, np.arange(len(self.counts)))
