@@ -532,27 +532,6 @@ def test_engine_glb_completes_with_warnings():
 
 # -- the fast paths compute exactly what the straightforward code does ------------------------
 
-def greedy_clusters_reference(normals, angle_tol, weights=None):
-    """cluster_normals as first written: one seed at a time, in lexicographic order."""
-    n = np.asarray(normals, dtype=float).reshape(-1, 3)
-    w = np.ones(len(n)) if weights is None else np.asarray(weights, dtype=float)
-    n, inv = np.unique(np.round(n, 9), axis=0, return_inverse=True)
-    w = np.bincount(inv.ravel(), weights=w, minlength=len(n))
-    if len(n) == 1 or (n @ n[0]).min() >= np.cos(angle_tol):
-        m = w @ n
-        return (m / np.linalg.norm(m))[None, :] if np.linalg.norm(m) > 0 else n[:1]
-    free = np.ones(len(n), dtype=bool)
-    out = []
-    while free.any():
-        seed = n[np.argmax(free)]
-        member = free & (n @ seed >= np.cos(angle_tol))
-        m = (n[member] * w[member, None]).sum(axis=0)
-        out.append(m / np.linalg.norm(m) if np.linalg.norm(m) > 0 else seed)
-        free &= ~member
-    out = np.array(out)
-    return out[np.lexsort(np.round(out, 9).T[::-1])]
-
-
 def normal_sets(rng):
     """Random normal sets: scattered, jittered around a few directions, both sides of
     tessellated cylinders, chains at about the angle apart, axis-aligned with -0.0."""
@@ -581,14 +560,87 @@ def normal_sets(rng):
         yield n, ang, w
 
 
-def test_cluster_normals_equals_the_greedy_reference():
+def _same_rows(a, b, atol):
+    """Whether ``a`` and ``b`` hold the same rows up to ``atol``, in any order."""
+    if a.shape != b.shape:
+        return False
+    d = np.linalg.norm(a[:, None, :] - b[None, :, :], axis=2)
+    return bool((d.min(axis=1) <= atol).all() and (d.min(axis=0) <= atol).all())
+
+
+def _borderline(n, ang):
+    """Whether two normals lie within 1e-7 rad of the tolerance apart (rounding may then
+    group them either way)."""
+    d = np.arccos(np.clip(n @ n.T, -1, 1))
+    return bool((np.abs(d - ang) < 1e-7).any())
+
+
+def _closed_ring(n, ang):
+    """Whether the normals go all round a great circle with no gap of ``ang``: a ring with
+    no first member (where the pieces start then follows the frame; documented in
+    ``sphere._ring_coords``)."""
+    m = np.linalg.svd(n)[2][-1]
+    if np.abs(n @ m).max() > 1e-3:
+        return False
+    e1 = np.cross(m, [1.0, 0, 0] if abs(m[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    s = np.sort(np.mod(np.arctan2(n @ np.cross(m, e1), n @ e1), 2 * np.pi))
+    return bool(np.diff(np.r_[s, s[0] + 2 * np.pi]).max() < ang)
+
+
+def test_cluster_normals_follow_the_set_not_its_order_frame_or_sign():
+    """Permuting the rows changes nothing; turning or negating the normals turns or negates
+    the clusters (issue 34: a pair's normals flip when the parts are permuted), except
+    where the normals are borderline or a closed ring. Unweighted, every normal lies within
+    the tolerance of a cluster."""
     rng = np.random.default_rng(11)
+    turned = 0
     for n, ang, w in normal_sets(rng):
-        want = greedy_clusters_reference(n, ang, w)
         got = cluster_normals(n, ang, w)
-        assert got.shape == want.shape
-        assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
-        assert one_cluster(n, ang) == (len(want) == 1)
+        perm = rng.permutation(len(n))
+        again = cluster_normals(n[perm], ang, None if w is None else w[perm])
+        assert np.array_equal(again, got)
+        neg = cluster_normals(-n, ang, w)
+        assert _same_rows(-neg, got, 1e-9)
+        if not (_borderline(n, ang) or _closed_ring(n, ang)):
+            rot = Rotation.random(random_state=int(rng.integers(1 << 30))).as_matrix()
+            moved = cluster_normals(n @ rot.T, ang, w)
+            assert _same_rows(moved @ rot, got, 1e-7)
+            turned += 1
+        # each piece lies within ang of its plain mean, so its weighted mean (in the same
+        # cap) within 2 ang of every member; and within ang of it when no weights (nor
+        # repeated rows, which count as weights) pull it
+        live = unit_rows(n[np.linalg.norm(n, axis=1) > 0.5])
+        if len(live):
+            near = (live @ got.T).max(axis=1)
+            assert (near >= np.cos(min(2 * ang, np.pi)) - 1e-9).all()
+            if w is None and len(unique_rows(np.round(n, 9))[0]) == len(n):
+                assert (near >= np.cos(ang) - 1e-9).all()
+    assert turned > 300
+
+
+def test_cluster_normals_by_construction():
+    one = np.radians(1.0)
+    z = np.array([0.0, 0.0, 1.0])
+    # one face's triangles (rounding noise): one normal
+    face = unit_rows(z + np.random.default_rng(2).normal(size=(50, 3)) * 1e-10)
+    assert np.allclose(cluster_normals(face, one), [z]) and one_cluster(face, one)
+    # two faces 3 degrees apart stay two
+    t = np.radians([0.0, 3.0])
+    two = np.c_[np.sin(t), 0 * t, np.cos(t)]
+    assert _same_rows(cluster_normals(two, one), two, 1e-8) and not one_cluster(two, one)
+    # a chain 0.5 degree apart over 5 degrees (a fine cylinder): not one meaningless mean,
+    # nor one normal per facet; each facet within the degree of a normal
+    t = np.radians(np.arange(11) * 0.5)
+    chain = np.c_[np.sin(t), 0 * t, np.cos(t)]
+    got = cluster_normals(chain, one)
+    assert 3 <= len(got) < 11
+    assert ((chain @ got.T).max(axis=1) >= np.cos(one) - 1e-12).all()
+    # weights pull the mean: two normals 0.4 degree apart, the heavier one dominates
+    t = np.radians([0.0, 0.4])
+    pair = np.c_[np.sin(t), 0 * t, np.cos(t)]
+    m = cluster_normals(pair, one, np.array([3.0, 1.0]))[0]
+    assert np.isclose(np.degrees(np.arctan2(m[0], m[2])), 0.1, atol=1e-3)
 
 
 def test_unique_rows_equals_numpy_unique():

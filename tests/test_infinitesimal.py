@@ -20,6 +20,7 @@ from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.geometry.sphere import (
     arrangement_s2,
     cluster_angles,
+    cone_boundary_circles,
     free_cone_2d,
     merge_directions,
 )
@@ -115,6 +116,60 @@ def test_near_coincident_normals_are_merged():
     b = 1e-3
     g2 = build_ndbg_3d(["a", "b", "c"], [(0, 1, [-Z]), (0, 2, [[np.sin(b), 0, -np.cos(b)]])])
     assert g2.stats["circles"] == 2 and g2.region_counts() == {"0": 2, "1": 4, "2": 4}
+
+
+def _direction_set(dirs, index, sign, n):
+    """The merged directions as a set (rounded, each circle with its first member's sign
+    replaced by a canonical one) and the partition of the rows."""
+    canon = dirs * np.where(dirs[np.arange(len(dirs)), np.argmax(np.abs(dirs), 1)] < 0,
+                            -1, 1)[:, None]
+    pieces = {frozenset(np.flatnonzero(index == k).tolist()) for k in range(len(dirs))}
+    return canon, pieces
+
+
+def test_merged_chains_do_not_depend_on_order_frame_or_sign():
+    """A fine tessellation's facet normals (0.3 degree apart, a 40-degree patch, with a
+    second patch across) chain within the 1-degree contact tolerance and are cut into
+    pieces: the same pieces in any row order, frame or sign (issue 34: the permuted engine
+    drew other circles), each piece within the tolerance of its direction."""
+    tol = np.radians(1.0)
+    rng = np.random.default_rng(4)
+    t = np.radians(np.arange(0, 40, 0.3))
+    patch = np.c_[np.cos(t), np.sin(t), 0 * t]
+    s = np.radians(np.arange(0, 12, 0.45))
+    other = np.c_[0 * s, np.sin(s), np.cos(s)]
+    n = np.vstack([patch, other])
+    dirs, index, sign = merge_directions(n, tol)
+    base = _direction_set(dirs, index, sign, n)
+    assert 20 < len(dirs) < len(n)  # cut, not one mean nor one circle per facet
+    assert (np.abs(np.einsum("ij,ij->i", n, dirs[index])) >= np.cos(tol) - 1e-12).all()
+    perm = rng.permutation(len(n))
+    d2, i2, s2 = merge_directions(n[perm], tol)
+    assert {frozenset(perm[list(p)].tolist()) for p in _direction_set(d2, i2, s2, n)[1]} \
+        == base[1]
+    flipped = n * rng.choice([-1.0, 1.0], size=(len(n), 1))
+    assert _direction_set(*merge_directions(flipped, tol), n)[1] == base[1]
+    for _ in range(3):
+        q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        assert _direction_set(*merge_directions(n @ q.T, tol), n)[1] == base[1]
+
+
+def test_a_peg_draws_the_same_two_circles_in_any_order():
+    """The zero free cone of a peg in a facetted hole needs two circles through the axis:
+    the two that cross most steeply, whichever normal comes first (it was the first row)."""
+    k = 24
+    t = 2 * np.pi * np.arange(k) / k + 0.05 * np.sin(np.arange(k))  # uneven facets
+    ring = np.c_[np.cos(t), np.sin(t), 0 * t]
+    circle = np.arange(k) + 100
+    want = cone_boundary_circles(ring, circle, 1e-6)
+    assert len(want) == 2
+    a, b = (ring[c - 100] for c in want)
+    steepest = np.abs(np.cross(ring[:, None], ring[None])[..., 2]).max()
+    assert abs(np.cross(a, b)[2]) >= steepest - 1e-12
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        p = rng.permutation(k)
+        assert cone_boundary_circles(ring[p], circle[p], 1e-6) == want
 
 
 def test_vertices_within_tolerance_are_one_vertex():

@@ -21,6 +21,8 @@ from ..core.constants import ANGLE_TOL_RAD
 from .vectors import close_pairs, plane_basis, unique_rows, unit
 
 TWO_PI = 2.0 * np.pi
+#: Up to this many distinct points, :func:`_clusters` compares all pairs directly.
+_DENSE = 64
 
 
 def _clusters(points: np.ndarray, radius: float) -> np.ndarray:
@@ -35,6 +37,18 @@ def _clusters(points: np.ndarray, radius: float) -> np.ndarray:
     r = np.round(points, 12)
     first, inv = unique_rows(r)
     m = len(first)
+    if m <= _DENSE:
+        # a few points (one contact's normals): all distances and a min-label propagation
+        # cost less than a k-d tree and a sparse graph, and give the same components
+        u = r[first]
+        near = ((u[:, None, :] - u[None, :, :]) ** 2).sum(axis=2) <= radius * radius
+        labels = np.arange(m)
+        while True:
+            new = np.where(near, labels[None, :], m).min(axis=1)
+            if (new == labels).all():
+                break
+            labels = new
+        return _first_seen(labels[inv])
     p, q = close_pairs(r[first], radius)
     graph = coo_matrix((np.ones(len(p)), (p, q)), shape=(m, m))
     _, labels = connected_components(graph, directed=False)
@@ -98,8 +112,7 @@ def merge_directions(normals: np.ndarray, tol: float = ANGLE_TOL_RAD, *,
 
 def _unchain(n: np.ndarray, index: np.ndarray, sign: np.ndarray, tol: float) -> np.ndarray:
     """``index`` with every single-linkage cluster that chained wider than ``tol`` (a member
-    more than ``tol`` from the cluster's mean) cut into greedy clusters: in input order, the
-    first member left is a seed and takes every member left within ``tol`` of it.
+    more than ``tol`` from the cluster's mean) cut into pieces by :func:`_cut`.
 
     Chaining is harmless at rounding tolerances but not at a contact tolerance (the NDBG's
     1 degree): the facet normals of a cylinder tessellated finer than that (a fine STEP
@@ -121,15 +134,104 @@ def _unchain(n: np.ndarray, index: np.ndarray, sign: np.ndarray, tol: float) -> 
     nxt = k
     for c in np.flatnonzero(wide).tolist():
         rows = np.flatnonzero(index == c)
-        left = np.ones(len(rows), dtype=bool)
-        while left.any():
-            at = np.flatnonzero(left)[0]
-            take = left & (np.abs(n[rows] @ n[rows[at]]) >= cos)
-            take[at] = True
-            out[rows[take]] = nxt  # every piece a new label; relabelled below
+        for piece in _cut(v[rows], tol):
+            out[rows[piece]] = nxt  # every piece a new label; relabelled below
             nxt += 1
-            left &= ~take
     return _first_seen(out)
+
+
+def _cut(v: np.ndarray, tol: float, scale: float = 0.999) -> list[np.ndarray]:
+    """Pieces of the unit rows ``v`` (index arrays) whose members each lie within ``tol``
+    radians of their piece's mean.
+
+    The pieces depend on the set of directions only: not on the rows' order (the parts'
+    order), the frame, or the sign the cluster was given (its antipodal merging), which the
+    greedy cut this replaces (seeds in input order) did, so a permuted model drew different
+    circles (issue 34). The directions are mapped to the plane tangent at their mean by
+    the azimuthal equidistant map (exact along geodesics through the mean, so a chain of
+    facet normals along a great circle keeps its spacing), expressed in their principal axes
+    and binned into an equal grid spanning exactly their extent: mirror-symmetric, so the
+    axes' signs do not matter. Directions without a meaningful mean (a long arc, a whole
+    ring of a bore's facets) are placed along their great circle instead
+    (:func:`_ring_coords`). A cell's diagonal is at most ``scale * tol``; a piece the
+    map's distortion leaves wider than ``tol`` (clusters spanning tens of degrees) is cut
+    again with a smaller cell. The one arbitrary case left is a cluster with no principal
+    axis (as spread one way as the other), whose axes follow rounding."""
+    v = np.asarray(v, dtype=float)
+    if len(v) < 2:
+        return [np.arange(len(v))]
+    total = v.sum(axis=0)
+    if np.linalg.norm(total) >= 0.5 * len(v):
+        xy = _tangent_coords(v, unit(total))
+        centred = xy - xy.mean(axis=0)
+        _, axes = np.linalg.eigh(centred.T @ centred)  # ascending: minor, major
+        t = xy @ axes
+    else:  # no meaningful mean: a long arc or a whole ring (a finely tessellated bore)
+        t = _ring_coords(v)
+    lo, span = t.min(axis=0), np.ptp(t, axis=0)
+    width = scale * tol
+    minor, k_minor = _bins(t[:, 0] - lo[0], span[0],
+                           max(1, int(np.ceil(span[0] / (width / np.sqrt(2.0))))))
+    w_minor = span[0] / k_minor
+    major, _ = _bins(t[:, 1] - lo[1], span[1],
+                     max(1, int(np.ceil(span[1] / np.sqrt(max(width * width - w_minor ** 2,
+                                                               0.5 * width * width))))))
+    cell = minor * (int(major.max()) + 1) + major
+    out = []
+    for c in np.unique(cell).tolist():
+        rows = np.flatnonzero(cell == c)
+        mean = unit(v[rows].sum(axis=0))
+        if len(rows) == 1 or (v[rows] @ mean).min() >= np.cos(tol):
+            out.append(rows)
+        else:
+            out += [rows[p] for p in _cut(v[rows], tol, scale / 2)]
+    return out
+
+
+def _bins(x: np.ndarray, span: float, k: int) -> tuple[np.ndarray, int]:
+    """Bin of each of ``x`` (``0 <= x <= span``) among ``k'`` equal bins spanning exactly
+    ``[0, span]``, and ``k'``: the first count from ``k`` up with no value within 1e-6 of a
+    bin's width from an inner edge. A tessellation's facet normals are evenly spaced, so with
+    ``k`` bins some may sit exactly on an edge, where rounding (hence the frame) would pick
+    the side; more, narrower bins are as valid (:func:`_cut`)."""
+    if span <= 0 or k <= 1:
+        return np.zeros(len(x), dtype=np.int64), 1
+    f = x / span
+    for kk in range(k, k + 64):
+        g = f * kk
+        edge = np.round(g)
+        if not ((np.abs(g - edge) < 1e-6) & (edge > 0) & (edge < kk)).any():
+            break
+    return np.clip(np.floor(g), 0, kk - 1).astype(np.int64), kk
+
+
+def _ring_coords(v: np.ndarray) -> np.ndarray:
+    """Coordinates ``(k, 2)`` of unit rows ``v`` spread along a great circle (a long arc or a
+    whole ring of facet normals, whose mean says nothing): the angle off the circle that
+    fits them best, and the angle along it from the far end of their widest gap. The widest
+    gap does not depend on the frame, the order or the sign; in a ring with several widest
+    gaps (to rounding) the first in the frame's angle is taken."""
+    m = np.linalg.svd(v, full_matrices=False)[2][-1]
+    e1, e2 = circle_frames(m)
+    theta = np.mod(np.arctan2(v @ e2[0], v @ e1[0]), TWO_PI)
+    s = np.sort(theta)
+    gaps = np.diff(np.r_[s, s[0] + TWO_PI])
+    start = s[(int(np.argmax(np.round(gaps, 12))) + 1) % len(s)]
+    along = np.mod(theta - start, TWO_PI)
+    off = np.arcsin(np.clip(v @ m, -1.0, 1.0))
+    return np.c_[off, along]
+
+
+def _tangent_coords(v: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """Azimuthal equidistant coordinates ``(k, 2)`` of the unit rows ``v`` about the unit
+    ``m``: each row's angle from ``m`` along its direction in the plane orthogonal to ``m``
+    (any orthonormal basis of it; :func:`_cut` turns them into principal axes)."""
+    e1, e2 = circle_frames(m)
+    x, y = v @ e1[0], v @ e2[0]
+    ang = np.arctan2(np.hypot(x, y), v @ m)
+    r = np.hypot(x, y)
+    f = np.divide(ang, r, out=np.zeros_like(r), where=r > 0)
+    return np.c_[x * f, y * f]
 
 
 def signs(directions: np.ndarray, normals: np.ndarray, tol: float = ANGLE_TOL_RAD
@@ -451,9 +553,7 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
         if cone.kind == "wedge":
             return {int(circle[i]) for i in cone.boundary}
         if cone.kind in ("ray", "zero"):
-            first = cone.boundary[0] if cone.boundary else 0
-            cross = np.abs(xy[first, 0] * xy[:, 1] - xy[first, 1] * xy[:, 0])
-            return {int(circle[first]), int(circle[int(np.argmax(np.round(cross, 6)))])}
+            return {int(circle[i]) for i in _transverse_pair(normals, cone.boundary[:1])}
         return everything
     u = normals.sum(axis=0)
     if np.linalg.norm(u) > 0 and (normals @ u).min() > tol * np.linalg.norm(u):
@@ -473,10 +573,8 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
     if rank_e >= 3:  # F = {0}: blocked both ways in every direction, no boundary at all
         return set()
     if rank_e == 2:  # F is a ray or a line: its points must be vertices, two circles suffice
-        first = 0
-        cross = np.linalg.norm(np.cross(ne[first], ne), axis=1)
         sel = np.flatnonzero(implicit)
-        return {int(circle[sel[first]]), int(circle[sel[int(np.argmax(np.round(cross, 6)))]])}
+        return {int(circle[sel[i]]) for i in _transverse_pair(ne)}
     # rank 1: F is a 2D cone in the plane m^T d = 0; its ends lie on the circles of the
     # normals bounding the projected 2D cone.
     m = ne[0]
@@ -495,6 +593,21 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
     for b in cone.boundary:
         keep.add(int(circle[rest[int(np.flatnonzero(which == b)[0])]]))
     return keep
+
+
+def _transverse_pair(normals: np.ndarray, fixed: tuple[int, ...] = ()) -> tuple[int, int]:
+    """Two rows of ``normals`` whose circles cross most steeply (largest ``|n_i x n_j|``),
+    the first one ``fixed[0]`` when given: any two distinct circles through ``+-m`` make
+    ``+-m`` vertices, and choosing by the normals' own angles (not the first row) draws the
+    same two in any part order and frame (issue 34). Exact ties (rounded to 1e-9) go to the
+    lower index."""
+    if fixed:
+        cross = np.linalg.norm(np.cross(normals[fixed[0]], normals), axis=1)
+        return fixed[0], int(np.argmax(np.round(cross, 9)))
+    i, j = np.triu_indices(len(normals), 1)
+    cross = np.linalg.norm(np.cross(normals[i], normals[j]), axis=1)
+    best = int(np.argmax(np.round(cross, 9)))
+    return int(i[best]), int(j[best])
 
 
 def _extreme_circles(normals: np.ndarray, circle: np.ndarray, u: np.ndarray,

@@ -183,9 +183,11 @@ def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] |
     """Decompose ``mask`` by :func:`sink_split` at every node: ``(choice, stuck)`` with
     ``choice[m] = (moved, region)``. By heredity this is exact: ``stuck`` (a subassembly with no
     partitioning, hence a proof of failure) is ``None`` iff a candidate tree (a linear one with
-    ``linear``) exists using only ``regions``. Polynomial: ``O(n * regions * (n + arcs))``."""
+    ``linear``) exists using only ``regions``; of several met, the smallest. Polynomial:
+    ``O(n * regions * (n + arcs))``."""
     root = (1 << ndbg.n) - 1 if mask is None else mask
     choice: dict[int, tuple[int, int]] = {}
+    stuck: list[int] = []
     stack = [root]
     while stack:
         m = stack.pop()
@@ -193,10 +195,16 @@ def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] |
             continue
         got = sink_split(ndbg, m, regions, base=base, linear=linear)
         if got is None:
-            return choice, m
+            # go on past it: of the stuck subassemblies met, the smallest (then first by part
+            # names, not by index) is named, the most telling to a user and the cheapest to
+            # confirm, and one that does not follow the parts' order
+            stuck.append(m)
+            continue
         choice[m] = got
         stack.extend((m & ~got[0], got[0]))
-    return choice, None
+    if not stuck:
+        return choice, None
+    return choice, min(stuck, key=lambda m: (m.bit_count(), sorted(ndbg.names(m))))
 
 
 

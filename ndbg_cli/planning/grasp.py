@@ -156,7 +156,7 @@ def grasp(ndbg: NDBG, faces: Sequence[Face], mask: int | None = None, *,
     each requirement held over its region's whole extent (:class:`_Pieces`; ``tol``: the
     angular tolerance, default :func:`tolerance`). Each step places the finger that covers
     the most of what is left wholly, then the most in part (each requirement weighs
-    :data:`WEIGHT`, shared by its region's pieces; ties: lowest part, then face order).
+    :data:`WEIGHT`, shared by its region's pieces; ties: first part by name, then face order).
 
     Returns ``{"value": number of fingers, "fingers": [{"part", "normal", "point", "covers",
     "covers_part"}...], "uncovered": [{"region", "parts", "direction"}...], "complete": bool,
@@ -249,9 +249,12 @@ class _Greedy:
         self.alive = np.ones(self.n0, dtype=bool)
         self.bound = np.zeros((len(faces), 2), dtype=np.int64)  # gains (covered, cut), or more
         self.taken = np.zeros(len(faces), dtype=bool)
-        # most pieces covered wholly first, then cut; ties: lowest part, then first face
+        # most pieces covered wholly first, then cut; ties: the part first by name (not by
+        # index: the count must not follow the parts' order), then its first face
+        name_rank = np.argsort(np.argsort(np.array(ndbg.ids, dtype=object), kind="stable"))
         self.rank = np.empty(len(faces), dtype=np.int64)
-        self.rank[np.lexsort((np.arange(len(faces)), self.part_of))] = np.arange(len(faces))
+        self.rank[np.lexsort((np.arange(len(faces)), name_rank[self.part_of]))] = \
+            np.arange(len(faces))
         self.heap: list[tuple[int, int, int, int]] = []
         self.exact: dict[int, bool] = {}
         self.spent = 0  # tests made (the first gains are the work counted above)
