@@ -397,6 +397,10 @@ def test_the_engine_and_the_beam_analyse_end_to_end(tmp_path):
     assert len(rep["interferences"]) == 57 and kinds <= {"press_fit", "overlap", "clash"}
     assert all(x.get("unit") for x in rep["interferences"] if x["kind"] == "clash")
     assert (grasp["value"] is None and "over the budget" in grasp["why"]) or grasp["value"] > 0
+    # a greedy bound (not the exact minimum) is said to be one that tolerances may move
+    near = [w for w in rep["warnings"] if w["code"] == "near-tolerance"]
+    assert bool(near) == (grasp["value"] is not None and not grasp.get("exact"))
+    assert all(w["fields"] == ["classes.infinitesimal_translation.grasp"] for w in near)
     # decided: a proven plan, or a proof that none exists naming where parts block each other
     # (its pins are open cups over bosses: the sweep test once freed them through the bosses,
     # which withdrew the proof; tests/test_sweep.py has the cup by construction)

@@ -21,6 +21,7 @@ from ..io.loaders import load
 from ..report.consistency import contradictions
 from ..report.consistency import warnings as consistency_warnings
 from ..report.document import REPORT_SCHEMA
+from ..report.tolerance import warnings as tolerance_warnings
 
 
 def assembly_section(asm: Assembly, root: str | Path | None = None) -> dict:
@@ -107,6 +108,8 @@ def analyze(asm: Assembly, options: Options = Options()) -> dict:
     report["timings"] = timings if options.timings else {}
     # answers that contradict each other are said so (ndbg check --self lists the same)
     report["warnings"] += consistency_warnings(contradictions(report), asm.source or None)
+    # answers a turn or another export may change within the tolerances are said to be so
+    report["warnings"] += tolerance_warnings(report, asm.source or None)
     for w in report["warnings"]:
         w["file"] = portable_source(w.get("file"), asm.source, root)
     return report
