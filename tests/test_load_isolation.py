@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ndbg_cli.core.constants import DEFLECTION_RELATIVE as DEFLECTION
 from ndbg_cli.core.errors import InputError
 from ndbg_cli.io.isolated import run_isolated
 from ndbg_cli.io.loaders import default_deflection_mm, load
@@ -328,6 +329,15 @@ def test_default_deflection_follows_the_model_size_above_one_metre():
         pytest.approx(0.05)
     assert default_deflection_mm(points((0, 0, 0), (3, 4, 0)), "m") == pytest.approx(0.05)
     assert default_deflection_mm(b"no points", "mm") == 0.01
+    # the size is the same in any frame (a box diagonal grew by up to 1.7 when turned)
+    corners = np.array([(x, y, z) for x in (0, 3000) for y in (0, 4000) for z in (0, 500)], float)
+    turn = np.linalg.qr(np.random.default_rng(7).normal(size=(3, 3)))[0]
+    want = default_deflection_mm(points(*corners), "mm")
+    assert want == pytest.approx(DEFLECTION * np.sqrt(3000**2 + 4000**2 + 500**2))
+    assert default_deflection_mm(points(*(corners @ turn.T)), "mm") == pytest.approx(want, rel=1e-4)
+    flat = np.array([(0, 0, 0), (3000, 0, 0), (0, 4000, 0)], float)  # no volume: from the mean
+    assert default_deflection_mm(points(*(flat @ turn.T)), "mm") == pytest.approx(
+        default_deflection_mm(points(*flat), "mm"), rel=1e-4)
 
 
 @pytest.mark.external

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import fcl
 import numpy as np
 
-from ..core.assembly import Assembly, Diagnostic, Part
+from ..core.assembly import Assembly, Diagnostic, Part, point_extent
 from ..core.errors import InterferenceError
 from .facets import PartGeometry, fcl_model, fcl_object, manifold_model
 from .fits import Fit, classify_overlap, fcl_separates, manifold_separates
@@ -127,9 +127,18 @@ def _classify(tri: np.ndarray, depth: float, pa: Part, pb: Part, separates, tol:
     area = np.linalg.norm(cross, axis=1)
     keep = area > 0
     normals = cross[keep] / area[keep, None]
-    size = min(float(np.linalg.norm(np.ptp(p.bounds, axis=0))) for p in (pa, pb))
+    # the smaller part's size, the same in any frame (a box diagonal is not)
+    size = min(_part_size(p) for p in (pa, pb))
     return classify_overlap(tri[keep], normals, 0.5 * area[keep], depth, size, separates, tol,
                             volume)
+
+
+def _part_size(p: Part) -> float:
+    """:func:`ndbg_cli.core.assembly.point_extent` of a part's vertices (its box diagonal
+    when it has none)."""
+    if p.mesh is None or len(p.mesh.vertices) == 0:
+        return float(np.linalg.norm(np.ptp(p.bounds, axis=0)))
+    return point_extent(np.asarray(p.mesh.vertices, dtype=float))[0]
 
 
 def crossing_depth(ta: np.ndarray, na: np.ndarray, tb: np.ndarray, nb: np.ndarray,

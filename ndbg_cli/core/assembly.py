@@ -240,19 +240,36 @@ class Assembly:
 
 
 def _size(asm: Assembly) -> tuple[float, np.ndarray]:
-    """:attr:`Assembly.size` and :attr:`Assembly.centre`: from the convex hull of every vertex
-    (2D: polygon corner), its volume (area) centroid; points that span no volume (a flat or
-    empty model) are measured from their mean instead."""
-    from scipy.spatial import ConvexHull, QhullError
-
+    """:attr:`Assembly.size` and :attr:`Assembly.centre`: :func:`point_extent` of every
+    vertex (2D: polygon corner)."""
     pts = [np.asarray(p.mesh.vertices, float) if p.mesh is not None
            else np.asarray(p.polygon.exterior.coords, float)[:, :asm.dimension]
            for p in asm.parts if p.mesh is not None or p.polygon is not None]
     if not pts:
         lo, hi = asm.bounds
         return float(np.linalg.norm(hi - lo)), (lo + hi) / 2
-    x = np.concatenate(pts)
-    x = x[np.lexsort(x.T[::-1])]  # one order whatever the part order: the same float sums
+    return point_extent(np.concatenate(pts))
+
+
+def point_extent(points: np.ndarray) -> tuple[float, np.ndarray]:
+    """``(size, centre)`` of a point set, the same in any frame and point order: twice the
+    largest distance of a point from the volume (area) centroid of their convex hull, and
+    that centroid; points that span no volume (flat, or none but one) are measured from
+    their mean instead. A bounding box's diagonal changes when the points turn (by up to a
+    factor of 1.7), and so would every tolerance or threshold drawn from it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> cube = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    >>> size, centre = point_extent(cube)
+    >>> round(size, 6), centre.round(6).tolist()
+    (1.732051, [0.5, 0.5, 0.5])
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    x = np.asarray(points, dtype=float)
+    x = x[np.lexsort(x.T[::-1])]  # one order whatever the input order: the same float sums
     try:
         hull = ConvexHull(x)
         v = x[hull.vertices]

@@ -169,6 +169,10 @@ def _cut(v: np.ndarray, tol: float, scale: float = 0.999) -> list[np.ndarray]:
     else:  # no meaningful mean: a long arc or a whole ring (a finely tessellated bore)
         t = _ring_coords(v)
     lo, span = t.min(axis=0), np.ptp(t, axis=0)
+    if not span.any() or scale < 1e-6:
+        # no grid separates them (a zero row among directions, or one direction given twice
+        # with rounding apart): each its own piece
+        return [np.array([i]) for i in range(len(v))]
     width = scale * tol
     minor, k_minor = _bins(t[:, 0] - lo[0], span[0],
                            max(1, int(np.ceil(span[0] / (width / np.sqrt(2.0))))))

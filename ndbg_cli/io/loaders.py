@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from ..core.assembly import Assembly, Diagnostic, Joint, Part
+from ..core.assembly import Assembly, Diagnostic, Joint, Part, point_extent
 from ..core.constants import (
     DEFLECTION_RELATIVE,
     LOAD_MEMORY_GIB,
@@ -465,9 +465,11 @@ _STEP_POINT = re.compile(rb"CARTESIAN_POINT\s*\(\s*'[^']*'\s*,\s*\(([^()]*)\)", 
 def default_deflection_mm(data: bytes, file_units: str) -> float:
     """The default linear deflection (mm) of a STEP file's tessellation:
     :data:`STEP_DEFLECTION_MM`, or :data:`DEFLECTION_RELATIVE` times the model's size where
-    that is larger (a model larger than 1 m). The size is the bounding-box diagonal of the
-    file's points (``CARTESIAN_POINT``: vertices, control points, placements), found before
-    OpenCASCADE tessellates anything; an estimate, which is all a deflection needs."""
+    that is larger (a model larger than 1 m). The size is
+    :func:`ndbg_cli.core.assembly.point_extent` of the file's points (``CARTESIAN_POINT``:
+    vertices, control points, placements; the same in any frame, unlike a box diagonal),
+    found before OpenCASCADE tessellates anything; an estimate, which is all a deflection
+    needs."""
     rows = [g for g in _STEP_POINT.findall(data) if g.count(b",") == 2]
     if not rows:
         return STEP_DEFLECTION_MM
@@ -478,8 +480,8 @@ def default_deflection_mm(data: bytes, file_units: str) -> float:
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     if not len(pts):
         return STEP_DEFLECTION_MM
-    diagonal = float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0))) * scale(file_units, "mm")
-    return max(STEP_DEFLECTION_MM, DEFLECTION_RELATIVE * diagonal)
+    size = point_extent(pts)[0] * scale(file_units, "mm")
+    return max(STEP_DEFLECTION_MM, DEFLECTION_RELATIVE * size)
 
 
 @contextlib.contextmanager

@@ -83,9 +83,15 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
     sep = 0.0
     if len(a_rows):
         c = -a_rows.sum(axis=0)
-        res = linprog(c, A_ub=-a_rows, b_ub=np.zeros(len(a_rows)), bounds=bounds,
-                      method="highs")
-        if res.status != 0:
+        # v = 0 is feasible and the box bounds it, so only the solver can fail: HiGHS'
+        # default choice stopped with an unknown status on the turned engine's normals,
+        # where its dual simplex and interior point solve it
+        for method in ("highs", "highs-ds", "highs-ipm"):
+            res = linprog(c, A_ub=-a_rows, b_ub=np.zeros(len(a_rows)), bounds=bounds,
+                          method=method)
+            if res.status == 0:
+                break
+        else:
             raise RuntimeError(f"interlocking LP failed: {res.message}")
         sep = float(-res.fun)
         if sep > tol:
