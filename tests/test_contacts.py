@@ -578,7 +578,7 @@ def _borderline(n, ang):
 def _closed_ring(n, ang):
     """Whether the normals go all round a great circle with no gap of ``ang``: a ring with
     no first member (where the pieces start then follows the frame; documented in
-    ``sphere._ring_coords``)."""
+    ``directions._ring_coords``)."""
     m = np.linalg.svd(n)[2][-1]
     if np.abs(n @ m).max() > 1e-3:
         return False

@@ -17,12 +17,12 @@ from hypothesis import strategies as st
 
 from ndbg_cli.contacts.contacts2d import contacts_of_polygons, find_contacts_2d
 from ndbg_cli.core.assembly import Assembly
+from ndbg_cli.geometry.directions import merge_directions
 from ndbg_cli.geometry.sphere import (
     arrangement_s2,
     cluster_angles,
     cone_boundary_circles,
     free_cone_2d,
-    merge_directions,
 )
 from ndbg_cli.geometry.vectors import unit
 from ndbg_cli.io.validate import make_polygon_part

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import linprog
 from scipy.spatial import ConvexHull, QhullError
 
-from ..geometry.sphere import circle_frames
+from ..geometry.directions import circle_frames
 
 #: Pairs farther apart than this fraction of the length tolerance are near misses with a
 #: gap direction; closer ones are touching.

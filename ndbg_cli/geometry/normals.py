@@ -1,7 +1,7 @@
 """Clustering of unit normals: one flat contact gives one normal, not one per triangle.
 
 :func:`cluster_normals` merges unit vectors within the angular tolerance as the NDBG merges
-its circles (:func:`ndbg_cli.geometry.sphere.merge_directions`, without antipodes): groups by
+its circles (:func:`ndbg_cli.geometry.directions.merge_directions`, without antipodes): groups by
 single linkage, and a group that chained wider than the tolerance (the facet normals of a
 finely tessellated cylinder, each within it of the next) cut into pieces whose members lie
 within it of their mean. Each piece becomes its weighted mean direction.
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sphere import merge_directions
+from .directions import merge_directions
 from .vectors import unique_rows, unit
 
 #: Up to this many distinct normals, :func:`cluster_normals` first compares all pairs (a

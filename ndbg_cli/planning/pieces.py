@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..geometry.sphere import circle_frames
+from ..geometry.directions import circle_frames
 from ..geometry.vectors import unit
 from ..ndbg.model import NDBG
 

@@ -17,14 +17,13 @@ from collections.abc import Iterable, Iterator, Sequence
 import numpy as np
 
 from ...core.constants import ANGLE_TOL_RAD, INFINITESIMAL
+from ...geometry.directions import TWO_PI, merge_directions
 from ...geometry.sphere import (
-    TWO_PI,
     angle_of,
     arrangement_s2,
     cluster_angles,
     cone_boundary_circles,
     free_cone_2d,
-    merge_directions,
     signs,
     snap_normals,
 )
