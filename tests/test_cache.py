@@ -108,7 +108,7 @@ def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
                 if isinstance(node, ast.ImportFrom) and node.level and node.module:
                     target = importlib.util.resolve_name("." * node.level + node.module, package)
                     assert target.removeprefix("ndbg_cli.") in mods, (name, target)
-    assert {"contacts.gap_cones", "contacts.facets", "geometry.sphere"} <= set(
+    assert {"contacts.gap_cones", "contacts.facets", "geometry.directions"} <= set(
         stage_modules("contacts"))
     assert {"ndbg.infinite.blocking_cones", "ndbg.infinite.cover", "ndbg.infinite.tritree",
             "ndbg.infinite.domain", "ndbg.infinite._kernels"} <= set(stage_modules("infinite"))
