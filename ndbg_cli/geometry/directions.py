@@ -28,8 +28,7 @@ _DENSE = 64
 def cluster_labels(points: np.ndarray, radius: float) -> np.ndarray:
     """Single-linkage cluster label of each row of ``points`` (Euclidean ``radius``), in order
     of first appearance: the connected components of the graph of the pairs within
-    ``radius`` (the neighbour search and the deduplication are those of
-    :func:`ndbg_cli.geometry.normals.cluster_normals`, whose clusters are greedy instead)."""
+    ``radius`` (:func:`merge_directions`' groups, and the arrangement's merged vertices)."""
     if len(points) == 0:
         return np.zeros(0, dtype=np.int64)
     # Repeated points (shared CAD normals) first collapse exactly: query_pairs would list
@@ -78,13 +77,12 @@ def merge_directions(normals: np.ndarray, tol: float = ANGLE_TOL_RAD, *,
     appearance, and for each input row the index of its direction and the sign ``s`` (+1 or
     -1; always +1 without ``antipodal``) with ``normals[i] ~= s * dirs[index[i]]``.
 
-    Why single linkage and not the greedy clusters of
-    :func:`ndbg_cli.geometry.normals.cluster_normals`: the arrangement needs its circles
-    pairwise more than ``tol`` apart (else two nearly equal circles cut sliver regions), and
-    only single linkage guarantees that of its output (greedy clusters can leave two means
-    within ``tol`` of each other); ``tol`` is rounding noise (1e-6 rad), so chaining across
-    it is harmless. It also joins ``n`` with ``-n`` (one circle) and maps every input row to
-    its direction, which the NDBG builder needs.
+    Why single linkage: at a rounding tolerance (1e-6 rad) it leaves the circles pairwise
+    more than ``tol`` apart (nearly equal circles would cut sliver regions), which a greedy
+    clustering does not (it can leave two means within ``tol`` of each other), and chaining
+    across noise is harmless; at a contact tolerance (1 degree) a group that chained wider
+    than ``tol`` is cut (:func:`_unchain`). It also joins ``n`` with ``-n`` (one circle) and
+    maps every input row to its direction, which the NDBG builder needs.
 
     Examples
     --------

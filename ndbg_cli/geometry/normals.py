@@ -21,10 +21,6 @@ import numpy as np
 from .directions import merge_directions
 from .vectors import unique_rows, unit
 
-#: Up to this many distinct normals, :func:`cluster_normals` first compares all pairs (a
-#: flat or nearly flat side is one piece without the k-d tree of the general grouping).
-_PAIRWISE = 64
-
 
 def cluster_normals(normals: np.ndarray, angle_tol: float,
                     weights: np.ndarray | None = None) -> np.ndarray:
@@ -53,12 +49,7 @@ def cluster_normals(normals: np.ndarray, angle_tol: float,
     first, inv = unique_rows(r)
     u = r[first]
     wu = np.bincount(inv, weights=w, minlength=len(u))
-    if len(u) <= _PAIRWISE and (u @ u.T).min() >= np.cos(angle_tol):
-        # every two within the tolerance: one single-linkage group, all within it of the
-        # mean (n . sum >= k cos >= |sum| cos), so one piece; no k-d tree needed
-        index = np.zeros(len(u), dtype=np.int64)
-    else:
-        index = merge_directions(u, angle_tol, antipodal=False)[1]
+    index = merge_directions(u, angle_tol, antipodal=False)[1]
     k = int(index.max()) + 1
     weighted = np.zeros((k, 3))
     np.add.at(weighted, index, u * wu[:, None])

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.constants import ANGLE_TOL_RAD
 from .directions import TWO_PI, chord, circle_frames, cluster_labels, merge_directions
+from .lp import solve_lp
 from .vectors import plane_basis, unit
 
 
@@ -457,14 +458,9 @@ def _implicit_equalities(normals: np.ndarray, tol: float
     when the solver fails, by simplex and then by interior points (the caller then keeps
     every circle, which is still exact, but other noise gives another arrangement).
     """
-    from scipy.optimize import linprog
-
-    def solve(*args, **kwargs):
-        for method in ("highs", "highs-ipm"):
-            res = linprog(*args, method=method, **kwargs)
-            if res.status == 0:
-                return res
-        return None
+    def solve(c, **kwargs):
+        res = solve_lp(c, (("highs", {}), ("highs-ipm", {})), **kwargs)
+        return res if res.status == 0 else None
 
     k = len(normals)
     big = 1.0 / tol

@@ -11,7 +11,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
-from scipy.optimize import linprog
+
+from ..geometry.lp import solve_lp
 
 TOL = 1e-7
 
@@ -86,13 +87,10 @@ def interlock(n: int, pair_normals: Mapping[tuple[int, int], np.ndarray],
         # v = 0 is feasible and the box bounds it, so only the solver can fail: HiGHS
         # stopped with an unknown status after its presolve on the turned engine's 3,869
         # normals (every method alike), and solves the same LP without it
-        for method, options in (("highs", {}), ("highs", {"presolve": False}),
-                                ("highs-ipm", {"presolve": False})):
-            res = linprog(c, A_ub=-a_rows, b_ub=np.zeros(len(a_rows)), bounds=bounds,
-                          method=method, options=options)
-            if res.status == 0:
-                break
-        else:
+        res = solve_lp(c, (("highs", {}), ("highs", {"presolve": False}),
+                           ("highs-ipm", {"presolve": False})),
+                       A_ub=-a_rows, b_ub=np.zeros(len(a_rows)), bounds=bounds)
+        if res.status != 0:
             raise RuntimeError(f"interlocking LP failed: {res.message}")
         sep = float(-res.fun)
         if sep > tol:
