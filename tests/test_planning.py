@@ -758,12 +758,39 @@ def test_connected_filter_in_plans():
             assert conn(s.moved) and conn(s.rest)
 
 
+def cycles(*groups):
+    """Arcs making each group of parts one directed cycle (one strong component)."""
+    return [(g[k], g[(k + 1) % len(g)]) for g in groups if len(g) > 1 for k in range(len(g))]
+
+
 def test_cut_partitioning_lists_never_claim_an_exact_depth():
-    """8 mutually free parts, at most 3 partitionings listed per subassembly: the optimum
-    (3 = ceil(log2 8)) may be missed, so nothing may be called exact above that bound."""
+    """At most 3 partitionings listed per subassembly: the optimum may be missed, so nothing
+    may be called exact above ceil(log2 n). Two regions over 8 parts whose strong components
+    (3, 3, 2 parts each) leave no free set of 4 at the root; every smaller subassembly breaks
+    a cycle. Worked by hand: the root splits 5 | 3 at best, so the optimum is 4 (8 -> {0, 1,
+    2, 6, 7} -> {0, 1, 2} -> {1, 2} in R1 then R2), above ceil(log2 8) = 3."""
+    from ndbg_cli.planning.andor import AndOrGraph, Budget
+    from ndbg_cli.planning.classes import classify
+    from ndbg_cli.report.classes import andor_section
+
+    nd = mk("ABCDEFGH", [(UP, cycles((0, 1, 2), (3, 4, 5), (6, 7))),
+                         (DOWN, cycles((0, 3, 6), (1, 4, 7), (2, 5)))])
+    b = Budget(split_limit=3, time_limit=None)
+    sec = andor_section(AndOrGraph(nd, budget=b).build())
+    assert sec["min_depth_exact"] is False and sec["min_depth_lower_bound"] == 3
+    got = classify(nd, budget=b)["min_depth"]
+    assert got["exact"] is False and got["lower_bound"] == 3 and got["upper_bound"] >= 4
+    full = AndOrGraph(nd, budget=Budget(split_limit=None)).build()
+    assert full.complete and full.min_depth() == 4
+
+
+def test_a_tree_as_shallow_as_ceil_log2_n_is_exact_even_over_cut_lists():
+    """8 mutually free parts, at most 3 partitionings listed per subassembly (the three
+    singletons: the listing never reaches a 4 | 4 split): the balanced tree, found without
+    the lists, has depth 3 = ceil(log2 8), which no binary tree over 8 leaves beats."""
     from ndbg_cli.ndbg.dbg import DBG
     from ndbg_cli.ndbg.model import NDBG, Region
-    from ndbg_cli.planning.andor import AndOrGraph, Budget
+    from ndbg_cli.planning.andor import AndOrGraph, Budget, node_splits
     from ndbg_cli.planning.classes import classify
     from ndbg_cli.report.classes import andor_section
 
@@ -771,12 +798,12 @@ def test_cut_partitioning_lists_never_claim_an_exact_depth():
     nd = NDBG("infinitesimal_translation", tuple(f"p{i}" for i in range(n)),
               (Region(2, (0.0, 0.0, 1.0), DBG.empty(n)),))
     b = Budget(split_limit=3, time_limit=None)
+    arcs, cut = node_splits(nd, (1 << n) - 1, limit=3)
+    assert cut and max(h.balance for h in arcs) == 7
     sec = andor_section(AndOrGraph(nd, budget=b).build())
-    assert sec["min_depth_exact"] is False and sec["min_depth_lower_bound"] == 3
+    assert sec["min_depth"] == 3 and sec["min_depth_exact"] is True
     got = classify(nd, budget=b)["min_depth"]
-    assert got["exact"] is False and got["lower_bound"] == 3 and got["upper_bound"] >= 3
-    full = AndOrGraph(nd, budget=Budget(split_limit=None)).build()
-    assert full.complete and full.min_depth() == 3
+    assert got["value"] == 3 and got["exact"] is True and "ceil(log2 n)" in got["why"]
 
 
 # --------------------------------------------------- grouping, truncation reasons, supergraphs
@@ -864,7 +891,11 @@ def test_supergraph_of_a_cut_graph_is_not_built_and_gives_the_same_measures():
     built = AndOrGraph(hyb, budget=budget).build()
     assert built.truncated  # what building would have said
     alone = classes_section({"generalized": hyb}, budget=budget)
-    assert sec["generalized"] == alone["generalized"]
+    # the same measures; the depth's reason names the contained family when it is there
+    got, ref = dict(sec["generalized"]), dict(alone["generalized"])
+    for d in (got, ref):
+        d["min_depth"] = {k: v for k, v in d["min_depth"].items() if k != "why"}
+    assert got == ref and got["min_depth"]["exact"]
     # an NDBG that does not hold the other's DBGs is built as usual
     other = mk(trans.ids, [(PX, [])], family="generalized")
     graphs = {}
@@ -911,7 +942,7 @@ def test_hybrid_min_depth_follows_from_a_contained_family_at_the_lower_bound():
                           budget=Budget(max_nodes=8, time_limit=None))
     assert sec["infinitesimal_translation"]["min_depth"]["value"] == 4
     assert sec["generalized"]["min_depth"]["value"] == 3
-    assert "iterative deepening" in sec["generalized"]["min_depth"]["why"]
+    assert "ceil(log2 n)" in sec["generalized"]["min_depth"]["why"]  # its balanced tree
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -996,19 +1027,28 @@ def test_budget_has_no_clock_by_default_and_cuts_by_counted_work():
         cuts.append((g.node_count, g.work, sorted(g.arcs)))
     assert cuts[0] == cuts[1] == cuts[2]
     # the root alone has 2^6 - 2 = 62 moved sets (31 hyperarcs), each free in region 0:
-    # 1 induced DBG + 62 region entries + 6 for the single parts, listed first (their
-    # closures, kept under a split limit) and again by the enumeration
+    # 1 induced DBG + 62 region entries + 6 for the single parts and 1 for the balanced
+    # set, listed first (their closures and the DBG's balanced set, kept under a split
+    # limit) and again by the enumeration
     g = AndOrGraph(nd, budget=Budget(max_work=1)).build()
-    assert list(g.arcs) == [0b111111] and g.work == 1 + 62 + 6
+    assert list(g.arcs) == [0b111111] and g.work == 1 + 62 + 6 + 1
     # a budget large enough leaves the graph complete, with the same answers as no budget
     full = AndOrGraph(nd, budget=Budget(max_work=None)).build()
     assert full.complete and AndOrGraph(nd).build().tree_count() == full.tree_count()
 
 
+def one_at_a_time(n):
+    """``n`` parts, region ``k`` freeing part ``k`` alone (every other part runs into all the
+    rest): every tree is linear, of height ``n - 1``, above ceil(log2 n) from 4 parts."""
+    return mk([f"P{i}" for i in range(n)],
+              [(UP, [(i, j) for i in range(n) for j in range(n) if i != j and i != k])
+               for k in range(n)])
+
+
 def test_anytime_searches_stop_on_the_work_budget():
-    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])
+    nd = one_at_a_time(6)
     r = min_depth_search(nd, budget=Budget(max_work=1))
-    assert not r.exact and (r.lower, r.upper) == (3, 3) or r.upper is None
+    assert not r.exact and (r.lower, r.upper) == (3, 5) or r.upper is None
     p = plan(nd, "shortest", budget=Budget(max_work=1))
     assert p.found and not p.exact and "work budget (1 units)" in p.notes[0]
     # a cut that found no tree still bounds the depth: the polynomial sink decomposition's
@@ -1016,10 +1056,13 @@ def test_anytime_searches_stop_on_the_work_budget():
     md = classify(nd, budget=Budget(max_nodes=1, max_work=1))["min_depth"]
     assert (md["value"], md["exact"], md["lower_bound"], md["upper_bound"]) == (5, False, 3, 5)
     assert md["why"].startswith("upper bound from the sink decomposition's tree, lower bound 3")
-    # with 3 parts that tree's height 2 is ceil(log2 3): exact without a search
-    md = classify(mk(["a", "b", "c"], [(UP, [])]),
-                  budget=Budget(max_nodes=1, max_work=1))["min_depth"]
-    assert (md["value"], md["exact"]) == (2, True) and "sink decomposition" in md["why"]
+    # 3 mutually free parts: a balanced tree of height 2 = ceil(log2 3), exact without a
+    # search; 6 of them: the same at 3, although the budget lists not one partitioning
+    for n, depth in ((3, 2), (6, 3)):
+        md = classify(mk([f"P{i}" for i in range(n)], [(UP, [])]),
+                      budget=Budget(max_nodes=1, max_work=1))["min_depth"]
+        assert (md["value"], md["exact"]) == (depth, True) and "ceil(log2 n)" in md["why"]
+    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])
     # the greedy search cut before any tree: the polynomial sink decomposition's tree is a
     # candidate tree all the same (every step's moved set free in its region)
     for strategy in ("balanced", "linear"):
@@ -1086,7 +1129,7 @@ def test_fewest_directions_cut_by_the_budget_still_gives_its_tree():
 def test_andor_section_reports_the_size_the_build_reached():
     # review finding: anytime searches expanding the same memo after the build made the
     # section's size depend on which searches ran first
-    nd = mk([f"P{i}" for i in range(6)], [(UP, [])])
+    nd = one_at_a_time(6)
     g = AndOrGraph(nd, budget=Budget(max_nodes=10)).build()
     size = (g.node_count, g.hyperarc_count)
     min_depth_search(nd, budget=Budget(max_nodes=10_000), graph=g)
@@ -1214,3 +1257,63 @@ def test_a_tree_as_deep_as_a_large_product_is_rendered(tmp_path):
                          text=True, timeout=300)
     assert got.returncode == 0, got.stderr[-2000:]
     assert got.stdout.split() == ["1499", "1499", "1499", "1499"]
+
+
+# ------------------------------------------------------------------- balanced free sets
+@pytest.mark.parametrize("seed", range(40))
+def test_balanced_free_set_is_a_free_set_of_at_most_the_target(seed):
+    """Against brute force over every subset: the set is free (closed under the DBG's arcs),
+    within the target, clear of ``avoid``; on an acyclic DBG (every component one part)
+    first fit reaches the target whenever a free set that large avoids ``avoid``."""
+    from ndbg_cli.ndbg.components import balanced_free_set, condense
+
+    rng = random.Random(seed)
+    n = rng.randint(2, 9)
+    acyclic = seed % 2 == 0
+    arcs = [(i, j) for i in range(n) for j in range(n)
+            if i != j and (not acyclic or i < j) and rng.random() < 0.3]
+    succ = DBG.from_arcs(n, arcs).succ
+    full = (1 << n) - 1
+    avoid = 0 if seed % 3 else 1 << rng.randrange(n)
+    target = rng.randint(1, n - 1)
+    got = balanced_free_set(*condense(succ, full), target, avoid=avoid)
+    free = [s for s in range(1, full) if all(succ[i] & full & ~s == 0 for i in bits(s))
+            and not s & avoid]
+    assert got == 0 or (got in free and got.bit_count() <= target)
+    best = max((s.bit_count() for s in free if s.bit_count() <= target), default=0)
+    if acyclic:
+        assert got.bit_count() == best
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_the_balanced_tree_is_a_candidate_tree_exactly_when_one_exists(seed):
+    """Random NDBGs: every node of the balanced tree is split by a moved set free in each
+    region it names, the tree covers the product, and it is missing exactly when the sink
+    decomposition (exact by heredity) finds a stuck subassembly."""
+    from ndbg_cli.planning.decompose import _arcs_depth, balanced_tree
+
+    rng = random.Random(seed)
+    n = rng.randint(2, 9)
+    regions = [(d, [(i, j) for i in range(n) for j in range(n) if i != j
+                    and rng.random() < 0.35]) for d in (UP, DOWN, PX)]
+    nd = mk([f"P{i}" for i in range(n)], regions)
+    base = None if seed % 2 else rng.randrange(n)
+    full = (1 << n) - 1
+    tree = balanced_tree(nd, base=base)
+    _, stuck = sink_decompose(nd, full, base=base)
+    assert (tree is None) == (stuck is not None)
+    if tree is None:
+        return
+    leaves, stack = 0, [full]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() == 1:
+            leaves += 1
+            continue
+        h = tree[m]
+        assert h.left | h.right == m and not h.left & h.right and h.left & m & -m
+        for moved, regs in h.moves:
+            assert regs and all(nd.regions[r].dbg.is_free(moved, m) for r in regs)
+            assert base is None or not moved >> base & 1
+        stack += [h.left, h.right]
+    assert leaves == n and _arcs_depth(tree, full) >= max(0, n - 1).bit_length()

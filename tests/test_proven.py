@@ -146,6 +146,57 @@ def test_linear_greedy_offers_every_part_that_leaves_alone():
                for sp in got.splits.values())
 
 
+@pytest.mark.parametrize("seed", range(8))
+def test_the_linear_peel_takes_the_same_splits_as_ranking_every_part(seed, monkeypatch):
+    """``proven._peel`` keeps blocking counts and a heap instead of ranking every one-part
+    split of every subassembly afresh: on random blocking relations (with cycles, so the
+    chain stops and the plain search goes on) and random contacts, with and without a base,
+    it takes the same splits in the same order as the plain ranking, which the tests above
+    check by hand."""
+    from types import SimpleNamespace
+
+    from ndbg_cli.pipeline.proofs import _Clearance
+    from ndbg_cli.planning import proven
+
+    rng = np.random.default_rng(seed)
+    n = 40
+    axes = [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]
+    # sparse arcs, dense ones within a cluster of 8 parts along x and y, and its pairs (0, 1),
+    # (2, 3), ... locked together along z: there one-part splits run out, and the plain
+    # search moves pairs or is stuck
+    table = {d: {(i, j) for i in range(n) for j in range(n) if i != j and (
+        rng.random() < 0.04 if max(i, j) >= 8 else i // 2 == j // 2 if d[2] else
+        rng.random() < 0.5)} for d in axes}
+    normals = [np.array(d) * s for d in axes for s in (1, -1)]
+    contacts = []
+    for _ in range(3 * n):
+        a, b = (int(x) for x in rng.choice(n, 2, replace=False))
+        ns = [normals[rng.integers(6)] if rng.random() < 0.5 else rng.normal(size=3)
+              for _ in range(rng.integers(1, 4))]
+        contacts.append(SimpleNamespace(a=a, b=b, normals=[v / np.linalg.norm(v) for v in ns]))
+    room = _Clearance(SimpleNamespace(contacts=contacts), 3)
+    dirs = directions(3, [], [])
+    base = None if seed % 2 else int(rng.integers(n))
+    calls = []
+    peel = proven._peel
+
+    def counted(*a):
+        calls.append(a[1])
+        return peel(*a)
+
+    def run():
+        return greedy(Rows(_Pairs(n, table), n, dirs), (1 << n) - 1, base=base,
+                      key=chooser("linear", None, set(), dirs, room), natural=len(dirs))
+
+    monkeypatch.setattr(proven, "_peel", counted)
+    fast = run()
+    monkeypatch.setattr(proven, "_peel", lambda rows, m, *a: m)
+    plain = run()
+    assert calls and fast.found == plain.found and fast.stuck == plain.stuck
+    assert list(fast.splits.items()) == list(plain.splits.items())
+    assert fast.found or not fast.splits
+
+
 def test_region_directions_are_tried_only_where_their_region_frees_something():
     # the proposer: region 0 frees nothing in {A, B}; the test says its direction would
     nd = NDBG("infinitesimal_translation", ("A", "B"),

@@ -259,13 +259,16 @@ class _Clearance:
             pairs.setdefault((c.b, c.a), []).append(-n)
         #: part a -> [(b, normals out of a into b)], in the contacts' order
         self.out: dict[int, list[tuple[int, np.ndarray]]] = {}
-        self.touching: dict[int, int] = {}  # part a -> bitmask of the parts it touches
+        self.touching_of: dict[int, int] = {}  # part a -> bitmask of the parts it touches
         for (a, b), ns in pairs.items():
             self.out.setdefault(a, []).append((b, np.vstack(ns)))
-            self.touching[a] = self.touching.get(a, 0) | 1 << b
+            self.touching_of[a] = self.touching_of.get(a, 0) | 1 << b
         # the answer depends on the smaller side and the parts of the other it touches
         # only: a part leaving one subassembly after another asks the same question again
         self._memo: dict[tuple, float] = {}
+
+    def touching(self, i: int) -> int:
+        return self.touching_of.get(i, 0)
 
     def __call__(self, moved: int, rest: int, d: tuple[float, ...]) -> float:
         # n out of moved into rest along d is -n out of rest into moved: -(n.d) = (-n).(-d)
@@ -273,7 +276,7 @@ class _Clearance:
                              else (rest, moved, -1.0))
         near = 0
         for a in bits(side):
-            near |= self.touching.get(a, 0)
+            near |= self.touching_of.get(a, 0)
         near &= other
         key = (side, near, sign, d)
         got = self._memo.get(key)

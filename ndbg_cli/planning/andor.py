@@ -21,7 +21,7 @@ import numpy as np
 from ..core.constants import WORK_LIMIT
 from ..core.gc_pause import gc_paused
 from ..ndbg.candidates import connected_free_sets
-from ..ndbg.components import condense, free_sets, strongly_connected
+from ..ndbg.components import balanced_free_set, condense, free_sets, strongly_connected
 from ..ndbg.dbg import bits, closure_table
 from ..ndbg.model import NDBG, ConnectivityTest
 
@@ -173,7 +173,9 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     with ``connected`` both sides must pass the test. At most ``limit`` distinct moved sets
     are collected; the parts' minimal free sets (their closures in each DBG) are collected
     first, so a cut list holds them as far as ``limit`` allows (all of them unless there are
-    more than ``limit``), and the greedy and deepening searches keep the linear moves. The work
+    more than ``limit``), and the greedy and deepening searches keep the linear moves; then a
+    near-balanced free set of each DBG (:func:`~ndbg_cli.ndbg.components.balanced_free_set`),
+    so they keep the shallow trees too. The work
     done is charged to ``meter`` (:data:`WORK_LIMIT`'s units). Returns ``(hyperarcs sorted by
     (balance, left), truncated)``."""
     if mask.bit_count() < 2:
@@ -203,6 +205,17 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                     found[c].extend(regs)
                 elif len(found) < limit and ok(c):
                     found[c] = list(regs)
+        # then a near-balanced free set of each DBG (the least deep trees need them; on a
+        # product of hundreds of parts the enumeration below reaches the limit long before)
+        half = mask.bit_count() // 2
+        for succ, regs in live:
+            s = balanced_free_set(*condense(succ, mask), half, avoid=base_bit)
+            if not s:
+                continue
+            if s in found:
+                found[s].extend(regs)
+            elif len(found) < limit and ok(s):
+                found[s] = list(regs)
     # With the connectivity test, only the sets with both sides connected are searched
     # (candidates.connected_free_sets, polynomial per set found, within a search budget per
     # node); the list is cut when a new set finds it full, or when that budget runs out.

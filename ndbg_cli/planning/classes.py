@@ -337,7 +337,7 @@ def interlock_hands(lock: dict, ndbgs: dict[str, NDBG]) -> dict:
     for fam in (INFINITESIMAL, INFINITE):
         nd = ndbgs.get(fam)
         if nd is not None and nd.n >= 2 and one is None:
-            one, src = sink_split(nd, (1 << nd.n) - 1), nd
+            one, src = sink_split(nd, (1 << nd.n) - 1, balanced=False), nd
     refuted = one is None and INFINITESIMAL in ndbgs
     low = 2 if refuted else 1
     exact = one is not None or (refuted and k == 2)

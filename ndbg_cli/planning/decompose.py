@@ -17,10 +17,19 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ..core.gc_pause import gc_paused
-from ..ndbg.components import condense
+from ..ndbg.components import balanced_free_set, condense
 from ..ndbg.dbg import bits
 from ..ndbg.model import NDBG, ConnectivityTest
-from .andor import AndOrGraph, Budget, Hyperarc, Meter, greedy_tree, lower_bound_depth, node_splits
+from .andor import (
+    AndOrGraph,
+    Budget,
+    Hyperarc,
+    Meter,
+    _groups_of,
+    greedy_tree,
+    lower_bound_depth,
+    node_splits,
+)
 
 
 @dataclass
@@ -74,8 +83,15 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
     def cut() -> bool:
         return trunc_splits or (graph is not None and graph.split_truncated)
 
-    greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
     lower = lower_bound_depth(root)
+    # a balanced tree found without listing any partitioning: when it is as shallow as any
+    # binary tree over these parts can be, the search has nothing left to prove
+    quick = balanced_tree(ndbg, root, base=base, connected=connected)
+    if quick is not None and _arcs_depth(quick, root) == lower:
+        return DepthResult(lower, True, lower, lower, quick, 0,
+                           f"exact: a candidate tree of depth {lower} = ceil(log2 n), the "
+                           "least of any binary tree over these parts")
+    greedy = greedy_tree(ndbg, root, base=base, connected=connected, budget=budget, arcs=get)
     if not greedy.found:
         exact = not greedy.truncated and not cut()
         return DepthResult(None, exact, lower, None, {}, len(memo))
@@ -125,6 +141,74 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
                        best_choice, len(memo))
 
 
+def balanced_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
+                  connected: ConnectivityTest | None = None) -> dict[int, Hyperarc] | None:
+    """A candidate tree of ``mask`` whose every node takes the most balanced of the near-
+    balanced free sets (:func:`~ndbg_cli.ndbg.components.balanced_free_set`) of its distinct
+    induced DBGs, or a sink component where none fits in half: ``{node: hyperarc}`` (each with
+    the one orientation and the regions found), ``None`` when some subassembly has no
+    partitioning avoiding the base. By heredity (module docstring) that is exactly when no
+    candidate tree exists; ``O(n * DBGs * (n + arcs))``, without enumerating the free sets.
+    With ``connected``, the balanced sets grow along its graph and only splits whose both
+    sides pass it are taken; ``None`` then only says that these few sets did not give a tree
+    (heredity does not hold for it).
+
+    Examples
+    --------
+    >>> import ndbg_cli
+    >>> from ndbg_cli.pipeline.stages import find_contacts, build_ndbg
+    >>> asm = ndbg_cli.load("assemblies/hover.yaml")
+    >>> nd = build_ndbg(asm, "infinitesimal_translation", find_contacts(asm)).ndbg
+    >>> tree = balanced_tree(nd)
+    >>> _arcs_depth(tree, (1 << nd.n) - 1)
+    2
+    """
+    root = (1 << ndbg.n) - 1 if mask is None else mask
+    groups = _groups_of(ndbg)
+    out: dict[int, Hyperarc] = {}
+    stack = [root]
+    while stack:
+        m = stack.pop()
+        if m.bit_count() < 2:
+            continue
+        avoid = 0 if base is None else (1 << base) & m
+        best: tuple[int, int, tuple[int, ...]] | None = None
+        for succ, regs in groups.of(m):
+            comps, comp_succ = condense(succ, m)
+            if len(comps) < 2:
+                continue
+            sets = [balanced_free_set(comps, comp_succ, m.bit_count() // 2, avoid=avoid,
+                                      neighbours=None if connected is None
+                                      else connected.neighbours)]
+            sets += [c for c, cs in zip(comps, comp_succ) if cs == 0 and not c & avoid]
+            s = next((x for x in sets if x and (connected is None or (
+                connected(x) and connected(m & ~x)))), 0)
+            size = max(s.bit_count(), (m & ~s).bit_count())
+            if s and (best is None or size < best[0]):
+                best = (size, s, tuple(regs))
+        if best is None:
+            return None
+        _, s, regs = best
+        left = s if s & m & -m else m & ~s
+        out[m] = Hyperarc(m, left, m & ~left, ((s, regs),))
+        stack.extend((s, m & ~s))
+    return out
+
+
+def _arcs_depth(choice: dict[int, Hyperarc], m: int) -> int:
+    """Height of the tree ``choice`` gives ``m`` (without recursion: a linear tree of a
+    thousand parts is a thousand deep)."""
+    deepest, stack = 0, [(m, 0)]
+    while stack:
+        x, d = stack.pop()
+        if x.bit_count() < 2:
+            deepest = max(deepest, d)
+            continue
+        h = choice[x]
+        stack += [(h.left, d + 1), (h.right, d + 1)]
+    return deepest
+
+
 def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
     """The hyperarcs of the tree rooted at ``root`` in ``choice``."""
     out: dict[int, Hyperarc] = {}
@@ -141,9 +225,12 @@ def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
 
 
 def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
-               base: int | None = None, linear: bool = False) -> tuple[int, int] | None:
+               base: int | None = None, linear: bool = False, balanced: bool = True
+               ) -> tuple[int, int] | None:
     """A candidate partitioning of ``mask`` as ``(moved, region)``, or ``None`` if none exists
-    in ``regions`` (default: all).
+    in ``regions`` (default: all): in the first region that has one, a near-balanced free set
+    (:func:`~ndbg_cli.ndbg.components.balanced_free_set`) when ``balanced``, else (or when
+    none fits in half) a sink component, a minimal free set.
 
     Every nonempty free set contains a sink component of the condensation, so a proper free set
     avoiding the base exists iff some sink component avoids it; with ``linear`` one side must
@@ -164,6 +251,12 @@ def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
         comps, comp_succ = condense(g.succ, mask)
         if len(comps) < 2:
             continue
+        if balanced and not linear:
+            # near-balanced: the decomposition then takes O(n log n) part visits over a
+            # chain of parts, not O(n^2) by one sink component at a time
+            half = balanced_free_set(comps, comp_succ, mask.bit_count() // 2, avoid=base_bit)
+            if half:
+                return half, r
         for c, s in zip(comps, comp_succ):
             if s == 0 and not c & base_bit and (not linear or c.bit_count() == 1):
                 return c, r

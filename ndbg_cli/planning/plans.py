@@ -265,10 +265,9 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
             if r.upper is not None:
                 out.exact = r.exact
                 out.depth_lower = r.lower
-                out.notes.append(f"{g.cut_reason()}; depth by "
-                                 f"iterative deepening ({r.expanded} nodes): "
-                                 + ("optimal" if r.exact else
-                                    f"between {r.lower} and {r.upper}"))
+                out.notes.append(f"{g.cut_reason()}; " + (r.why or (
+                    f"depth by iterative deepening ({r.expanded} nodes): "
+                    + ("optimal" if r.exact else f"between {r.lower} and {r.upper}"))))
                 for m, h in r.choice.items():
                     out.steps[m] = orient(ndbg, h)
                 return out
