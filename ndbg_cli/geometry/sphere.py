@@ -323,7 +323,7 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
         if cone.kind == "wedge":
             return {int(circle[i]) for i in cone.boundary}
         if cone.kind in ("ray", "zero"):
-            return {int(circle[i]) for i in _transverse_pair(normals, cone.boundary[:1])}
+            return {int(circle[i]) for i in _transverse_pair(normals, tol, cone.boundary[:1])}
         return everything
     u = normals.sum(axis=0)
     if np.linalg.norm(u) > 0 and (normals @ u).min() > tol * np.linalg.norm(u):
@@ -344,7 +344,7 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
         return set()
     if rank_e == 2:  # F is a ray or a line: its points must be vertices, two circles suffice
         sel = np.flatnonzero(implicit)
-        return {int(circle[sel[i]]) for i in _transverse_pair(ne)}
+        return {int(circle[sel[i]]) for i in _transverse_pair(ne, tol)}
     # rank 1: F is a 2D cone in the plane m^T d = 0; its ends lie on the circles of the
     # normals bounding the projected 2D cone.
     m = ne[0]
@@ -365,18 +365,22 @@ def cone_boundary_circles(normals: np.ndarray, circle: np.ndarray, tol: float) -
     return keep
 
 
-def _transverse_pair(normals: np.ndarray, fixed: tuple[int, ...] = ()) -> tuple[int, int]:
-    """Two rows of ``normals`` whose circles cross most steeply (largest ``|n_i x n_j|``),
-    the first one ``fixed[0]`` when given: any two distinct circles through ``+-m`` make
-    ``+-m`` vertices, and choosing by the normals' own angles (not the first row) draws the
-    same two in any part order and frame (issue 34). Exact ties (rounded to 1e-9) go to the
-    lower index."""
+def _transverse_pair(normals: np.ndarray, tol: float, fixed: tuple[int, ...] = ()
+                     ) -> tuple[int, int]:
+    """Two rows of ``normals`` whose circles cross most steeply (least ``|n_i . n_j|``: the
+    cosine, which unlike the sine does not flatten out near a right angle), the first one
+    ``fixed[0]`` when given: any two distinct circles through ``+-m`` make ``+-m`` vertices,
+    and choosing by the normals' own angles (not the first row) draws the same two in any
+    part order and frame (issue 34). Pairs within ``tol`` (the angular tolerance) of the
+    steepest tie, and ties go to the lower index: three normals 120 degrees apart in a plane
+    cross equally, and noise far below the tolerance (CAD rounding) must not choose."""
     if fixed:
-        cross = np.linalg.norm(np.cross(normals[fixed[0]], normals), axis=1)
-        return fixed[0], int(np.argmax(np.round(cross, 9)))
+        cos = np.abs(normals @ normals[fixed[0]])
+        cos[fixed[0]] = np.inf
+        return fixed[0], int(np.flatnonzero(cos <= cos.min() + tol)[0])
     i, j = np.triu_indices(len(normals), 1)
-    cross = np.linalg.norm(np.cross(normals[i], normals[j]), axis=1)
-    best = int(np.argmax(np.round(cross, 9)))
+    cos = np.abs(np.einsum("ij,ij->i", normals[i], normals[j]))
+    best = int(np.flatnonzero(cos <= cos.min() + tol)[0])
     return int(i[best]), int(j[best])
 
 
