@@ -1317,3 +1317,16 @@ def test_the_balanced_tree_is_a_candidate_tree_exactly_when_one_exists(seed):
             assert base is None or not moved >> base & 1
         stack += [h.left, h.right]
     assert leaves == n and _arcs_depth(tree, full) >= max(0, n - 1).bit_length()
+
+
+@pytest.mark.parametrize("width", [1, 7, 8, 9, 64, 131])
+def test_unique_rows_equals_numpys_unique_rows(width):
+    """The packed-bytes ``unique_rows`` against ``np.unique(axis=0)``: the same rows in the
+    same order (the cover program reads them in that order), widths off the byte."""
+    from ndbg_cli.planning.grasp_exact import unique_rows
+
+    rng = np.random.default_rng(width)
+    a = rng.random((300, width)) < 0.3
+    a = np.concatenate([a, a[::3]])  # duplicates
+    assert np.array_equal(unique_rows(a), np.unique(a, axis=0))
+    assert unique_rows(a[:0]).shape == (0, width)
