@@ -371,9 +371,11 @@ def _transverse_pair(normals: np.ndarray, tol: float, fixed: tuple[int, ...] = (
     cosine, which unlike the sine does not flatten out near a right angle), the first one
     ``fixed[0]`` when given: any two distinct circles through ``+-m`` make ``+-m`` vertices,
     and choosing by the normals' own angles (not the first row) draws the same two in any
-    part order and frame (issue 34). Pairs within ``tol`` (the angular tolerance) of the
-    steepest tie, and ties go to the lower index: three normals 120 degrees apart in a plane
-    cross equally, and noise far below the tolerance (CAD rounding) must not choose."""
+    part order and frame (issue 34). Pairs whose cosine is within ``tol`` (the angular
+    tolerance; near a right angle a cosine difference is an angle) of the steepest tie, and
+    ties go to the lower index: three normals 120 degrees apart in a plane cross equally, and
+    noise far below the tolerance (CAD rounding) then does not choose among them (it still
+    can for a pair whose cosine lies just at the window's edge)."""
     if fixed:
         cos = np.abs(normals @ normals[fixed[0]])
         cos[fixed[0]] = np.inf

@@ -7,6 +7,7 @@ come in topological order."""
 
 from __future__ import annotations
 
+import heapq
 from collections.abc import Iterator, Sequence
 
 from .dbg import bits, component_successors, reach, tarjan
@@ -131,8 +132,6 @@ def balanced_free_set(comps: list[int], comp_succ: list[int], target: int,
     >>> bin(balanced_free_set(comps, comp_succ, 2))
     '0b1100'
     """
-    import heapq
-
     k = len(comps)
     waiting = [c.bit_count() for c in comp_succ]  # successors not taken yet
     comp_pred: list[list[int]] = [[] for _ in range(k)]

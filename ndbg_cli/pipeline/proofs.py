@@ -245,7 +245,7 @@ def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, stra
 
 
 class _Clearance:
-    """:data:`ndbg_cli.planning.proven.Clearance` from the contacts: the least ``-n . d``
+    """:class:`ndbg_cli.planning.proven.Clearance` from the contacts: the least ``-n . d``
     over the contact normals ``n`` out of ``moved`` into ``rest`` (1 when they touch
     nowhere). The normals are kept per part, and the smaller side's parts are read: one part
     against the rest costs its own contacts, not the assembly's (the greedy search asks this

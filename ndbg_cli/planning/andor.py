@@ -172,10 +172,10 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     orientations whose moved side leaves the base (and every part of ``avoid``) out are kept;
     with ``connected`` both sides must pass the test. At most ``limit`` distinct moved sets
     are collected; the parts' minimal free sets (their closures in each DBG) are collected
-    first, so a cut list holds them as far as ``limit`` allows (all of them unless there are
-    more than ``limit``), and the greedy and deepening searches keep the linear moves; then a
-    near-balanced free set of each DBG (:func:`~ndbg_cli.ndbg.components.balanced_free_set`),
-    so they keep the shallow trees too. The work
+    first, after a near-balanced free set of each DBG
+    (:func:`~ndbg_cli.ndbg.components.balanced_free_set`), so a cut list holds them as far as
+    ``limit`` allows (all of them unless there are more than ``limit``), and the greedy and
+    deepening searches keep the shallow trees and the linear moves. The work
     done is charged to ``meter`` (:data:`WORK_LIMIT`'s units). Returns ``(hyperarcs sorted by
     (balance, left), truncated)``."""
     if mask.bit_count() < 2:
@@ -193,8 +193,19 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     live = [(succ, regs) for succ, regs in groups if not strongly_connected(succ, mask)]
     closures: list[dict[int, int] | None] = [None] * len(live)
     if limit is not None:
-        # A cut enumeration takes every part's minimal free set (its closure) in every DBG
-        # first (up to ``limit``), so the greedy and deepening searches keep the linear moves.
+        # First a near-balanced free set of each DBG (the least deep trees need them; on a
+        # product of hundreds of parts the enumeration below reaches the limit long before),
+        # grown along the contact graph when both sides must be connected.
+        half = mask.bit_count() // 2
+        near = None if connected is None else connected.neighbours
+        for succ, regs in live:
+            s = balanced_free_set(*condense(succ, mask), half, avoid=base_bit, neighbours=near)
+            if s in found:
+                found[s].extend(regs)
+            elif s and len(found) < limit and ok(s):
+                found[s] = list(regs)
+        # Then every part's minimal free set (its closure) in every DBG (up to ``limit``), so
+        # the greedy and deepening searches keep the linear moves.
         for k, (succ, regs) in enumerate(live):
             closures[k] = closure = closure_table(succ, mask)
             for i in bits(mask & ~base_bit):
@@ -205,17 +216,6 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
                     found[c].extend(regs)
                 elif len(found) < limit and ok(c):
                     found[c] = list(regs)
-        # then a near-balanced free set of each DBG (the least deep trees need them; on a
-        # product of hundreds of parts the enumeration below reaches the limit long before)
-        half = mask.bit_count() // 2
-        for succ, regs in live:
-            s = balanced_free_set(*condense(succ, mask), half, avoid=base_bit)
-            if not s:
-                continue
-            if s in found:
-                found[s].extend(regs)
-            elif len(found) < limit and ok(s):
-                found[s] = list(regs)
     # With the connectivity test, only the sets with both sides connected are searched
     # (candidates.connected_free_sets, polynomial per set found, within a search budget per
     # node); the list is cut when a new set finds it full, or when that budget runs out.
@@ -518,11 +518,7 @@ class GreedyResult:
         return self.stuck is None and not self.truncated
 
     def depth(self, mask: int | None = None) -> int:
-        m = self.root if mask is None else mask
-        if m.bit_count() == 1:
-            return 0
-        h = self.choice[m]
-        return 1 + max(self.depth(h.left), self.depth(h.right))
+        return tree_depth(self.choice, self.root if mask is None else mask)
 
     def nonlinear(self, mask: int | None = None) -> int:
         m = self.root if mask is None else mask
@@ -595,6 +591,27 @@ def greedy_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = None,
     elif unproven:
         res.truncated = True
     return res
+
+
+def tree_depth(choice: dict[int, Hyperarc], mask: int) -> int:
+    """Height of the tree that ``choice`` (node -> hyperarc) gives ``mask`` (a single part:
+    0), without recursion: a linear tree of a thousand parts is a thousand deep.
+
+    Examples
+    --------
+    >>> h = Hyperarc(0b111, 0b011, 0b100, ((0b100, (0,)),))
+    >>> tree_depth({0b111: h, 0b011: Hyperarc(0b011, 0b001, 0b010, ((0b010, (0,)),))}, 0b111)
+    2
+    """
+    deepest, stack = 0, [(mask, 0)]
+    while stack:
+        x, d = stack.pop()
+        if x.bit_count() < 2:
+            deepest = max(deepest, d)
+            continue
+        h = choice[x]
+        stack += [(h.left, d + 1), (h.right, d + 1)]
+    return deepest
 
 
 def lower_bound_depth(mask: int) -> int:

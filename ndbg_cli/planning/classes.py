@@ -216,8 +216,10 @@ def classify(ndbg: NDBG, *, base: int | None = None, budget: Budget | None = Non
                                     "why": "exact: linearizable (a linear tree exists)"}
         else:
             g_lin = greedy_tree(ndbg, full, base=base, chooser=_linear_first, budget=budget)
+            # else the sink decomposition by minimal free sets: mostly one-part steps
             ub_p, src = (g_lin.nonlinear(), "a greedy linear-first tree") if g_lin.found \
-                else (_choice_nonlinear(choice, full), "the sink decomposition's tree")
+                else (_choice_nonlinear(sink_decompose(ndbg, full, base=base, balanced=False)[0],
+                                        full), "the sink decomposition's tree")
             out["min_nonlinear"] = {"value": ub_p, "exact": False, "lower_bound": 1,
                                     "assembly_lines": ub_p + 1,
                                     "why": f"upper bound from {src} (AND/OR graph truncated)"}

@@ -26,9 +26,11 @@ from .andor import (
     Hyperarc,
     Meter,
     _groups_of,
+    _hyperarcs,
     greedy_tree,
     lower_bound_depth,
     node_splits,
+    tree_depth,
 )
 
 
@@ -53,6 +55,9 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
                      connected: ConnectivityTest | None = None, budget: Budget | None = None,
                      graph: AndOrGraph | None = None) -> DepthResult:
     """Exact minimum tree height by iterative deepening without building the whole graph.
+
+    First a balanced tree built without listing any partitioning (:func:`balanced_tree`): when
+    it is ``ceil(log2 n)`` deep, no tree is shallower, and that is the answer.
 
     ``fits(M, d)``: a tree of height ``<= d`` exists iff some hyperarc has both sides of at most
     ``2^(d-1)`` parts that fit in ``d - 1``; memoized per subassembly as the largest refuted and
@@ -87,7 +92,7 @@ def min_depth_search(ndbg: NDBG, mask: int | None = None, *, base: int | None = 
     # a balanced tree found without listing any partitioning: when it is as shallow as any
     # binary tree over these parts can be, the search has nothing left to prove
     quick = balanced_tree(ndbg, root, base=base, connected=connected)
-    if quick is not None and _arcs_depth(quick, root) == lower:
+    if quick is not None and tree_depth(quick, root) == lower:
         return DepthResult(lower, True, lower, lower, quick, 0,
                            f"exact: a candidate tree of depth {lower} = ceil(log2 n), the "
                            "least of any binary tree over these parts")
@@ -146,7 +151,8 @@ def balanced_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = Non
     """A candidate tree of ``mask`` whose every node takes the most balanced of the near-
     balanced free sets (:func:`~ndbg_cli.ndbg.components.balanced_free_set`) of its distinct
     induced DBGs, or a sink component where none fits in half: ``{node: hyperarc}`` (each with
-    the one orientation and the regions found), ``None`` when some subassembly has no
+    both orientations where free, and every region freeing each, as
+    :func:`~ndbg_cli.planning.andor.node_splits` lists them), ``None`` when some subassembly has no
     partitioning avoiding the base. By heredity (module docstring) that is exactly when no
     candidate tree exists; ``O(n * DBGs * (n + arcs))``, without enumerating the free sets.
     With ``connected``, the balanced sets grow along its graph and only splits whose both
@@ -160,7 +166,8 @@ def balanced_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = Non
     >>> asm = ndbg_cli.load("assemblies/hover.yaml")
     >>> nd = build_ndbg(asm, "infinitesimal_translation", find_contacts(asm)).ndbg
     >>> tree = balanced_tree(nd)
-    >>> _arcs_depth(tree, (1 << nd.n) - 1)
+    >>> from ndbg_cli.planning.andor import tree_depth
+    >>> tree_depth(tree, (1 << nd.n) - 1)
     2
     """
     root = (1 << ndbg.n) - 1 if mask is None else mask
@@ -172,8 +179,9 @@ def balanced_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = Non
         if m.bit_count() < 2:
             continue
         avoid = 0 if base is None else (1 << base) & m
-        best: tuple[int, int, tuple[int, ...]] | None = None
-        for succ, regs in groups.of(m):
+        best: tuple[int, int] | None = None
+        induced = groups.of(m)
+        for succ, _ in induced:
             comps, comp_succ = condense(succ, m)
             if len(comps) < 2:
                 continue
@@ -185,28 +193,20 @@ def balanced_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = Non
                 connected(x) and connected(m & ~x)))), 0)
             size = max(s.bit_count(), (m & ~s).bit_count())
             if s and (best is None or size < best[0]):
-                best = (size, s, tuple(regs))
+                best = (size, s)
         if best is None:
             return None
-        _, s, regs = best
-        left = s if s & m & -m else m & ~s
-        out[m] = Hyperarc(m, left, m & ~left, ((s, regs),))
+        s = best[1]
+        # the split's orientations and regions, all of them (a plan picks its region there)
+        found: dict[int, list[int]] = {}
+        for moved in (s, m & ~s):
+            if not moved & avoid:
+                for succ, regs in induced:
+                    if all(succ[i] & m & ~moved == 0 for i in bits(moved)):
+                        found.setdefault(moved, []).extend(regs)
+        out[m] = _hyperarcs(m, found)[0]
         stack.extend((s, m & ~s))
     return out
-
-
-def _arcs_depth(choice: dict[int, Hyperarc], m: int) -> int:
-    """Height of the tree ``choice`` gives ``m`` (without recursion: a linear tree of a
-    thousand parts is a thousand deep)."""
-    deepest, stack = 0, [(m, 0)]
-    while stack:
-        x, d = stack.pop()
-        if x.bit_count() < 2:
-            deepest = max(deepest, d)
-            continue
-        h = choice[x]
-        stack += [(h.left, d + 1), (h.right, d + 1)]
-    return deepest
 
 
 def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
@@ -271,13 +271,15 @@ def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
 
 
 def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] | None = None,
-                   *, base: int | None = None, linear: bool = False
+                   *, base: int | None = None, linear: bool = False, balanced: bool = True
                    ) -> tuple[dict[int, tuple[int, int]], int | None]:
     """Decompose ``mask`` by :func:`sink_split` at every node: ``(choice, stuck)`` with
     ``choice[m] = (moved, region)``. By heredity this is exact: ``stuck`` (a subassembly with no
     partitioning, hence a proof of failure) is ``None`` iff a candidate tree (a linear one with
-    ``linear``) exists using only ``regions``; of several met, the smallest. Polynomial:
-    ``O(n * regions * (n + arcs))``."""
+    ``linear``) exists using only ``regions``; of several met, the smallest. ``balanced``:
+    near-balanced splits (a shallow tree, ``O(n log n)`` part visits over a chain of parts),
+    else minimal ones (sink components: mostly one-part steps, the fewest nonlinear ones).
+    Polynomial: ``O(n * regions * (n + arcs))``."""
     root = (1 << ndbg.n) - 1 if mask is None else mask
     choice: dict[int, tuple[int, int]] = {}
     stuck: list[int] = []
@@ -286,7 +288,7 @@ def sink_decompose(ndbg: NDBG, mask: int | None = None, regions: Sequence[int] |
         m = stack.pop()
         if m.bit_count() < 2:
             continue
-        got = sink_split(ndbg, m, regions, base=base, linear=linear)
+        got = sink_split(ndbg, m, regions, base=base, linear=linear, balanced=balanced)
         if got is None:
             # go on past it: of the stuck subassemblies met, the smallest (then first by part
             # names, not by index) is named, the most telling to a user and the cheapest to

@@ -137,6 +137,8 @@ def unique_rows(a: np.ndarray) -> np.ndarray:
     array([[0, 1, 1],
            [1, 0, 1]])
     """
+    if a.dtype != bool:
+        raise TypeError(f"unique_rows takes a boolean matrix, not {a.dtype}")
     if len(a) == 0:
         return a
     packed = np.ascontiguousarray(np.packbits(a, axis=1))

@@ -230,7 +230,7 @@ def plan(ndbg: NDBG, strategy: str = "shortest", *, base: int | None = None,
     # Whether any candidate tree exists is polynomial (heredity, classes.sink_decompose); a
     # contact-connected tree is one of them. When none does, no search can find one, and a
     # search would spend its whole budget proving it.
-    sink, stuck = sink_decompose(ndbg, root, base=base)
+    sink, stuck = sink_decompose(ndbg, root, base=base, balanced=strategy != "linear")
     if stuck is not None:
         out.found, out.stuck = False, stuck
         out.notes.append("no candidate algorithm: subassembly "

@@ -29,6 +29,7 @@ strategies chose (optimal among candidates: each step along the best freeing dir
 
 from __future__ import annotations
 
+import heapq
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -377,7 +378,9 @@ def greedy(rows: Rows, root: int, *, base: int | None = None, key: Chooser,
     out = Outcome(root, rows.dirs, searched=True)
     used = set() if used is None else used
     stack = [root]
-    peel = key.strategy == "linear" and key.connected is None and key.clearance is not None
+    # (a clearance that cannot tell which parts it reads, a plain function, is ranked afresh)
+    peel = key.strategy == "linear" and key.connected is None and \
+        hasattr(key.clearance, "touching")
     while stack:
         m = stack.pop()
         if peel and m.bit_count() >= 2:
@@ -427,11 +430,9 @@ def _peel(rows: Rows, root: int, base: int | None, key: Chooser, wide: int, out:
     it is computed again only when a part the moved part touches leaves. Returns the
     subassembly where no one-part split along those directions is left (one part when the
     chain ends), for :func:`greedy` to go on from."""
-    import heapq
-
-    n, m = rows.n, root
+    m = root
     ks = range(wide)
-    fwd = [[rows.row(k, i) for i in range(n)] for k in ks]  # who blocks i
+    fwd = [{i: rows.row(k, i) for i in bits(m)} for k in ks]  # who blocks i
     back = [rows.blocked_by(k) for k in ks]  # whom i blocks
     count = {(i, k, s): ((fwd[k][i] if s > 0 else back[k][i]) & m & ~(1 << i)).bit_count()
              for i in bits(m) if i != base for k in ks for s in (1, -1)}
