@@ -13,7 +13,7 @@ exists, in polynomial time; its failure names a subassembly with no partitioning
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from ..core.gc_pause import gc_paused
@@ -172,55 +172,62 @@ def balanced_tree(ndbg: NDBG, mask: int | None = None, *, base: int | None = Non
     """
     root = (1 << ndbg.n) - 1 if mask is None else mask
     groups = _groups_of(ndbg)
+    return _walk(root, lambda m: _balanced_split(groups.of(m), m, 0 if base is None else
+                                                 (1 << base) & m, connected))
+
+
+def _balanced_split(induced: list, m: int, avoid: int, connected: ConnectivityTest | None
+                    ) -> Hyperarc | None:
+    """:func:`balanced_tree`'s split of ``m`` from its distinct induced DBGs ``induced``."""
+    best: tuple[int, int] | None = None
+    for succ, _ in induced:
+        comps, comp_succ = condense(succ, m)
+        if len(comps) < 2:
+            continue
+        sets = [balanced_free_set(comps, comp_succ, m.bit_count() // 2, avoid=avoid,
+                                  neighbours=None if connected is None
+                                  else connected.neighbours)]
+        sets += [c for c, cs in zip(comps, comp_succ) if cs == 0 and not c & avoid]
+        s = next((x for x in sets if x and (connected is None or (
+            connected(x) and connected(m & ~x)))), 0)
+        size = max(s.bit_count(), (m & ~s).bit_count())
+        if s and (best is None or size < best[0]):
+            best = (size, s)
+    if best is None:
+        return None
+    s = best[1]
+    # the split's orientations and regions, all of them (a plan picks its region there)
+    found: dict[int, list[int]] = {}
+    for moved in (s, m & ~s):
+        if not moved & avoid:
+            for succ, regs in induced:
+                if all(succ[i] & m & ~moved == 0 for i in bits(moved)):
+                    found.setdefault(moved, []).extend(regs)
+    return _hyperarcs(m, found)[0]
+
+
+def _walk(root: int, split: Callable[[int], Hyperarc | None]) -> dict[int, Hyperarc] | None:
+    """The tree of ``root`` that ``split`` (subassembly -> its hyperarc) gives, node by node
+    from the root: ``{node: hyperarc}``, or ``None`` as soon as ``split`` has none."""
     out: dict[int, Hyperarc] = {}
     stack = [root]
     while stack:
         m = stack.pop()
         if m.bit_count() < 2:
             continue
-        avoid = 0 if base is None else (1 << base) & m
-        best: tuple[int, int] | None = None
-        induced = groups.of(m)
-        for succ, _ in induced:
-            comps, comp_succ = condense(succ, m)
-            if len(comps) < 2:
-                continue
-            sets = [balanced_free_set(comps, comp_succ, m.bit_count() // 2, avoid=avoid,
-                                      neighbours=None if connected is None
-                                      else connected.neighbours)]
-            sets += [c for c, cs in zip(comps, comp_succ) if cs == 0 and not c & avoid]
-            s = next((x for x in sets if x and (connected is None or (
-                connected(x) and connected(m & ~x)))), 0)
-            size = max(s.bit_count(), (m & ~s).bit_count())
-            if s and (best is None or size < best[0]):
-                best = (size, s)
-        if best is None:
+        h = split(m)
+        if h is None:
             return None
-        s = best[1]
-        # the split's orientations and regions, all of them (a plan picks its region there)
-        found: dict[int, list[int]] = {}
-        for moved in (s, m & ~s):
-            if not moved & avoid:
-                for succ, regs in induced:
-                    if all(succ[i] & m & ~moved == 0 for i in bits(moved)):
-                        found.setdefault(moved, []).extend(regs)
-        out[m] = _hyperarcs(m, found)[0]
-        stack.extend((s, m & ~s))
+        out[m] = h
+        stack.extend((h.left, h.right))
     return out
 
 
 def _tree_choice(root: int, choice: dict[int, Hyperarc]) -> dict[int, Hyperarc]:
     """The hyperarcs of the tree rooted at ``root`` in ``choice``."""
-    out: dict[int, Hyperarc] = {}
-    stack = [root]
-    while stack:
-        m = stack.pop()
-        if m.bit_count() < 2:
-            continue
-        h = choice[m]
-        out[m] = h
-        stack.extend((h.left, h.right))
-    return out
+    got = _walk(root, choice.__getitem__)
+    assert got is not None
+    return got
 
 
 
