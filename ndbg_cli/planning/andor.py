@@ -192,14 +192,16 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     # the DBGs with a proper free set (not one strong component), and their closures
     live = [(succ, regs) for succ, regs in groups if not strongly_connected(succ, mask)]
     closures: list[dict[int, int] | None] = [None] * len(live)
+    condensed: list | None = None  # each live DBG's condensation, when the cut list made it
     if limit is not None:
         # First a near-balanced free set of each DBG (the least deep trees need them; on a
         # product of hundreds of parts the enumeration below reaches the limit long before),
         # grown along the contact graph when both sides must be connected.
         half = mask.bit_count() // 2
         near = None if connected is None else connected.neighbours
-        for succ, regs in live:
-            s = balanced_free_set(*condense(succ, mask), half, avoid=base_bit, neighbours=near)
+        condensed = [condense(succ, mask) for succ, _ in live]
+        for (_, regs), cond in zip(live, condensed):
+            s = balanced_free_set(*cond, half, avoid=base_bit, neighbours=near)
             if s in found:
                 found[s].extend(regs)
             elif s and len(found) < limit and ok(s):
@@ -221,8 +223,9 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     # node); the list is cut when a new set finds it full, or when that budget runs out.
     left = [CONNECTED_SEARCH if limit is not None else 1 << 62]
     searched = left[0]
-    for (succ, regs), closure in zip(live, closures):
-        sets = free_sets(*condense(succ, mask), avoid=base_bit) if connected is None else \
+    for k, ((succ, regs), closure) in enumerate(zip(live, closures)):
+        sets = free_sets(*(condensed[k] if condensed else condense(succ, mask)),
+                         avoid=base_bit) if connected is None else \
             connected_free_sets(succ, connected.neighbours, mask, left, avoid=base_bit,
                                 down=closure)
         for s in sets:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from ..core.gc_pause import gc_paused
 from ..ndbg.components import balanced_free_set, condense
-from ..ndbg.dbg import bits
+from ..ndbg.dbg import DBG, bits
 from ..ndbg.model import NDBG, ConnectivityTest
 from .andor import (
     AndOrGraph,
@@ -201,7 +201,7 @@ def _balanced_split(induced: list, m: int, avoid: int, connected: ConnectivityTe
     for moved in (s, m & ~s):
         if not moved & avoid:
             for succ, regs in induced:
-                if all(succ[i] & m & ~moved == 0 for i in bits(moved)):
+                if DBG(succ).is_free(moved, m):
                     found.setdefault(moved, []).extend(regs)
     return _hyperarcs(m, found)[0]
 
