@@ -107,8 +107,10 @@ class _Pairs:
         arcs = self.table.get(snap(d))
         return True if arcs is None else (i, j) in arcs
 
-    def blockers(self, i, d):
-        return sum(1 << j for j in range(self.n) if j != i and self.blocked(i, j, d))
+    def blockers(self, i, d, among=None):
+        among = (1 << self.n) - 1 if among is None else among
+        return sum(1 << j for j in range(self.n)
+                   if j != i and among >> j & 1 and self.blocked(i, j, d))
 
     def witness(self, i, j, d):
         return (0.0, 0.0, 0.0) if self.blocked(i, j, d) else None

@@ -223,6 +223,54 @@ class PairCache:
                 for s in stages}
 
 
+class MemoryCache:
+    """Per-pair results kept in memory for one run, with :class:`PairCache`'s interface.
+
+    Used when no cache directory is given, so that a stage run twice on nearly the same parts
+    computes each pair once: the contacts of the pairs that clash units leave unchanged
+    (:func:`ndbg_cli.pipeline.stages.run_stages`). The keys hold the parts' content hashes
+    and the tolerances, as on disk; values are shared, not copied, so callers must not change
+    them (the contact stage copies what it renumbers).
+
+    >>> memo = MemoryCache()
+    >>> memo.put("contacts", memo.key("contacts", "h1", "h2", 0.1), [1, 2])
+    >>> memo.get("contacts", memo.key("contacts", "h1", "h2", 0.1)), memo.stats()
+    ([1, 2], {'contacts': {'hits': 1, 'misses': 0}})
+    """
+
+    def __init__(self) -> None:
+        self._store: dict[tuple, Any] = {}
+        self.hits: dict[str, int] = {}
+        self.misses: dict[str, int] = {}
+
+    def key(self, stage: str, *parts: Any) -> tuple:
+        """The key of a stage's result for ``parts`` (hashes, tolerances: hashable values
+        compared exactly)."""
+        return (stage, *parts)
+
+    def get(self, stage: str, key: tuple, check: Any = None) -> Any | None:
+        """The stored value, or ``None`` (a miss); ``check`` is not needed (the value was
+        made by this process)."""
+        value = self._store.get(key)
+        counts = self.misses if value is None else self.hits
+        counts[stage] = counts.get(stage, 0) + 1
+        return value
+
+    def put(self, stage: str, key: tuple, value: Any) -> None:
+        """Keep ``value`` under ``key``."""
+        self._store[key] = value
+
+    def faults(self) -> dict:
+        """Always ``{}``: memory neither tears nor refuses a write."""
+        return {}
+
+    def stats(self) -> dict[str, dict[str, int]]:
+        """``{stage: {"hits": h, "misses": m}}``."""
+        stages = sorted(set(self.hits) | set(self.misses))
+        return {s: {"hits": self.hits.get(s, 0), "misses": self.misses.get(s, 0)}
+                for s in stages}
+
+
 def open_cache(directory: str | Path | None) -> PairCache | None:
     """A :class:`PairCache` on ``directory``, or ``None`` for no caching (``None`` or ``""``)."""
     return PairCache(directory) if directory else None

@@ -66,15 +66,35 @@ class NDBG:
 
     def distinct(self) -> list[tuple[DBG, list[int]]]:
         """Distinct DBGs with the indices of the regions having them, in first-seen order."""
-        seen: dict[tuple[int, ...], int] = {}
-        out: list[tuple[DBG, list[int]]] = []
-        for k, r in enumerate(self.regions):
-            key = r.dbg.succ
-            if key not in seen:
-                seen[key] = len(out)
-                out.append((r.dbg, []))
-            out[seen[key]][1].append(k)
-        return out
+        return [(self.regions[regs[0]].dbg, list(regs)) for regs in self._groups()[1]]
+
+    def dbg_group(self) -> tuple[int, ...]:
+        """For each region, the index of its DBG among :meth:`distinct`'s: regions of one
+        group have equal DBGs, so a search over induced DBGs visits one region per group
+        (the engine: 110 distinct DBGs over 6,934 regions).
+
+        >>> from ndbg_cli.ndbg.dbg import DBG
+        >>> a, b = DBG((0b10, 0)), DBG((0, 0))
+        >>> NDBG("f", ("x", "y"), tuple(Region(0, None, g) for g in (a, b, a))).dbg_group()
+        (0, 1, 0)
+        """
+        return self._groups()[0]
+
+    def _groups(self) -> tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]:
+        # computed once per NDBG (frozen: kept beside the fields, not one of them)
+        got = self.__dict__.get("_dbg_groups")
+        if got is None:
+            seen: dict[tuple[int, ...], int] = {}
+            group, members = [], []
+            for k, r in enumerate(self.regions):
+                g = seen.setdefault(r.dbg.succ, len(seen))
+                if g == len(members):
+                    members.append([])
+                members[g].append(k)
+                group.append(g)
+            got = (tuple(group), tuple(map(tuple, members)))
+            object.__setattr__(self, "_dbg_groups", got)
+        return got
 
     def region_counts(self) -> dict[str, int]:
         counts: dict[str, int] = {}

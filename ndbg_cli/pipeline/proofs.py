@@ -183,7 +183,7 @@ def splits_somewhere(asm: Assembly, analysis: Any, nd: NDBG, mask: int
         return d, []
     out: list[dict] = []
     for k, i in ((k, i) for k in range(len(dirs)) for i in bits(mask)):
-        j = next(iter(bits(rows.row(k, i) & mask & ~(1 << i))), None)
+        j = next(iter(bits(rows.row(k, i, mask) & ~(1 << i))), None)
         if j is None:
             continue
         at = sweep.witness(i, j, np.asarray(dirs[k].vector))

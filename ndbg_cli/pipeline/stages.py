@@ -543,13 +543,16 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     :func:`plan_assembly`. ``timings`` receives seconds per stage. Raises
     :class:`~ndbg_cli.core.errors.InputError` (e.g. an interference under
     ``--interference error``)."""
-    from ..core.cache import CACHE_FAULTS, open_cache
+    from ..core.cache import CACHE_FAULTS, MemoryCache, open_cache
 
     cache = open_cache(options.cache)
-    contacts = find_contacts(asm, options, cache=cache, timings=timings)
+    # without a cache folder, the contacts of the pairs clash units leave unchanged are still
+    # computed once: kept in memory for the units' analysis
+    pairs = cache if cache is not None else MemoryCache()
+    contacts = find_contacts(asm, options, cache=pairs, timings=timings)
     out: dict = dict(contacts.sections)
     warnings = list(contacts.warnings)
-    asm, contacts = _keep_clashes_together(asm, contacts, options, cache, timings, out)
+    asm, contacts = _keep_clashes_together(asm, contacts, options, pairs, timings, out)
     families: dict[str, Family] = {}
     inf = None
     for name in FAMILIES_OF[options.motion]:
@@ -597,7 +600,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
 def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, cache: Any,
                            timings: dict[str, float], out: dict) -> tuple[Assembly, Contacts]:
     """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`)
-    and its contacts found again (the cache serves the other pairs); the report keeps the
+    and its contacts found again (``cache`` serves the other pairs); the report keeps the
     first analysis's interferences, each clash naming its unit. Unchanged without clashes."""
     from .units import clash_units, member_order, merge_units
 

@@ -248,8 +248,13 @@ def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
         return None
     base_bit = 0 if base is None else (1 << base) & mask
     order = range(len(ndbg.regions)) if regions is None else regions
+    group = ndbg.dbg_group()
+    tried: set[int] = set()  # regions with equal DBGs induce equal ones: the first in order
     seen: set[tuple[int, ...]] = set()
     for r in order:
+        if group[r] in tried:
+            continue
+        tried.add(group[r])
         g = ndbg.regions[r].dbg
         key = tuple(g.succ[i] & mask for i in bits(mask))
         if key in seen:
@@ -343,8 +348,9 @@ def dominant_regions(ndbg: NDBG, mask: int) -> list[int]:
     """One region per distinct DBG induced on ``mask``, dropping any whose arc set contains
     another's (its free sets are a subset of the other's, so it is never needed)."""
     reps: dict[tuple[int, ...], int] = {}
-    for k, r in enumerate(ndbg.regions):
-        key = tuple(r.dbg.succ[i] & mask for i in bits(mask))
+    for _, regs in ndbg.distinct():  # one region per distinct DBG, the first
+        k = regs[0]
+        key = tuple(ndbg.regions[k].dbg.succ[i] & mask for i in bits(mask))
         if key not in reps:
             reps[key] = k
     keys = list(reps)

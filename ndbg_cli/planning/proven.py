@@ -64,8 +64,9 @@ class BlockingTest(Protocol):
     def blocked(self, i: int, j: int, d: np.ndarray) -> bool:
         """Whether part ``j`` blocks part ``i`` translating to infinity along ``d``."""
 
-    def blockers(self, i: int, d: np.ndarray) -> int:
-        """The bitmask of the parts that block part ``i`` along ``d``."""
+    def blockers(self, i: int, d: np.ndarray, among: int | None = None) -> int:
+        """The bitmask of the parts that block part ``i`` along ``d``, of those in bitmask
+        ``among`` (default: all; only they are tested)."""
 
     def witness(self, i: int, j: int, d: np.ndarray) -> tuple[float, ...] | None:
         """A point where ``j`` blocks ``i`` along ``d`` (``None`` when it does not)."""
@@ -151,15 +152,24 @@ class Rows:
     def __init__(self, test: BlockingTest, n: int, dirs: Sequence[Direction],
                  proposer: NDBG | None = None) -> None:
         self.test, self.n, self.dirs, self.proposer = test, n, list(dirs), proposer
-        self._rows: dict[tuple[int, int], int] = {}
+        # (k, i) -> (the parts tested so far, those of them that block i)
+        self._rows: dict[tuple[int, int], tuple[int, int]] = {}
         self._preds: dict[int, list[int]] = {}
         self._vec = [np.asarray(d.vector, dtype=float) for d in self.dirs]
+        self._all = (1 << n) - 1
 
-    def row(self, k: int, i: int) -> int:
-        key = (k, i)
-        if key not in self._rows:
-            self._rows[key] = self.test.blockers(i, self._vec[k])
-        return self._rows[key]
+    def row(self, k: int, i: int, within: int | None = None) -> int:
+        """The parts that block part ``i`` along ``dirs[k]``, of those in bitmask ``within``
+        (default: all). Only parts not asked about before are tested: a small subassembly's
+        rows cost its own pairs, not the whole product's."""
+        want = self._all if within is None else within & self._all
+        known, got = self._rows.get((k, i), (0, 0))
+        todo = want & ~known
+        if todo:
+            got |= self.test.blockers(i, self._vec[k], None if todo == self._all else todo)
+            known |= todo
+            self._rows[k, i] = (known, got)
+        return got & want
 
     def blocked_by(self, k: int) -> list[int]:
         """``blocked_by(k)[i]``: the parts that part ``i`` blocks along ``dirs[k]`` (the rows
@@ -203,14 +213,14 @@ class Rows:
 
     def frees(self, k: int, moved: int, rest: int) -> bool:
         """Whether ``moved`` leaves ``rest`` along ``dirs[k]`` (both bitmasks)."""
-        return all(self.row(k, i) & rest == 0 for i in bits(moved))
+        return all(self.row(k, i, rest) == 0 for i in bits(moved))
 
     def components(self, k: int, mask: int) -> list[int]:
         """Strong components of the blocking graph along ``dirs[k]`` induced on ``mask``,
         sinks first (a prefix of the list is free along ``dirs[k]``)."""
         succ = [0] * self.n
         for i in bits(mask):
-            succ[i] = self.row(k, i) & mask
+            succ[i] = self.row(k, i, mask)
         return tarjan(succ, mask)[0]
 
 
@@ -266,7 +276,7 @@ def _options(rows: Rows, k: int, mask: int, base: int | None) -> list[tuple[int,
         acc |= c
         free.append(acc)
     # sinks: components with no arc to another component of mask
-    free += [c for c in comps if all(rows.row(k, i) & mask & ~c == 0 for i in bits(c))]
+    free += [c for c in comps if all(rows.row(k, i, mask) & ~c == 0 for i in bits(c))]
     out = {(s, 1) for s in free} | {(mask & ~s, -1) for s in free}
     return sorted(o for o in out
                   if 0 < o[0] != mask and (base is None or not o[0] >> base & 1))

@@ -186,12 +186,14 @@ class SweepChecker:
         a, b = pairs[kept[hit]]
         return pi[a], pj[b]
 
-    def blockers(self, i: int, d: np.ndarray) -> int:
-        """The bitmask of the parts that block part ``i`` along ``d`` (the box culls of every
-        ``j`` in one array operation)."""
+    def blockers(self, i: int, d: np.ndarray, among: int | None = None) -> int:
+        """The bitmask of the parts that block part ``i`` along ``d``, of those in bitmask
+        ``among`` (default: all; the box culls of every ``j`` in one array operation)."""
         v = self.view(d)
-        return sum(1 << j for j in np.flatnonzero(self._near(v, i)).tolist()
-                   if self._pair(v, i, j) is not None)
+        near = np.flatnonzero(self._near(v, i)).tolist()
+        if among is not None:
+            near = [j for j in near if among >> j & 1]
+        return sum(1 << j for j in near if self._pair(v, i, j) is not None)
 
     def frees(self, moved: int, rest: int, d: np.ndarray) -> bool:
         """Whether the parts of bitmask ``moved`` translate to infinity along ``d`` without
