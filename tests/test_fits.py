@@ -4,6 +4,7 @@ unchanged when a product's cylinders are tessellated coarser or finer, or turned
 axes (facet edges must not create blocking the real parts do not have)."""
 
 import importlib.util
+import json
 
 import numpy as np
 import pytest
@@ -158,3 +159,27 @@ def test_answers_do_not_change_with_the_tessellation_or_a_turn_about_the_axes():
     # as in a fine STEP export
     for segments, turn in ((48, 0.0), (96, 0.0), (24, 5.0), (48, 3.75), (96, 1.0), (480, 0.3)):
         assert _answer(_standoffs(segments, turn)) == base, (segments, turn)
+
+
+def test_units_reuse_the_contacts_of_the_pairs_they_leave_unchanged(tmp_path):
+    """Without a cache folder, the pairs that units leave unchanged are served to the units'
+    contact analysis from memory (``core.cache.MemoryCache``): the report is the one a cache
+    folder gives, and a second analysis of the same parts is served whole from memory, with
+    the same contacts."""
+    from ndbg_cli.core.cache import MemoryCache
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.pipeline.stages import find_contacts
+
+    asm = ndbg_cli.load(ASSEMBLIES / "clash.yaml")
+    on_disk = ndbg_cli.analyze(asm, Options(cache=str(tmp_path / "cache")))
+    in_memory = ndbg_cli.analyze(asm)
+    for key in ("contacts", "interferences", "plan", "classes", "ndbg"):
+        assert json.dumps(in_memory[key], sort_keys=True) == json.dumps(on_disk[key],
+                                                                        sort_keys=True)
+    memo = MemoryCache()
+    first = find_contacts(asm, cache=memo)
+    pairs = first.sections["contact_stats"]["candidate_pairs"]
+    assert memo.stats() == {"contacts": {"hits": 0, "misses": pairs}}
+    again = find_contacts(asm, cache=memo)
+    assert memo.stats() == {"contacts": {"hits": pairs, "misses": pairs}}
+    assert again.sections["contacts"] == first.sections["contacts"]

@@ -116,6 +116,33 @@ class _Pairs:
         return (0.0, 0.0, 0.0) if self.blocked(i, j, d) else None
 
 
+def test_rows_within_a_subassembly_test_its_pairs_once():
+    """``Rows.row(k, i, within)`` is the whole row restricted to ``within``, and each pair is
+    tested once whatever the order of the questions (a subassembly's rows, then the whole
+    product's)."""
+    rng = np.random.default_rng(46)
+    n = 9
+    arcs = {(i, j) for i in range(n) for j in range(n) if i != j and rng.random() < 0.4}
+    calls = []
+
+    class Counted(_Pairs):
+        def blocked(self, i, j, d):
+            calls.append((i, j))
+            return super().blocked(i, j, d)
+
+    dirs = directions(3, [], [])
+    k = next(k for k, d in enumerate(dirs) if snap(d.vector) == (0.0, 0.0, 1.0))
+    rows = Rows(Counted(n, {(0, 0, 1): arcs}), n, dirs)
+    full = {i: sum(1 << j for j in range(n) if (i, j) in arcs) for i in range(n)}
+    for _ in range(30):
+        within = int(rng.integers(0, 1 << n))
+        i = int(rng.integers(n))
+        assert rows.row(k, i, within) == full[i] & within
+    for i in range(n):
+        assert rows.row(k, i) == full[i]
+    assert len(calls) == len(set(calls)) == n * (n - 1)
+
+
 def test_greedy_needs_no_backtracking_and_stops_where_no_direction_splits():
     # A on B on C: +z frees A from {B, C} and B from C; nothing else is free anywhere
     up = {(0, 0, 1): {(1, 0), (2, 1), (2, 0)}}
