@@ -131,7 +131,8 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     candidate pair's narrow-phase result is looked up by the two parts' content hashes and the
     tolerances (:mod:`ndbg_cli.core.cache`). The pairs not in the cache are tested by ``mapper``
     (:class:`~ndbg_cli.core.pools.Mapper`; default: ``workers`` forked processes, when the pairs
-    hold :data:`MIN_PARALLEL_TRIANGLES` triangles); the result does not depend on it;
+    hold :data:`MIN_PARALLEL_TRIANGLES` triangles or ``meanwhile`` is given); the result does
+    not depend on it;
     ``meanwhile`` is called here while they work. Raises :class:`InputError` for a 2D assembly
     or a non-positive tolerance.
 
@@ -198,8 +199,11 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     # by their triangles
     order = sorted(range(len(todo)), key=lambda x: (-bool(pairs[todo[x]][2]), -size[x], x))
     mapper = ForkMapper(workers) if mapper is None else mapper
+    # few triangles are not worth the workers' start, unless this process has work of its
+    # own meanwhile (numba's start, 0.5 s or more), which their time then hides
     got = mapper.map(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo], order,
-                     small=sum(size) < MIN_PARALLEL_TRIANGLES, meanwhile=meanwhile)
+                     small=sum(size) < MIN_PARALLEL_TRIANGLES and meanwhile is None,
+                     meanwhile=meanwhile)
     for k, res in zip(todo, got):
         results[k] = res
         if keys[k] is not None:
@@ -271,8 +275,8 @@ def _pair_result(asm: Assembly, ga: PartGeometry, gb: PartGeometry, a: int, b: i
 
 
 #: Fewest triangles (summed over the parts of the pairs to test) for which
-#: :func:`analyze_contacts` hands the pairs to worker processes (``workers``): below it
-#: their start costs more than they save.
+#: :func:`analyze_contacts` hands the pairs to worker processes (``workers``) when it has
+#: nothing to do ``meanwhile``: below it their start costs more than they save.
 MIN_PARALLEL_TRIANGLES = 20_000
 
 #: Radial normals standing for a press fit's cylindrical contact (:func:`fit_contacts`).
