@@ -226,3 +226,31 @@ def test_infinite_regions_keep_their_own_cells():
     assert all(tuple(bs.cells[k].direction) == r.direction
                for k, r in zip(at, nd.regions) if r.dimension == 2)
     assert len(region_pieces(nd)) == len(nd.regions)
+
+
+def test_a_face_another_part_rests_on_is_covered_and_a_free_face_is_not():
+    """By hand: a 2 x 2 x 1 block A with a 1 x 1 x 1 cube B on the left half of its top
+    face. A point just above A's top face (``gap`` up) under B is covered; one above A's
+    free right half, or beside A's side face, is not; B's own top face is free; and a point
+    of A's top face is never covered by A itself."""
+    import trimesh
+
+    from ndbg_cli.core.assembly import Assembly
+    from ndbg_cli.io.validate import make_part
+    from ndbg_cli.planning.fingers import covered
+
+    def box(pid, lo, hi):
+        m = trimesh.creation.box(bounds=np.array([lo, hi], float))
+        return make_part(pid, m.vertices, m.faces)[0]
+
+    asm = Assembly("covered", (box("A", (0, 0, 0), (2, 2, 1)), box("B", (0, 0, 1), (1, 1, 2))))
+    gap = 2.0 * asm.length_tolerance
+    q = np.array([[0.5, 0.5, 1 + gap],   # A's top, under B
+                  [1.5, 1.5, 1 + gap],   # A's top, free half
+                  [2 + gap, 1.0, 0.5],   # A's side
+                  [0.5, 0.5, 2 + gap],   # B's top
+                  [0.5, 0.5, 1 - gap]])  # B's bottom, inside A's top
+    owner = np.array([0, 0, 0, 1, 1])
+    assert covered(asm, owner, q, gap).tolist() == [True, False, False, False, True]
+    # a point next to its own part only is free: A does not cover A
+    assert covered(asm, np.array([0]), q[1:2], gap).tolist() == [False]

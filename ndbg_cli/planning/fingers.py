@@ -3,10 +3,14 @@ the outward face orientations a fixed point finger can touch, on a face no other
 
 from __future__ import annotations
 
+import weakref
+from typing import Any
+
 import numpy as np
 import shapely
 
-from ..core.assembly import Assembly
+from ..contacts.facets import box_tree, point_triangle_distance
+from ..core.assembly import Assembly, Part
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 
 
@@ -108,17 +112,11 @@ FINGER_TRIES = 8
 def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.ndarray:
     """``(m,)`` whether each point ``q[i]`` (``gap`` outside a face of part ``owner[i]``) is
     within ``1.5 gap`` of another part's surface: a part resting on that face has its surface
-    there (within the tolerance), so the point is inside it at about ``gap`` from it. A ball
-    of radius ``1.5 gap`` is tested against each part whose box holds the point (2D: shapely
-    distances)."""
+    there (within the tolerance), so the point is inside it at about ``gap`` from it. The
+    distance to each part whose box holds the point, from its triangles near the point (2D:
+    shapely distances)."""
     out = np.zeros(len(q), dtype=bool)
     reach = 1.5 * gap
-    if asm.dimension == 3:
-        import fcl
-
-        from ..contacts.facets import fcl_object
-
-        ball = fcl.CollisionObject(fcl.Sphere(reach), fcl.Transform())
     for j, other in enumerate(asm.parts):
         if asm.dimension == 2:
             near = owner != j
@@ -130,10 +128,25 @@ def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.n
         near = np.flatnonzero((owner != j) & ~out
                               & np.all((q >= lo - reach) & (q <= hi + reach), axis=1))
         if len(near):
-            # a ball of radius ``reach`` against the part's cached BVH (python-fcl)
-            obj = fcl_object(other)
-            for i in near:
-                ball.setTranslation(q[i])
-                if fcl.collide(ball, obj, fcl.CollisionRequest(), fcl.CollisionResult()):
-                    out[i] = True
+            # the triangles whose boxes meet each point's ball (the part's R-tree, all points
+            # in one query), then the exact point-triangle distances
+            tri, tree = _triangles(other)
+            ids, counts = tree.intersection_v(q[near] - reach, q[near] + reach)
+            rows = np.repeat(near, np.asarray(counts, dtype=np.int64))
+            ids = np.asarray(ids, dtype=np.int64)
+            hit = point_triangle_distance(q[rows], tri[ids]) <= reach
+            out[rows[hit]] = True
     return out
+
+
+#: Per mesh: its triangles and their R-tree (:func:`_triangles`).
+_TREES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _triangles(part: Part) -> tuple[np.ndarray, Any]:
+    """``part``'s triangles ``(f, 3, 3)`` and an R-tree of their boxes (once per mesh)."""
+    got = _TREES.get(part.mesh)
+    if got is None:
+        tri = np.asarray(part.mesh.triangles, dtype=np.float64)
+        got = _TREES[part.mesh] = (tri, box_tree(tri.min(axis=1), tri.max(axis=1)))
+    return got
