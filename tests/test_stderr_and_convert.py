@@ -127,3 +127,38 @@ def test_convert_a_single_mesh_file_names_its_mesh_once(tmp_path):
     r = run_cli("analyze", tmp_path / "out" / "b.yaml", "--format", "json", "--motion",
                 "translation", "--no-cache", "-q")
     assert r.returncode == 0 and json.loads(r.stdout)["assembly"]["parts"][0]["id"] == "b.stl"
+
+
+
+def test_the_program_ends_cleanly_on_a_closed_pipe_and_on_ctrl_c(tmp_path):
+    """``python -m ndbg_cli`` ends through ``cli.main.run`` (exit functions, flush, then
+    ``os._exit``): a reader that stops after the first bytes gets exit 0 and no traceback;
+    SIGINT in the middle of an analysis (after the warning its NDBG stage prints, a 96-part
+    rack of ``assemblies/build.py``) gives 130, "ndbg: aborted" and no report."""
+    import importlib.util
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "ndbg_cli", "analyze"]
+    proc = subprocess.Popen([*cmd, str(EX / "bell.yaml")], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.read(16)
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0 and "Traceback" not in err
+    spec = importlib.util.spec_from_file_location("assemblies_build", EX / "build.py")
+    build = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(build)
+    rack = tmp_path / f"{build.rack(tmp_path, 20)}.yaml"
+    out = tmp_path / "report.json"
+    proc = subprocess.Popen([*cmd, str(rack), "--no-cache", "--format", "json", "--out",
+                             str(out)], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, start_new_session=True)
+    first = proc.stderr.readline().decode()  # the infinite NDBG skipped: the plan is next
+    assert "skipped" in first, first
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and "ndbg: aborted" in err.decode(), err.decode()
+    assert not out.exists()
