@@ -36,13 +36,27 @@ SMOOTH_DIHEDRAL_MIN = np.radians(0.01)
 _FCL_CACHE: dict[str, Any] = {}
 _MANIFOLD_CACHE: dict[str, Any] = {}
 _GEOMETRY_CACHE: dict[tuple[str, float, float], PartGeometry] = {}
+_TRIANGLE_CACHE: dict[str, tuple[np.ndarray, Any]] = {}
 
 
 def clear_caches() -> None:
-    """Forget every cached BVH, manifold and part geometry."""
+    """Forget every cached BVH, manifold, triangle R-tree and part geometry."""
     _FCL_CACHE.clear()
     _MANIFOLD_CACHE.clear()
+    _TRIANGLE_CACHE.clear()
     _GEOMETRY_CACHE.clear()
+
+
+def triangle_index(part: Part) -> tuple[np.ndarray, rtree.index.Index]:
+    """The part's triangles ``(f, 3, 3)`` (assembly frame) and an R-tree of their boxes
+    (:func:`box_tree`, ids = triangle indices), built once per :attr:`Part.hash`: the
+    tolerances do not enter, so the contacts' :class:`PartGeometry` and the finger probes
+    (:func:`ndbg_cli.planning.fingers.covered`) share one."""
+    got = _TRIANGLE_CACHE.get(part.hash)
+    if got is None:
+        tri = np.asarray(part.mesh.triangles, dtype=np.float64)
+        got = _TRIANGLE_CACHE[part.hash] = (tri, box_tree(tri.min(axis=1), tri.max(axis=1)))
+    return got
 
 
 def fcl_model(part: Part) -> fcl.BVHModel:
@@ -127,13 +141,13 @@ def part_geometry(part: Part, tolerance: float, angle_tolerance: float) -> PartG
     key = (part.hash, float(tolerance), float(angle_tolerance))
     geo = _GEOMETRY_CACHE.get(key)
     if geo is None:
-        geo = _build_geometry(part.mesh, tolerance, angle_tolerance)
+        geo = _build_geometry(part.mesh, *triangle_index(part), tolerance, angle_tolerance)
         _GEOMETRY_CACHE[key] = geo
     return geo
 
 
-def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
-    tri = np.asarray(mesh.triangles, dtype=np.float64)
+def _build_geometry(mesh: Any, tri: np.ndarray, tree: Any, tol: float, ang: float
+                    ) -> PartGeometry:
     cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     area2 = np.linalg.norm(cross, axis=1)
     normals = cross / np.where(area2 > 0, area2, 1.0)[:, None]
@@ -184,7 +198,7 @@ def _build_geometry(mesh: Any, tol: float, ang: float) -> PartGeometry:
                         vertices=np.asarray(mesh.vertices, dtype=np.float64), normals=normals,
                         areas=areas, lo=lo, hi=hi, facet=facet,
                         facet_normal=fn, facet_offset=fd, smooth_angle=smooth, sag=sag,
-                        adjacency=adj, tree=box_tree(lo, hi))
+                        adjacency=adj, tree=tree)
 
 
 def box_tree(lo: np.ndarray, hi: np.ndarray) -> rtree.index.Index:

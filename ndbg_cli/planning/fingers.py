@@ -3,14 +3,11 @@ the outward face orientations a fixed point finger can touch, on a face no other
 
 from __future__ import annotations
 
-import weakref
-from typing import Any
-
 import numpy as np
 import shapely
 
-from ..contacts.facets import box_tree, point_triangle_distance
-from ..core.assembly import Assembly, Part
+from ..contacts.facets import point_triangle_distance, triangle_index
+from ..core.assembly import Assembly
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 
 
@@ -130,7 +127,7 @@ def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.n
         if len(near):
             # the triangles whose boxes meet each point's ball (the part's R-tree, all points
             # in one query), then the exact point-triangle distances
-            tri, tree = _triangles(other)
+            tri, tree = triangle_index(other)
             ids, counts = tree.intersection_v(q[near] - reach, q[near] + reach)
             rows = np.repeat(near, np.asarray(counts, dtype=np.int64))
             ids = np.asarray(ids, dtype=np.int64)
@@ -138,15 +135,3 @@ def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.n
             out[rows[hit]] = True
     return out
 
-
-#: Per mesh: its triangles and their R-tree (:func:`_triangles`).
-_TREES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def _triangles(part: Part) -> tuple[np.ndarray, Any]:
-    """``part``'s triangles ``(f, 3, 3)`` and an R-tree of their boxes (once per mesh)."""
-    got = _TREES.get(part.mesh)
-    if got is None:
-        tri = np.asarray(part.mesh.triangles, dtype=np.float64)
-        got = _TREES[part.mesh] = (tri, box_tree(tri.min(axis=1), tri.max(axis=1)))
-    return got
