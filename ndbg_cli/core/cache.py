@@ -139,7 +139,25 @@ def code_digest(stage: str) -> str:
     return h.hexdigest()[:16]
 
 
-class PairCache:
+class _Counted:
+    """Lookups counted per stage (``hits``, ``misses``): what both caches report."""
+
+    def __init__(self) -> None:
+        self.hits: dict[str, int] = {}
+        self.misses: dict[str, int] = {}
+
+    def _count(self, stage: str, hit: bool) -> None:
+        counts = self.hits if hit else self.misses
+        counts[stage] = counts.get(stage, 0) + 1
+
+    def stats(self) -> dict[str, dict[str, int]]:
+        """``{stage: {"hits": h, "misses": m}}``."""
+        stages = sorted(set(self.hits) | set(self.misses))
+        return {s: {"hits": self.hits.get(s, 0), "misses": self.misses.get(s, 0)}
+                for s in stages}
+
+
+class PairCache(_Counted):
     """A directory of per-pair results; ``hits`` and ``misses`` count lookups per stage.
 
     Layout: ``DIR/<stage>/<key[:2]>/<key>.pkl``, each file written atomically (temporary file
@@ -148,9 +166,8 @@ class PairCache:
     time (for :func:`trim`). Default directory: :func:`default_dir`."""
 
     def __init__(self, root: str | Path):
+        super().__init__()
         self.root = Path(root)
-        self.hits: dict[str, int] = {}
-        self.misses: dict[str, int] = {}
         # faults, told to the user once per run (:meth:`faults`): entries that exist but
         # could not be read (truncated, foreign bytes, another format), entries that could
         # not be stored (read-only or full folder, a path through a file), and why
@@ -177,13 +194,13 @@ class PairCache:
             if check is not None:
                 value = check(value)
         except (FileNotFoundError, NotADirectoryError):  # not stored: a plain miss
-            self.misses[stage] = self.misses.get(stage, 0) + 1
+            self._count(stage, False)
             return None
         except Exception:  # torn, foreign or corrupt entry (any unpickling error)
-            self.misses[stage] = self.misses.get(stage, 0) + 1
+            self._count(stage, False)
             self.unreadable[stage] = self.unreadable.get(stage, 0) + 1
             return None
-        self.hits[stage] = self.hits.get(stage, 0) + 1
+        self._count(stage, True)
         try:  # used now: the last entry a trim removes
             os.utime(self._path(stage, key))
         except OSError:
@@ -216,14 +233,8 @@ class PairCache:
             return {}
         return {"unreadable": bad, "unwritten": unwritten, "write_error": self.write_error}
 
-    def stats(self) -> dict[str, dict[str, int]]:
-        """``{stage: {"hits": h, "misses": m}}``."""
-        stages = sorted(set(self.hits) | set(self.misses))
-        return {s: {"hits": self.hits.get(s, 0), "misses": self.misses.get(s, 0)}
-                for s in stages}
 
-
-class MemoryCache:
+class MemoryCache(_Counted):
     """Per-pair results kept in memory for one run, with :class:`PairCache`'s interface.
 
     Used when no cache directory is given, so that a stage run twice on nearly the same parts
@@ -239,9 +250,8 @@ class MemoryCache:
     """
 
     def __init__(self) -> None:
+        super().__init__()
         self._store: dict[tuple, Any] = {}
-        self.hits: dict[str, int] = {}
-        self.misses: dict[str, int] = {}
 
     def key(self, stage: str, *parts: Any) -> tuple:
         """The key of a stage's result for ``parts`` (hashes, tolerances: hashable values
@@ -252,8 +262,7 @@ class MemoryCache:
         """The stored value, or ``None`` (a miss); ``check`` is not needed (the value was
         made by this process)."""
         value = self._store.get(key)
-        counts = self.misses if value is None else self.hits
-        counts[stage] = counts.get(stage, 0) + 1
+        self._count(stage, value is not None)
         return value
 
     def put(self, stage: str, key: tuple, value: Any) -> None:
@@ -263,12 +272,6 @@ class MemoryCache:
     def faults(self) -> dict:
         """Always ``{}``: memory neither tears nor refuses a write."""
         return {}
-
-    def stats(self) -> dict[str, dict[str, int]]:
-        """``{stage: {"hits": h, "misses": m}}``."""
-        stages = sorted(set(self.hits) | set(self.misses))
-        return {s: {"hits": self.hits.get(s, 0), "misses": self.misses.get(s, 0)}
-                for s in stages}
 
 
 def open_cache(directory: str | Path | None) -> PairCache | None:
