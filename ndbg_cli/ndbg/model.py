@@ -152,10 +152,9 @@ def partitionings(ndbg: NDBG, mask: int | None = None, *, limit: int | None = No
     seen_dbgs: dict[tuple[int, ...], list[int]] = {}
     full = m == (1 << ndbg.n) - 1
     members = list(bits(m))
-    for k, r in enumerate(ndbg.regions):
-        succ = r.dbg.succ
-        key = succ if full else tuple(succ[i] & m for i in members)
-        seen_dbgs.setdefault(key, []).append(k)
+    for dbg, regs in ndbg.distinct():  # equal DBGs induce equal ones: one key per group
+        key = dbg.succ if full else tuple(dbg.succ[i] & m for i in members)
+        seen_dbgs.setdefault(key, []).extend(regs)
     groups = [(ndbg.regions[ids[0]].dbg, ids) for ids in seen_dbgs.values()]
 
     def take(s: int, region_ids: list[int]) -> bool:
