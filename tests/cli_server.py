@@ -82,31 +82,18 @@ def _child(args: list[str], cwd: str, env: dict, stdin: bytes, folder: str,
 
 
 def _exit_as_python_does(exc: BaseException | None) -> None:
-    """End the child as an interpreter ends: the exit code of a ``SystemExit`` (its message on
-    stderr when it is not a number), a traceback and 1 for any other exception; then wait for
-    non-daemon threads, run the exit functions, flush the streams. Never returns."""
-    import atexit
+    """End the child as an interpreter ends (``ndbg_cli.cli.main.end_process``): the exit code
+    of a ``SystemExit`` (its message on stderr when it is not a number), a traceback and 1
+    for any other exception. Never returns. (``python -m ndbg_cli`` ends there itself.)"""
     import traceback
 
-    code = 0
+    from ndbg_cli.cli.main import end_process
+
     if isinstance(exc, SystemExit):
-        if exc.code is None:
-            code = 0
-        elif isinstance(exc.code, int):
-            code = exc.code
-        else:
-            print(exc.code, file=sys.stderr)
-            code = 1
-    elif exc is not None:
+        end_process(exc.code)
+    if exc is not None:
         traceback.print_exception(exc)
-        code = 1
-    try:
-        threading._shutdown()  # as Py_FinalizeEx does first
-        atexit._run_exitfuncs()
-        sys.stdout.flush()
-        sys.stderr.flush()
-    finally:
-        os._exit(code & 0xFF)
+    end_process(0 if exc is None else 1)
 
 
 def _slurp(path: str) -> bytes:

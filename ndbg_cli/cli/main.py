@@ -11,6 +11,7 @@ import os
 import sys
 import threading
 import traceback
+from typing import NoReturn
 
 import click
 
@@ -73,21 +74,27 @@ def main(argv: list[str] | None = None) -> None:
              "(run with --debug for a traceback)", EXIT_INTERNAL)
 
 
-def run() -> None:
+
+def run() -> NoReturn:
     """The ``ndbg`` program (``python -m ndbg_cli`` and the console script): :func:`main`, then
-    the end of the process as the interpreter ends it (non-daemon threads joined, the exit
-    functions run, the streams flushed) but without its teardown of every module and object,
-    which frees numba's compiled code one object at a time (0.3 s or more per run, longer than
-    many analyses). Everything ndbg writes is closed before :func:`main` returns (reports are
-    written atomically). A library caller wanting ``SystemExit`` calls :func:`main`."""
-    code: int | str | None = 0
+    :func:`end_process`. A library caller wanting ``SystemExit`` calls :func:`main`."""
     try:
         main()
     except SystemExit as exc:
-        code = exc.code
+        end_process(exc.code)
+    end_process(0)
+
+
+def end_process(code: int | str | None) -> NoReturn:
+    """End the process as the interpreter ends it on ``sys.exit(code)`` (``None`` is 0; a
+    message goes to stderr, then 1): non-daemon threads joined, the exit functions run, the
+    streams flushed; but without its teardown of every module and object, which frees numba's
+    compiled code one object at a time (0.3 s or more per run, longer than many analyses).
+    Everything ndbg writes is closed before :func:`main` returns (reports are written
+    atomically)."""
     if code is None:
         code = 0
-    elif not isinstance(code, int):  # as the interpreter does: the message, then 1
+    elif not isinstance(code, int):
         print(code, file=sys.stderr)
         code = 1
     try:
