@@ -284,7 +284,8 @@ def test_the_slab_pretest_skips_only_pairs_that_cannot_interfere():
     and finds the overlap 1 x 1 x 0.5 (mean thickness 2V/S = 1 / (2 + 4 x 0.5) = 0.25). The cube
     sunk 0.005: width 0.005 <= 0.01, skipped, and the boolean agrees (2V/S < 0.01). A peg
     in a hole: no slab along any direction (the hole's walls lie on all sides)."""
-    from ndbg_cli.contacts.interference import interference, thin_slab
+    from ndbg_cli.contacts.interference import interference
+    from ndbg_cli.contacts.overlap_bounds import thin_slab
 
     slab = box((3, 3, 1), (0, 0, -0.5))
 

@@ -169,7 +169,7 @@ def _build_geometry(mesh: Any, tri: np.ndarray, tree: Any, tol: float, ang: floa
         d1 = np.abs(np.einsum("ij,ij->i", normals[adj[:, 1]],
                               verts[unshared[:, 0]] - tri[adj[:, 1], 0]))
         keep = (angles <= ang) & (d0 <= tol) & (d1 <= tol)
-    facet = _components(nf, adj[keep])
+    facet = graph_components(nf, adj[keep])
     facet, fn, fd, split = _facet_planes(tri, normals, areas, facet, tol, ang)
     if len(adj):
         # A smooth edge joins two facets at a small dihedral angle. Judged after the facets
@@ -215,7 +215,7 @@ def box_tree(lo: np.ndarray, hi: np.ndarray) -> rtree.index.Index:
                                  properties=prop)
 
 
-def _components(n: int, edges: np.ndarray) -> np.ndarray:
+def graph_components(n: int, edges: np.ndarray) -> np.ndarray:
     """Connected-component label ``(n,)`` of a graph on ``n`` nodes with ``(e, 2)`` edges."""
     if len(edges) == 0:
         return np.arange(n)

@@ -23,8 +23,8 @@ from ..geometry.normals import cluster_normals, one_cluster
 from ..geometry.vectors import plane_basis, unique_rows
 from .facets import (
     PartGeometry,
-    _components,
     box_pairs,
+    graph_components,
     max3,
     min3,
     point_triangle_distance,
@@ -148,7 +148,7 @@ def curved_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.nda
     # triangles of each side that share an edge are linked too
     links = [np.stack([ii, len(ui) + jj], axis=1),
              _local_adjacency(ga.adjacency, ui), len(ui) + _local_adjacency(gb.adjacency, uj)]
-    label = _components(len(ui) + len(uj), np.concatenate(links))
+    label = graph_components(len(ui) + len(uj), np.concatenate(links))
     for comp in np.unique(label):
         ta = ui[label[: len(ui)] == comp]
         tb = uj[label[len(ui):] == comp]
@@ -299,7 +299,7 @@ def edge_point_contacts(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np
     pair = remap[pair]
     ui, ii = np.unique(i, return_inverse=True)
     uj, jj = np.unique(j, return_inverse=True)
-    label = _components(len(ui) + len(uj), np.stack([ii, len(ui) + jj], axis=1))[ii]
+    label = graph_components(len(ui) + len(uj), np.stack([ii, len(ui) + jj], axis=1))[ii]
     lab = label[pair]
     # the points and the pairs of each component, grouped once (components in label order)
     comps, pts_of = _groups(lab)

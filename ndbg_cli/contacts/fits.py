@@ -68,7 +68,7 @@ def _scatter(normals: np.ndarray, areas: np.ndarray) -> tuple[np.ndarray, np.nda
     return w / max(float(areas.sum()), 1e-300), v
 
 
-def _circle(points: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float]:
+def fit_circle(points: np.ndarray, axis: np.ndarray) -> tuple[np.ndarray, float]:
     """Least-squares circle (Kasa) of ``points`` projected on the plane normal to ``axis``:
     its centre (3D, on the plane through the points' mean) and radius."""
     u, v = plane_basis(axis)
@@ -160,7 +160,7 @@ def classify_overlap(triangles: np.ndarray, normals: np.ndarray, areas: np.ndarr
     if w[0] <= PRESS_AXIAL and w[1] >= PRESS_SPREAD * w[2]:
         axis = np.asarray(_line(v[:, 0]))
         side = np.abs(normals @ axis) < 0.1  # the tube's walls (not its end rings)
-        center, r = _circle(triangles[side].mean(axis=1), axis)
+        center, r = fit_circle(triangles[side].mean(axis=1), axis)
         # the radial interference: volume over one wall's area (both walls are counted)
         radial = 2.0 * volume / float(areas[side].sum()) if volume > 0 else depth
         if r > 0 and radial <= PRESS_DEPTH * r:

@@ -20,6 +20,7 @@ from ..core.assembly import Assembly, Diagnostic, Part, point_extent
 from ..core.errors import InterferenceError
 from .facets import PartGeometry, fcl_model, fcl_object, manifold_model
 from .fits import Fit, classify_overlap, fcl_separates, manifold_separates
+from .overlap_bounds import thin_shell, thin_slab
 
 #: Contacts fcl is asked for when approximating the interference of open meshes.
 FCL_MAX_CONTACTS = 2000
@@ -58,11 +59,16 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     """Test one pair whose surfaces meet. Returns ``(interference or None, approximate)`` where
     ``approximate`` tells that the open-mesh fallback was used. ``allowance`` (unit) is the
     depth up to which an overlap is read as touching: ``tol + min(sag_A, sag_B)`` with each
-    part's largest chord sag."""
+    part's largest chord sag.
+
+    Closed parts whose overlap :mod:`ndbg_cli.contacts.overlap_bounds` proves no thicker
+    than the allowance (stacked faces, a peg in its hole) are not interferences, and skip
+    the manifold3d solids and their boolean."""
+    if _closed(pa) and _closed(pb) and (thin_slab(ga, gb, allowance)
+                                        or thin_shell(ga, gb, allowance)):
+        return None, False
     ma, mb = manifold_model(pa), manifold_model(pb)
     if ma is not None and mb is not None:
-        if thin_slab(ga, gb, allowance):
-            return None, False
         overlap = ma ^ mb
         vol = float(overlap.volume())
         area = float(overlap.surface_area())
@@ -93,31 +99,10 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     return None, True
 
 
-def thin_slab(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
-    """Whether the two parts lie on either side of a slab at most ``width`` thick: along some
-    direction ``u``, ``max_A u.x - min_B u.x <= width`` (or with A and B swapped).
-
-    Their overlap then lies inside the slab, so its mean thickness ``2 V / S`` is at most
-    ``width``: ``V <= width P`` and ``S >= 2 P`` for its projection ``P`` on the slab's plane
-    (a line across the slab that meets the overlap's interior crosses its boundary twice). With
-    ``width`` the interference allowance, the pair does not interfere, and the overlap boolean
-    (whose cost on large coplanar faces, such as a cover stacked on a housing, is seconds per
-    pair) is not needed. Directions tried: the axes and the normals of each part's
-    :data:`SLAB_FACETS` largest planar facets (a stacked pair shares one)."""
-    dirs = [np.eye(3)]
-    for g in (ga, gb):
-        if len(g.facet_normal):
-            area = np.bincount(g.facet, weights=g.areas, minlength=len(g.facet_normal))
-            top = np.argsort(-area, kind="stable")[:SLAB_FACETS]
-            dirs.append(g.facet_normal[top])
-    u = np.concatenate(dirs)
-    pa, pb = ga.vertices @ u.T, gb.vertices @ u.T
-    gap = np.minimum(pa.max(axis=0) - pb.min(axis=0), pb.max(axis=0) - pa.min(axis=0))
-    return bool(gap.min() <= width)
-
-
-#: Largest planar facets per part whose normals :func:`thin_slab` tries.
-SLAB_FACETS = 8
+def _closed(p: Part) -> bool:
+    """Whether the part's mesh bounds a solid (watertight, consistently wound): what the
+    overlap bounds' ray arguments need."""
+    return bool(p.check.watertight and p.check.winding_consistent)
 
 
 def _classify(tri: np.ndarray, depth: float, pa: Part, pb: Part, separates, tol: float,
