@@ -63,7 +63,9 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
 
     Closed parts whose overlap :mod:`ndbg_cli.contacts.overlap_bounds` proves no thicker
     than the allowance (stacked faces, a peg in its hole) are not interferences, and skip
-    the manifold3d solids and their boolean."""
+    the manifold3d solids and their boolean. The bounds hold for any watertight,
+    consistently wound mesh, including the few manifold3d rejects (four faces at an edge),
+    which would otherwise take the open-mesh fallback."""
     if _closed(pa) and _closed(pb) and (thin_slab(ga, gb, allowance)
                                         or thin_shell(ga, gb, allowance)):
         return None, False

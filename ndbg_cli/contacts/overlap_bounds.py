@@ -8,11 +8,12 @@ its head on the plate) cut each other into tens of thousands of slivers. The bou
 such pairs thinner than the allowance in milliseconds; a pair they cannot bound goes to the
 boolean, so they change no answer.
 
-Both rest on one argument. If every line of a family that meets the overlap ``O`` crosses it
-over a length at most ``w``, then ``V <= w P`` for the measure ``P`` of those lines, and each
-such line crosses ``O``'s boundary at least twice, so ``S >= 2 P``: ``2 V / S <= w``.
+Both rest on one argument (the divergence theorem): a field ``F`` with ``div F >= 1`` on the
+overlap ``O`` and ``|F| <= m`` there gives ``V <= integral of F . n over the boundary
+<= m S``, so ``2 V / S <= 2 m``.
 
-* :func:`thin_slab`: parallel lines across a slab ``{a <= u . x <= a + w}`` holding ``O``;
+* :func:`thin_slab`: ``O`` in a slab ``{a <= u . x <= a + w}``, ``F = (u . x - a - w / 2) u``:
+  ``2 V / S <= w``;
 * :func:`thin_shell`: a peg in its hole, possibly with a head or a shoulder resting on the
   hole's face (a bolt, a gear on its shaft, a bearing on its seat): ``O`` lies in a tube
   ``R_h <= r <= R_s`` about the axis and two slabs across it (:func:`shell_bound`).
@@ -127,18 +128,22 @@ def shell_bound(peg: PartGeometry, hole: PartGeometry, center: np.ndarray, u: np
       ``z > z1``, is in the hole's part (its ray along ``+u`` stays in the column and meets
       no triangle of it).
 
-    So the overlap ``O`` is a slab ``z0 <= z <= z_top`` (the head on the plate), a slab
-    ``z_lo <= z <= z1`` (the peg's end on the bottom of a blind hole) and a tube
-    ``R_h <= r <= R_s`` between them. Lines along ``u`` cross each slab over at most its
-    width, and rays from the axis at heights between the slabs cross the tube with volume
-    at most ``(R_s^2 - R_h^2) / 2`` per unit of their measure ``d theta dz``, while meeting
-    ``O``'s boundary twice where ``r >= R_h``, which takes an area of at least ``2 R_h`` per
-    unit. With the module's argument,
-    ``2 V / S <= (z_top - z0) + (z1 - z_lo) + (R_s^2 - R_h^2) / (2 R_h)`` (terms below 0
-    dropped). The cuts ``z0``, ``z1`` are tried at the slabs' outer faces and moved in by
-    :data:`_CUTS` shares of ``width``; the least bound is returned, plus ``1e-9`` of the
-    parts' extent for rounding.
+    So the overlap ``O`` lies in a slab ``z0 <= z <= z_top`` (the head on the plate), of
+    width ``w_t``, a slab ``z_lo <= z <= z1`` (the peg's end on the bottom of a blind hole),
+    of width ``w_b``, and between them a tube ``R_h <= r <= R_s``. With ``k = (w_b - w_t) / 2``
+    the field ``F = (z - z0 + k) e_z`` in the top slab, ``(z - z1 + k) e_z`` in the bottom one
+    and ``(r^2 - R_h R_s) / (2 r) e_r + k e_z`` in the tube has ``div F = 1`` everywhere and
+    the same ``F . e_z = k`` on both sides of the cuts, and ``|F|`` is at most
+    ``(w_t + w_b) / 2`` in the slabs and ``(R_s - R_h) / 2 + |k|`` in the tube, so (module
+    docstring) ``2 V / S <= max(w_t + w_b, R_s - R_h + |w_b - w_t|)``; without a tube (the
+    cuts cross, or ``R_s <= R_h``) it is ``w_t + w_b``. The cuts ``z0``, ``z1`` are tried at
+    the slabs' outer faces and moved in by :data:`_CUTS` shares of ``width``; the least bound
+    is returned, plus ``1e-9`` of the parts' extent for rounding (``inf`` for an axis that is
+    not finite).
     """
+    if not (np.isfinite(center).all() and np.isfinite(u).all()) or not np.any(u):
+        return np.inf
+    u = np.asarray(u, dtype=float) / np.linalg.norm(u)
     e1, e2 = plane_basis(u)
     frame = np.stack([e1, e2, u])
     pv = (peg.vertices - center) @ frame.T
@@ -172,13 +177,12 @@ def shell_bound(peg: PartGeometry, hole: PartGeometry, center: np.ndarray, u: np
             z1 = z_lo + d1 * width
             k = int(np.searchsorted(b_z, z1, side="right"))
             r_h = float(r_h_run[k]) if k < len(b_z) else np.inf
+            w_t, w_b = max(z_top - z0, 0.0), max(z1 - z_lo, 0.0)
             if z1 >= z0 or r_s <= r_h:
-                tube = 0.0  # no tube, or an empty one
-            elif r_h <= 0.0:
-                continue
+                got = w_t + w_b  # no tube, or an empty one
             else:
-                tube = (r_s * r_s - r_h * r_h) / (2.0 * r_h)
-            best = min(best, max(z_top - z0, 0.0) + max(z1 - z_lo, 0.0) + tube)
+                got = max(w_t + w_b, r_s - r_h + abs(w_b - w_t))
+            best = min(best, got)
     return best + slack
 
 
