@@ -92,9 +92,9 @@ def test_a_pin_on_the_bottom_of_a_blind_hole_adds_a_slab():
     axis but lies at the pin's lowest height, so it is the bottom slab, of width 0, and the
     bound is the band's. Pushed 0.3 deeper, the hole's bottom lies above every cut tried
     (within the width asked, 1e-3, of the pin's end), so it is read as part of the tube,
-    down to the axis: ``R_s - R_h = 1 - 0``, above the exact overlap: the 64-gon's disk 0.3 thick (volume
-    ``0.3 (N / 2) sin(2 pi / N)``) and the zero-volume band round the shank, whose surface
-    also counts in ``S``."""
+    down to the axis: ``R_s - R_h = 1 - 0``, above the exact overlap: the 64-gon's disk
+    0.3 thick (volume ``0.3 (N / 2) sin(2 pi / N)``) and the zero-volume band round the
+    shank, whose surface also counts in ``S``."""
     band = 1 - np.cos(HALF)
     z = np.array([0, 0, 1.0])
     (_, peg), (_, hole) = part(pin(tip=-1.5), "pin"), part(plate(-1.5), "plate")
