@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..core.constants import INFINITE, INFINITESIMAL
 from ..ndbg.model import NDBG, ConnectivityTest
 from .andor import (
     AndOrGraph,
@@ -426,14 +427,21 @@ def sequence_json(p: Plan) -> list[dict]:
     return out
 
 
+#: The families whose proven plans are algorithms of single translations.
+TRANSLATION = (INFINITESIMAL, INFINITE)
+
+
 def plan_proves(p: dict) -> dict | None:
     """What a plan section (:func:`plan_section`, with its ``verified`` and ``proofs``)
     proves when every step is proven (a real 1-handed monotone 1-prismatic algorithm,
     :mod:`ndbg_cli.planning.proven`): the classes it shows, and upper bounds on the minimum
     depth, nonlinear steps and directions from it and the proven ``proofs`` trees; ``None``
-    without a proven plan. The rules (``ndbg check``) and the text report read it."""
+    without a proven plan of translations. The rules (``ndbg check``) and the text report
+    read it."""
     v = p.get("verified") or {}
-    if not p.get("found") or v.get("value") is not True:
+    if not p.get("found") or v.get("value") is not True \
+            or p.get("family") not in TRANSLATION:
+        # a proven plan of rotations or screw motions is no algorithm of single translations
         return None
     dirs = {tuple(s["removal_direction"]) for s in p.get("sequence") or []
             if s.get("removal_direction") is not None}

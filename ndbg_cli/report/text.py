@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
 
 
@@ -186,11 +188,21 @@ def plan_lines(report: dict) -> list[str]:
         verb = "press" if s.get("press") else "insert"
         lines.append(f"  {s['step']:>3}. {verb} {{{', '.join(s['moved'])}}} into "
                      f"{{{', '.join(s['onto'])}}} {how}"
-                     + (f" [{s['proof']['source']}]" if s.get("proof") else ""))
+                     + _proof_note(s.get("proof")))
     v = p.get("verified")
     if v is not None:
         lines.append(f"  proven: {'yes' if v['value'] else 'no'} - {v['why']}")
     return lines
+
+
+def _proof_note(proof: dict | None) -> str:
+    """A step's proof in brackets: where its direction came from, or how far it turns."""
+    if not proof:
+        return ""
+    if proof.get("test") == "motion":
+        return (f" [turned {math.degrees(proof['angle']):.6g} degrees, then along "
+                f"{_vec(proof['then'])}]")
+    return f" [{proof['source']}]"
 
 
 #: Renderers of the analysis stages, each ``report -> list of lines``, in report order.
