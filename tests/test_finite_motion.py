@@ -153,3 +153,49 @@ def test_generalized_plans_of_the_examples_are_proven(tmp_path):
         assert np.degrees(step["proof"]["angle"]) == pytest.approx(angle, abs=1e-6)
         text = run_cli("analyze", str(ROOT / "assemblies" / f"{name}.yaml"), "--no-cache")
         assert f"[turned {angle:g} degrees, then along (+0, +0, +1)]" in text.stdout
+
+
+def _with_jaw(asm: Assembly) -> Assembly:
+    """bolt-screw with an arm of the block reaching over the bolt's head (top at z 26): a
+    post beside it and a bar 2 mm above it, one solid with the block."""
+    import manifold3d as m3
+
+    k = asm.index("block")
+    mesh = asm.parts[k].mesh
+    block = m3.Manifold(m3.Mesh64(vert_properties=np.asarray(mesh.vertices, dtype=float),
+                                  tri_verts=np.asarray(mesh.faces, dtype=np.uint64)))
+    arm = (m3.Manifold.cube((4, 6, 30)).translate((10, -3, 0))
+           + m3.Manifold.cube((24, 6, 2)).translate((-10, -3, 28)))
+    got = (block + arm).to_mesh64()
+    jawed = make_part("block", np.array(got.vert_properties)[:, :3],
+                      np.array(got.tri_verts))[0]
+    parts = tuple(jawed if i == k else p for i, p in enumerate(asm.parts))
+    return Assembly(asm.name, parts, units=asm.units, tolerance=asm.length_tolerance,
+                    joints=asm.joints)
+
+
+def test_the_jointed_part_itself_is_checked_and_the_thread_keeps_its_hand():
+    """The joint licenses the screw, not the jointed part: with the block's arm 2 mm over
+    the head, the bolt meets it after 2 / 1.25 turns (576 degrees). Turning the other way
+    along the same thread drives the bolt into the hole's bottom at once; a left-hand screw
+    is not the right-hand joint's motion."""
+    asm = ndbg_cli.load(ROOT / "assemblies" / "bolt-screw.yaml")
+    bolt, block = asm.index("bolt"), asm.index("block")
+    up = {"type": "screw", "axis": [0, 0, 1.0], "point": [0, 0, 0.0], "pitch": 1.25}
+    proof, why = prove_step(_with_jaw(asm), [bolt], [block], up)
+    assert proof is None and why.startswith("turning, bolt meets block after")
+    assert float(why.split("after ")[1].split(" ")[0]) == pytest.approx(576, abs=1)
+    proof, why = prove_step(asm, [bolt], [block], dict(up, axis=[0, 0, -1.0]))
+    assert proof is None and why.startswith("turning, bolt meets block after 0.0")
+    proof, why = prove_step(asm, [bolt], [block], dict(up, pitch=-1.25))
+    assert proof is None and "no declared joint" in why
+
+
+def test_the_check_turns_forward_and_keeps_to_its_budget():
+    cube = trimesh.creation.box((1, 1, 1)).triangles
+    floor = trimesh.creation.box((4, 4, 1)).apply_translation((0, 0, -1)).triangles
+    turn = Screw(np.zeros(3), Z, 0.0)
+    with pytest.raises(ValueError):
+        check_motion(turn, cube, floor, -1.0, 1e-9, 1e-5)
+    got = check_motion(turn, cube, floor, np.pi, 1e-9, 1e-5, budget=10)
+    assert not got.free and got.over_budget

@@ -451,3 +451,27 @@ def min3(x: np.ndarray) -> np.ndarray:
 def max3(x: np.ndarray) -> np.ndarray:
     """Maximum over the last axis (of length 3) of ``x``, element by element."""
     return np.maximum(np.maximum(x[..., 0], x[..., 1]), x[..., 2])
+
+
+def origin_distance_2d(t: np.ndarray) -> np.ndarray:
+    """Distance ``(k,)`` from the origin to each plane triangle ``(k, 3, 2)`` (0 when the
+    origin is inside or on it; a triangle seen edge-on, collinear with the origin, counts as
+    containing it: the answer is then too small, never too large)."""
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    s = np.stack([_cross2(b - a, -a), _cross2(c - b, -b), _cross2(a - c, -c)], axis=1)
+    inside = (s >= 0).all(axis=1) | (s <= 0).all(axis=1)
+    d = np.minimum(np.minimum(_origin_segment(a, b), _origin_segment(b, c)),
+                   _origin_segment(c, a))
+    return np.where(inside, 0.0, d)
+
+
+def _cross2(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    return p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]
+
+
+def _origin_segment(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Distance from the origin to each segment ``p q`` (``(k, 2)`` each)."""
+    d = q - p
+    dd = (d * d).sum(axis=1)
+    t = np.clip(-(p * d).sum(axis=1) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
+    return np.linalg.norm(p + t[:, None] * d, axis=1)

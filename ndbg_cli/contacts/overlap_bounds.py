@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.vectors import plane_basis
-from .facets import PartGeometry, graph_components
+from .facets import PartGeometry, graph_components, origin_distance_2d
 from .fits import fit_circle
 
 __all__ = ["thin_slab", "thin_shell", "shell_bound", "SLAB_FACETS", "SHELL_AXES"]
@@ -158,7 +158,7 @@ def shell_bound(peg: PartGeometry, hole: PartGeometry, center: np.ndarray, u: np
     if not near.any():
         return 0.0
     b_zmax = hi[near, 2]
-    b_rmin = _origin_distance(ht[near][:, :, :2])
+    b_rmin = origin_distance_2d(ht[near][:, :, :2])
     z_top = float(b_zmax.max())
     slack = 1e-9 * float(np.abs(pv).max() + np.abs(ht[near]).max())
     # R_s(z0): the peg's largest radius among triangles reaching below z0 (running maximum
@@ -218,26 +218,3 @@ def patch_axes(g: PartGeometry, other: PartGeometry) -> list[tuple[np.ndarray, n
 
 def _box_volume(g: PartGeometry) -> float:
     return float(np.prod(g.vertices.max(axis=0) - g.vertices.min(axis=0)))
-
-
-def _origin_distance(t: np.ndarray) -> np.ndarray:
-    """Distance ``(k,)`` from the origin to each plane triangle ``(k, 3, 2)`` (0 when the
-    origin is inside or on it; a triangle seen edge-on, collinear with the origin, counts as
-    containing it: the answer is then too small, never too large)."""
-    a, b, c = t[:, 0], t[:, 1], t[:, 2]
-    s = np.stack([_cross(b - a, -a), _cross(c - b, -b), _cross(a - c, -c)], axis=1)
-    inside = (s >= 0).all(axis=1) | (s <= 0).all(axis=1)
-    d = np.minimum(np.minimum(_segment(a, b), _segment(b, c)), _segment(c, a))
-    return np.where(inside, 0.0, d)
-
-
-def _cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    return p[:, 0] * q[:, 1] - p[:, 1] * q[:, 0]
-
-
-def _segment(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Distance from the origin to each segment ``p q`` (``(k, 2)`` each)."""
-    d = q - p
-    dd = (d * d).sum(axis=1)
-    t = np.clip(-(p * d).sum(axis=1) / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    return np.linalg.norm(p + t[:, None] * d, axis=1)

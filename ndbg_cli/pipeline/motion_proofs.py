@@ -5,23 +5,27 @@ infinity (the direct sweep test, :mod:`ndbg_cli.ndbg.infinite.sweep`); a transla
 the sweep test alone.
 
 How far to turn: a rotation is tried up to each angle where a face of the moved side comes to
-face the same way as a face of the rest (:func:`~ndbg_cli.ndbg.generalized.finite.alignment_angles`:
-a key turned until its sides line up with its slot), the first angle from which a natural
-direction (the axis, the coordinate axes) frees it being the step's. A screw motion is proven
-only along a declared joint (``joints:`` in the manifest): it turns until the moved side has
-advanced past the jointed part (the thread is disengaged), and the jointed pair itself, whose
-thread the meshes do not model, follows the joint as declared: it is the one pair not
-checked during the motion (the report names it). A declared revolute joint is taken the same
-way for its own pair.
+face the same way as a face of the rest
+(:func:`~ndbg_cli.ndbg.generalized.finite.alignment_angles`: a key turned until its sides line
+up with its slot), the first angle from which a natural direction (the axis, the coordinate
+axes) frees it being the step's. A screw motion is proven only along a declared joint
+(``joints:`` in the manifest, same line, same hand and pitch): the meshes do not model the
+thread, so the joint is what says the part turns rather than slides out; it turns until the
+moved side has advanced past the jointed part (the thread is disengaged). Every pair of parts
+is checked during the motion, the jointed one included, except for facets of one cylinder
+about the axis (the shank in its threaded hole, a pin in its bore), which slide along
+themselves (:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..contacts.facets import part_geometry
 from ..core.assembly import Assembly
+from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..io.validate import make_part
-from ..ndbg.generalized.finite import Screw, alignment_angles, check_motion
+from ..ndbg.generalized.finite import Screw, alignment_angles, check_motion, cylinder_bands
 from ..ndbg.infinite.sweep import SweepChecker
 
 #: Rounding allowance of the motion check, times the model's size: far below the length
@@ -92,24 +96,22 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
         return None, "a screw motion along no declared joint"
     tris = {k: np.asarray(asm.parts[k].mesh.triangles, dtype=float) for k in moved + rest}
     moving = np.concatenate([tris[k] for k in moved])
-    checked = [k for k in rest if k not in {b for _, b in joined}]
-    fixed = (np.concatenate([tris[k] for k in checked]) if checked
-             else np.zeros((0, 3, 3)))
+    fixed = np.concatenate([tris[k] for k in rest])
+    bands = (_bands(asm, moved, moving, screw), _bands(asm, rest, fixed, screw))
     eps = MOTION_EPS * asm.size
     dirs = _directions(screw)
     start, intervals = 0.0, 0
     for angle in _angles(asm, moved, rest, screw, joined):
-        if len(fixed):
-            got = check_motion(screw, moving, fixed, angle, eps, MIN_STEP, budget=PAIR_BUDGET,
-                               start=start)
-            intervals += got.intervals
-            if not got.free:
-                at = f"{np.degrees(got.blocked_at):.4g} degrees"
-                if got.over_budget:
-                    return None, f"the motion check is over its budget after {at}"
-                a, b = asm.ids[_owner(moved, tris, got.moving)], \
-                    asm.ids[_owner(checked, tris, got.fixed)]
-                return None, f"turning, {a} meets {b} after {at}"
+        got = check_motion(screw, moving, fixed, angle, eps, MIN_STEP, budget=PAIR_BUDGET,
+                           start=start, bands=bands)
+        intervals += got.intervals
+        if not got.free:
+            at = f"{np.degrees(got.blocked_at):.4g} degrees"
+            if got.over_budget:
+                return None, f"the motion check is over its budget after {at}"
+            a, b = asm.ids[_owner(moved, tris, got.moving)], \
+                asm.ids[_owner(rest, tris, got.fixed)]
+            return None, f"turning, {a} meets {b} after {at}"
         start = angle
         sweep = _checker(asm, moved, rest, screw, angle)
         every = (1 << (len(moved) + len(rest))) - 1
@@ -123,6 +125,16 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
                     proof["joints"] = [[asm.ids[a], asm.ids[b]] for a, b in joined]
                 return proof, ""
     return None, "no angle tried frees it by a translation along the axis or a coordinate axis"
+
+
+def _bands(asm: Assembly, parts: list[int], tris: np.ndarray, screw: Screw) -> np.ndarray:
+    """:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands` of the triangles of ``parts``
+    (concatenated), each allowed the length tolerance plus its chord sag (the contacts'
+    :class:`~ndbg_cli.contacts.facets.PartGeometry`)."""
+    tol = asm.length_tolerance
+    sag = np.concatenate([part_geometry(asm.parts[k], tol, CONTACT_ANGLE_TOL_RAD).sag
+                          for k in parts])
+    return cylinder_bands(tris, screw, tol + sag, CONTACT_ANGLE_TOL_RAD)
 
 
 def _owner(parts: list[int], tris: dict[int, np.ndarray], k: int) -> int:
@@ -147,7 +159,9 @@ def _joined(asm: Assembly, moved: list[int], rest: list[int], screw: Screw
                      and np.linalg.norm(off - (off @ screw.axis) * screw.axis)
                      <= 1e-9 * max(asm.size, 1.0))
         pitch = j.pitch / (2 * np.pi) if j.type == "screw" else 0.0
-        if same_line and abs(abs(screw.advance) - abs(pitch)) <= 1e-9 * max(asm.size, 1.0):
+        # the hand of a thread is the sign of its advance along the turn's own axis, which
+        # either sense of the turn keeps
+        if same_line and abs(screw.advance - pitch) <= 1e-9 * max(asm.size, 1.0):
             out.append(pair)
     return out
 

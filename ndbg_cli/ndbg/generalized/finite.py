@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...contacts.facets import box_tree
+from ...contacts.facets import box_tree, origin_distance_2d
 
 __all__ = ["Screw", "MotionCheck", "check_motion", "alignment_angles"]
 
@@ -115,12 +115,22 @@ FIRST_STEP = np.pi / 8
 
 def check_motion(screw: Screw, moving: np.ndarray, fixed: np.ndarray, angle: float,
                  eps: float, min_step: float, budget: int = 20_000_000,
-                 start: float = 0.0) -> MotionCheck:
+                 start: float = 0.0, bands: tuple[np.ndarray, np.ndarray] | None = None
+                 ) -> MotionCheck:
     """Whether triangles ``moving`` ``(k, 3, 3)`` follow ``screw`` from ``start`` to
     ``angle`` (radians, ``angle > start``) without crossing any of ``fixed`` ``(q, 3, 3)`` by
     more than ``eps`` (see the module docstring), halving failing intervals down to
     ``min_step``. Over ``budget`` pair tests the answer is "not free", at the interval
     reached.
+
+    ``bands`` (:func:`cylinder_bands` of the moving and the fixed triangles): a pair is not
+    tested when one of them is a facet of a cylinder about the screw's axis (its radii
+    within its allowance, the length tolerance plus its chord sag) and the other lies wholly
+    beyond that band's inner radius less the allowance, or wholly within its outer radius
+    plus it: the two can then only meet inside that thin band, where the polygon departs
+    from the surface of revolution it stands for, which the motion slides along itself (a
+    shaft turning in its bore, a thread along its joint, a hole's rim). Every other pair is
+    tested, the parts' shoulders and ends included.
 
     Examples
     --------
@@ -139,6 +149,8 @@ def check_motion(screw: Screw, moving: np.ndarray, fixed: np.ndarray, angle: flo
     >>> got.free, round(float(np.degrees(got.blocked_at)), 1)
     (False, 13.1)
     """
+    if not angle > start:
+        raise ValueError(f"the motion must turn forward (from {start} to {angle})")
     fixed = np.asarray(fixed, dtype=float)
     moving = np.asarray(moving, dtype=float)
     tree = box_tree(fixed.min(axis=1) - eps, fixed.max(axis=1) + eps)
@@ -154,16 +166,25 @@ def check_motion(screw: Screw, moving: np.ndarray, fixed: np.ndarray, angle: flo
         intervals += 1
         hull = screw.hull_points(tris, t0, t1)
         ids, counts = tree.intersection_v(hull.min(axis=1), hull.max(axis=1))
-        rows = np.repeat(np.arange(len(tris)), np.asarray(counts, dtype=np.int64))
+        counts = np.asarray(counts, dtype=np.int64)
+        if pairs + int(counts.sum()) > budget:  # before the pairs' arrays are built
+            return MotionCheck(False, angle, t0, int(origin[0]), None, intervals, pairs, True)
+        rows = np.repeat(np.arange(len(tris)), counts)
         cols = np.asarray(ids, dtype=np.int64)
+        if bands is not None:
+            keep = ~_in_band(bands[0][origin[rows]], bands[1][cols])
+            rows, cols = rows[keep], cols[keep]
         pairs += len(rows)
-        bad = ~_separated(hull[rows], screw, tris[rows], t0, t1, fixed[cols], eps)
+        bad = np.zeros(len(rows), dtype=bool)
+        for s in range(0, len(rows), _CHUNK):  # memory: (chunk, m, 3) hull points at a time
+            r, c = rows[s:s + _CHUNK], cols[s:s + _CHUNK]
+            bad[s:s + _CHUNK] = ~_separated(hull[r], screw, tris[r], t0, t1, fixed[c], eps)
         if not bad.any():
             continue
-        if t1 - t0 < 2 * min_step or pairs > budget:
+        if t1 - t0 < 2 * min_step:
             k = int(np.flatnonzero(bad)[0])
             return MotionCheck(False, angle, t0, int(origin[rows[k]]), int(cols[k]),
-                               intervals, pairs, pairs > budget)
+                               intervals, pairs)
         # a failing triangle is split in two and its interval in two: both shrink its hull
         # (a part of a triangle turns inside the triangle's hull, over a part of the interval)
         keep = np.unique(rows[bad])
@@ -171,6 +192,45 @@ def check_motion(screw: Screw, moving: np.ndarray, fixed: np.ndarray, angle: flo
         mid = (t0 + t1) / 2
         todo += [(mid, t1, tris, origin), (t0, mid, tris, origin)]
     return MotionCheck(True, angle, intervals=intervals, pairs=pairs)
+
+
+#: Triangle pairs :func:`check_motion` tests at once.
+_CHUNK = 100_000
+
+
+def cylinder_bands(tris: np.ndarray, screw: Screw, allowance: np.ndarray,
+                   angle_tol: float) -> np.ndarray:
+    """``(k, 4)`` per triangle of ``tris`` ``(k, 3, 3)``: the least and largest distance of
+    its points from the screw's axis (which the motion keeps), its ``allowance`` (unit: the
+    length tolerance plus its chord sag), and 1 for a facet of a cylinder about the axis (its
+    normal square to the axis within ``angle_tol``, its radii within its allowance), else 0.
+
+    Whatever a triangle so marked faces, the crossings :func:`check_motion` then leaves
+    untested lie within its radii, a band no wider than its allowance, next to a triangle
+    that ends there (a hole's wall or rim round a shank): a misaligned axis, which makes
+    parts cross deeper than that, is still found."""
+    rel = tris - screw.center
+    radial = rel - (rel @ screw.axis)[..., None] * screw.axis
+    rmax = np.linalg.norm(radial, axis=2).max(axis=1)
+    e1 = np.cross(screw.axis, np.eye(3)[int(np.argmin(np.abs(screw.axis)))])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(screw.axis, e1)
+    rmin = origin_distance_2d(np.stack([radial @ e1, radial @ e2], axis=2))
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    allowance = np.asarray(allowance, dtype=float)
+    facet = (np.abs(n @ screw.axis) <= np.sin(angle_tol)) & (rmax - rmin <= allowance)
+    return np.stack([rmin, rmax, allowance, facet.astype(float)], axis=1)
+
+
+def _in_band(m: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Pairs of :func:`cylinder_bands` rows (moving ``m``, fixed ``f``) that can only meet
+    in a cylinder facet's band: one is such a facet and the other lies wholly beyond the
+    band's inner radius less its allowance, or wholly within its outer radius plus it."""
+    def beside(c: np.ndarray, o: np.ndarray) -> np.ndarray:
+        return (c[:, 3] > 0) & ((o[:, 0] >= c[:, 0] - c[:, 2]) | (o[:, 1] <= c[:, 1] + c[:, 2]))
+
+    return beside(m, f) | beside(f, m)
 
 
 def _split(tris: np.ndarray) -> np.ndarray:
