@@ -13,7 +13,12 @@ from scipy.spatial import Delaunay
 import ndbg_cli
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.io.validate import make_part
-from ndbg_cli.ndbg.generalized.finite import Screw, alignment_angles, check_motion
+from ndbg_cli.ndbg.generalized.finite import (
+    Screw,
+    alignment_angles,
+    check_motion,
+    cylinder_bands,
+)
 from ndbg_cli.ndbg.generalized.twist import twist
 from ndbg_cli.pipeline.motion_proofs import prove_step
 
@@ -199,3 +204,33 @@ def test_the_check_turns_forward_and_keeps_to_its_budget():
         check_motion(turn, cube, floor, -1.0, 1e-9, 1e-5)
     got = check_motion(turn, cube, floor, np.pi, 1e-9, 1e-5, budget=10)
     assert not got.free and got.over_budget
+
+
+def test_two_sectors_of_one_tube_meet_when_one_turns_into_the_other():
+    """Sectors 0-60 and 90-150 degrees of one tube (radii 5 to 5.5, 48 facets): turning the
+    first by 30 degrees brings its end onto the second's, and further it sweeps through it
+    (manifold3d: no overlap at 29.9 degrees, 0.09 at 31). Their walls are facets of
+    cylinders about the axis, but a wall never lies across the cylinder from the other
+    part's wall here: the check stops at 30 degrees."""
+    import manifold3d as m3
+
+    def sector(a0: float, a1: float) -> m3.Manifold:
+        tube = (m3.Manifold.cylinder(2, 5.5, -1, 48)
+                - m3.Manifold.cylinder(4, 5.0, -1, 48).translate((0, 0, -1)))
+        h0 = m3.Manifold.cube((20, 20, 6)).translate((-10, 0, -2)).rotate((0, 0, a0))
+        h1 = m3.Manifold.cube((20, 20, 6)).translate((-10, -20, -2)).rotate((0, 0, a1))
+        return tube ^ h0 ^ h1
+
+    def tris(solid: m3.Manifold) -> np.ndarray:
+        m = solid.to_mesh64()
+        return np.array(m.vert_properties)[:, :3][np.array(m.tri_verts)]
+
+    moving, fixed = tris(sector(0, 60)), tris(sector(90, 150))
+    turn = Screw(np.zeros(3), Z, 0.0)
+    sag = 5.5 * (1 - np.cos(np.pi / 48))
+    half = np.pi / 48 + np.radians(1)
+    bands = tuple(cylinder_bands(t, turn, np.full(len(t), 1e-3 + sag), np.full(len(t), half))
+                  for t in (moving, fixed))
+    assert all((b[:, 3] == 1).sum() and (b[:, 3] == -1).sum() for b in bands)
+    got = check_motion(turn, moving, fixed, np.radians(60), 1e-5, 1e-5, bands=bands)
+    assert not got.free and np.degrees(got.blocked_at) == pytest.approx(30, abs=0.01)

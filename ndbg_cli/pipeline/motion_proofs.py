@@ -12,9 +12,9 @@ axes) frees it being the step's. A screw motion is proven only along a declared 
 (``joints:`` in the manifest, same line, same hand and pitch): the meshes do not model the
 thread, so the joint is what says the part turns rather than slides out; it turns until the
 moved side has advanced past the jointed part (the thread is disengaged). Every pair of parts
-is checked during the motion, the jointed one included, except for facets of one cylinder
-about the axis (the shank in its threaded hole, a pin in its bore), which slide along
-themselves (:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands`).
+is checked during the motion, the jointed one included, except a cylinder facet about the
+axis against the other part across that cylinder (the shank against its threaded hole's wall
+and rim, a pin against its bore: :func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands`).
 """
 
 from __future__ import annotations
@@ -129,12 +129,15 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
 
 def _bands(asm: Assembly, parts: list[int], tris: np.ndarray, screw: Screw) -> np.ndarray:
     """:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands` of the triangles of ``parts``
-    (concatenated), each allowed the length tolerance plus its chord sag (the contacts'
+    (concatenated), each allowed the length tolerance plus its chord sag, and half its facet
+    angle beyond the angular tolerance (the contacts'
     :class:`~ndbg_cli.contacts.facets.PartGeometry`)."""
     tol = asm.length_tolerance
-    sag = np.concatenate([part_geometry(asm.parts[k], tol, CONTACT_ANGLE_TOL_RAD).sag
-                          for k in parts])
-    return cylinder_bands(tris, screw, tol + sag, CONTACT_ANGLE_TOL_RAD)
+    geos = [part_geometry(asm.parts[k], tol, CONTACT_ANGLE_TOL_RAD) for k in parts]
+    sag = np.concatenate([g.sag for g in geos])
+    # a facet's normal is off the radius at its centroid by up to half its facet angle
+    half = np.concatenate([g.smooth_angle for g in geos]) / 2 + CONTACT_ANGLE_TOL_RAD
+    return cylinder_bands(tris, screw, tol + sag, half)
 
 
 def _owner(parts: list[int], tris: dict[int, np.ndarray], k: int) -> int:

@@ -124,12 +124,13 @@ def check_motion(screw: Screw, moving: np.ndarray, fixed: np.ndarray, angle: flo
     reached.
 
     ``bands`` (:func:`cylinder_bands` of the moving and the fixed triangles): a pair is not
-    tested when one of them is a facet of a cylinder about the screw's axis (its radii
-    within its allowance, the length tolerance plus its chord sag) and the other lies wholly
-    beyond that band's inner radius less the allowance, or wholly within its outer radius
-    plus it: the two can then only meet inside that thin band, where the polygon departs
-    from the surface of revolution it stands for, which the motion slides along itself (a
-    shaft turning in its bore, a thread along its joint, a hole's rim). Every other pair is
+    tested when it is a facet of a cylinder about the screw's axis with its part inside
+    against a facet with its part outside, or a face square to the axis, lying no nearer the
+    axis than the first's band less its allowance (a shank in its hole, the hole's rim), or
+    the same the other way round (a bore round a shaft, the shaft's end). The motion keeps
+    every point's distance from the axis, so such a pair only ever meets across that
+    cylinder, within the band where the polygons depart from the surface of revolution they
+    stand for (the chord sag), which the motion slides along itself. Every other pair is
     tested, the parts' shoulders and ends included.
 
     Examples
@@ -199,16 +200,17 @@ _CHUNK = 100_000
 
 
 def cylinder_bands(tris: np.ndarray, screw: Screw, allowance: np.ndarray,
-                   angle_tol: float) -> np.ndarray:
-    """``(k, 4)`` per triangle of ``tris`` ``(k, 3, 3)``: the least and largest distance of
-    its points from the screw's axis (which the motion keeps), its ``allowance`` (unit: the
-    length tolerance plus its chord sag), and 1 for a facet of a cylinder about the axis (its
-    normal square to the axis within ``angle_tol``, its radii within its allowance), else 0.
+                   angle_tol: np.ndarray) -> np.ndarray:
+    """``(k, 4)`` per triangle of ``tris`` ``(k, 3, 3)`` (outward normals by their winding):
+    the least and largest distance of its points from the screw's axis (which the motion
+    keeps), its ``allowance`` (unit: the length tolerance plus its chord sag), and its kind:
+    1 or -1 for a facet of a cylinder about the axis whose part lies inside (its normal
+    points away from the axis) or outside it, 2 for a face square to the axis, else 0.
 
-    Whatever a triangle so marked faces, the crossings :func:`check_motion` then leaves
-    untested lie within its radii, a band no wider than its allowance, next to a triangle
-    that ends there (a hole's wall or rim round a shank): a misaligned axis, which makes
-    parts cross deeper than that, is still found."""
+    A facet of a cylinder about the axis: its normal square to the axis and pointing along
+    the radius at its centroid, both within ``angle_tol`` (per triangle, radians: half its
+    facet angle plus the angular tolerance), its radii within its allowance. A face square
+    to the axis: its normal along the axis within ``angle_tol``."""
     rel = tris - screw.center
     radial = rel - (rel @ screw.axis)[..., None] * screw.axis
     rmax = np.linalg.norm(radial, axis=2).max(axis=1)
@@ -218,19 +220,33 @@ def cylinder_bands(tris: np.ndarray, screw: Screw, allowance: np.ndarray,
     rmin = origin_distance_2d(np.stack([radial @ e1, radial @ e2], axis=2))
     n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
+    out_dir = radial.mean(axis=1)
+    out_dir /= np.maximum(np.linalg.norm(out_dir, axis=1), 1e-300)[:, None]
     allowance = np.asarray(allowance, dtype=float)
-    facet = (np.abs(n @ screw.axis) <= np.sin(angle_tol)) & (rmax - rmin <= allowance)
-    return np.stack([rmin, rmax, allowance, facet.astype(float)], axis=1)
+    tol = np.asarray(angle_tol, dtype=float)
+    along = n @ screw.axis
+    facing = np.einsum("ij,ij->i", n, out_dir)
+    facet = ((np.abs(along) <= np.sin(tol)) & (np.abs(facing) >= np.cos(tol))
+             & (rmax - rmin <= allowance))
+    kind = np.where(facet, np.sign(facing), np.where(np.abs(along) >= np.cos(tol), 2.0, 0.0))
+    return np.stack([rmin, rmax, allowance, kind], axis=1)
 
 
 def _in_band(m: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Pairs of :func:`cylinder_bands` rows (moving ``m``, fixed ``f``) that can only meet
-    in a cylinder facet's band: one is such a facet and the other lies wholly beyond the
-    band's inner radius less its allowance, or wholly within its outer radius plus it."""
-    def beside(c: np.ndarray, o: np.ndarray) -> np.ndarray:
-        return (c[:, 3] > 0) & ((o[:, 0] >= c[:, 0] - c[:, 2]) | (o[:, 1] <= c[:, 1] + c[:, 2]))
+    where one part's cylinder facet lies against the other part across that cylinder: a
+    facet with its part inside against a facet with its part outside, or against a face
+    square to the axis, each lying no nearer the axis than the first's band less its
+    allowance (a shank in its hole, at the hole's rim), and the same the other way round (a
+    bore round a shaft, at the shaft's end)."""
+    def against(c: np.ndarray, o: np.ndarray) -> np.ndarray:
+        inside = (c[:, 3] == 1) & ((o[:, 3] == -1) | (o[:, 3] == 2)) \
+            & (o[:, 0] >= c[:, 0] - c[:, 2])
+        outside = (c[:, 3] == -1) & ((o[:, 3] == 1) | (o[:, 3] == 2)) \
+            & (o[:, 1] <= c[:, 1] + c[:, 2])
+        return inside | outside
 
-    return beside(m, f) | beside(f, m)
+    return against(m, f) | against(f, m)
 
 
 def _split(tris: np.ndarray) -> np.ndarray:
