@@ -234,3 +234,31 @@ def test_two_sectors_of_one_tube_meet_when_one_turns_into_the_other():
     assert all((b[:, 3] == 1).sum() and (b[:, 3] == -1).sum() for b in bands)
     got = check_motion(turn, moving, fixed, np.radians(60), 1e-5, 1e-5, bands=bands)
     assert not got.free and np.degrees(got.blocked_at) == pytest.approx(30, abs=0.01)
+
+
+def test_an_oval_cam_in_its_hole_does_not_turn_even_on_a_joint():
+    """A prism whose radius is 10 (1 + 0.006 cos 2 theta) (180 facets) in a block's hole of
+    its own shape, with a revolute joint declared about z: facet by facet its wall looks
+    like a cylinder about z (each facet's radii within the allowance), but as one surface
+    it spans 0.12 in radius, so it is tested, and a quarter turn would push it 0.12 into
+    the block (manifold3d: 6 mm^3 of overlap at 30 degrees). The step is refused at once."""
+    import manifold3d as m3
+
+    from ndbg_cli.core.assembly import Joint
+
+    t = np.linspace(0, 2 * np.pi, 180, endpoint=False)
+    r = 10 * (1 + 0.006 * np.cos(2 * t))
+    cam = m3.Manifold.extrude(m3.CrossSection([np.column_stack([r * np.cos(t),
+                                                                r * np.sin(t)])]), 5.0)
+    block = m3.Manifold.cube((30, 30, 5)).translate((-15, -15, 0)) - cam
+    assert (cam.rotate((0, 0, 30)) ^ block).volume() > 1.0
+
+    def part(solid: m3.Manifold, name: str):
+        m = solid.to_mesh64()
+        return make_part(name, np.array(m.vert_properties)[:, :3], np.array(m.tri_verts))[0]
+
+    asm = Assembly("cam", (part(block, "block"), part(cam, "cam")),
+                   joints=(Joint("revolute", ("cam", "block"), (0, 0, 1.0), (0, 0, 0.0)),))
+    turn = {"type": "rotation", "axis": [0, 0, 1.0], "point": [0, 0, 0.0], "pitch": 0.0}
+    proof, why = prove_step(asm, [1], [0], turn)
+    assert proof is None and why.startswith("turning, cam meets block after 0")

@@ -12,16 +12,17 @@ axes) frees it being the step's. A screw motion is proven only along a declared 
 (``joints:`` in the manifest, same line, same hand and pitch): the meshes do not model the
 thread, so the joint is what says the part turns rather than slides out; it turns until the
 moved side has advanced past the jointed part (the thread is disengaged). Every pair of parts
-is checked during the motion, the jointed one included, except a cylinder facet about the
-axis against the other part across that cylinder (the shank against its threaded hole's wall
-and rim, a pin against its bore: :func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands`).
+is checked during the motion, the jointed one included, except, between the two parts of a
+declared joint of the motion, a cylindrical surface about the axis (as a whole within its
+allowance) against the other part across it: the shank against its threaded hole's wall and
+rim, a pin against its bore (:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..contacts.facets import part_geometry
+from ..contacts.facets import graph_components, part_geometry
 from ..core.assembly import Assembly
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..io.validate import make_part
@@ -97,7 +98,7 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
     tris = {k: np.asarray(asm.parts[k].mesh.triangles, dtype=float) for k in moved + rest}
     moving = np.concatenate([tris[k] for k in moved])
     fixed = np.concatenate([tris[k] for k in rest])
-    bands = (_bands(asm, moved, moving, screw), _bands(asm, rest, fixed, screw))
+    bands = (_bands(asm, moved, screw, joined), _bands(asm, rest, screw, joined))
     eps = MOTION_EPS * asm.size
     dirs = _directions(screw)
     start, intervals = 0.0, 0
@@ -127,17 +128,47 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
     return None, "no angle tried frees it by a translation along the axis or a coordinate axis"
 
 
-def _bands(asm: Assembly, parts: list[int], tris: np.ndarray, screw: Screw) -> np.ndarray:
+def _bands(asm: Assembly, parts: list[int], screw: Screw, joined: list[tuple[int, int]]
+           ) -> np.ndarray:
     """:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands` of the triangles of ``parts``
-    (concatenated), each allowed the length tolerance plus its chord sag, and half its facet
+    (concatenated), each allowed the length tolerance plus its chord sag and half its facet
     angle beyond the angular tolerance (the contacts'
-    :class:`~ndbg_cli.contacts.facets.PartGeometry`)."""
+    :class:`~ndbg_cli.contacts.facets.PartGeometry`), with a fifth column: the index of the
+    joint of ``joined`` its part belongs to (-1 for none: its cylinder facets are tested like
+    any triangle). A cylinder facet also needs its whole connected surface of such facets
+    within the allowance (a slightly oval cam passes facet by facet, not as a surface)."""
     tol = asm.length_tolerance
-    geos = [part_geometry(asm.parts[k], tol, CONTACT_ANGLE_TOL_RAD) for k in parts]
-    sag = np.concatenate([g.sag for g in geos])
-    # a facet's normal is off the radius at its centroid by up to half its facet angle
-    half = np.concatenate([g.smooth_angle for g in geos]) / 2 + CONTACT_ANGLE_TOL_RAD
-    return cylinder_bands(tris, screw, tol + sag, half)
+    out = []
+    for k in parts:
+        g = part_geometry(asm.parts[k], tol, CONTACT_ANGLE_TOL_RAD)
+        # a facet's normal is off the radius at its centroid by up to half its facet angle
+        b = cylinder_bands(g.triangles, screw, tol + g.sag,
+                           g.smooth_angle / 2 + CONTACT_ANGLE_TOL_RAD)
+        _whole_surfaces(b, g.adjacency)
+        group = next((i for i, pair in enumerate(joined) if k in pair), -1)
+        out.append(np.column_stack([b, np.full(len(b), float(group))]))
+    return np.concatenate(out)
+
+
+def _whole_surfaces(bands: np.ndarray, adjacency: np.ndarray) -> None:
+    """Unmark (kind 0) the cylinder facets of ``bands`` whose connected surface of facets of
+    one kind spreads over more radii than its largest allowance."""
+    kind = bands[:, 3]
+    facet = np.abs(kind) == 1
+    if not facet.any():
+        return
+    e = adjacency[facet[adjacency].all(axis=1)]
+    e = e[kind[e[:, 0]] == kind[e[:, 1]]]
+    label = graph_components(len(bands), e)
+    n = int(label.max()) + 1
+    lo = np.full(n, np.inf)
+    hi = np.full(n, -np.inf)
+    allow = np.zeros(n)
+    np.minimum.at(lo, label[facet], bands[facet, 0])
+    np.maximum.at(hi, label[facet], bands[facet, 1])
+    np.maximum.at(allow, label[facet], bands[facet, 2])
+    wide = hi - lo > allow
+    bands[facet & wide[label], 3] = 0.0
 
 
 def _owner(parts: list[int], tris: dict[int, np.ndarray], k: int) -> int:

@@ -238,7 +238,8 @@ def _in_band(m: np.ndarray, f: np.ndarray) -> np.ndarray:
     facet with its part inside against a facet with its part outside, or against a face
     square to the axis, each lying no nearer the axis than the first's band less its
     allowance (a shank in its hole, at the hole's rim), and the same the other way round (a
-    bore round a shaft, at the shaft's end)."""
+    bore round a shaft, at the shaft's end). With a fifth column (a group per row), only
+    rows of one group (>= 0) are paired."""
     def against(c: np.ndarray, o: np.ndarray) -> np.ndarray:
         inside = (c[:, 3] == 1) & ((o[:, 3] == -1) | (o[:, 3] == 2)) \
             & (o[:, 0] >= c[:, 0] - c[:, 2])
@@ -246,7 +247,10 @@ def _in_band(m: np.ndarray, f: np.ndarray) -> np.ndarray:
             & (o[:, 1] <= c[:, 1] + c[:, 2])
         return inside | outside
 
-    return against(m, f) | against(f, m)
+    same = np.ones(len(m), dtype=bool)
+    if m.shape[1] > 4:  # a joint per row (-1 for none): only a joint's two parts
+        same = (m[:, 4] >= 0) & (m[:, 4] == f[:, 4])
+    return same & (against(m, f) | against(f, m))
 
 
 def _split(tris: np.ndarray) -> np.ndarray:
