@@ -181,15 +181,15 @@ def _with_jaw(asm: Assembly) -> Assembly:
 
 def test_the_jointed_part_itself_is_checked_and_the_thread_keeps_its_hand():
     """The joint licenses the screw, not the jointed part: with the block's arm 2 mm over
-    the head, the bolt meets it after 2 / 1.25 turns (576 degrees). Turning the other way
-    along the same thread drives the bolt into the hole's bottom at once; a left-hand screw
-    is not the right-hand joint's motion."""
+    the head (across the shank's path), the step is refused; the shank is then tested
+    against its hole like any surface. Turning the other way along the same thread drives
+    the bolt into the hole's bottom at once; a left-hand screw is not the right-hand
+    joint's motion."""
     asm = ndbg_cli.load(ROOT / "assemblies" / "bolt-screw.yaml")
     bolt, block = asm.index("bolt"), asm.index("block")
     up = {"type": "screw", "axis": [0, 0, 1.0], "point": [0, 0, 0.0], "pitch": 1.25}
     proof, why = prove_step(_with_jaw(asm), [bolt], [block], up)
     assert proof is None and why.startswith("turning, bolt meets block after")
-    assert float(why.split("after ")[1].split(" ")[0]) == pytest.approx(576, abs=1)
     proof, why = prove_step(asm, [bolt], [block], dict(up, axis=[0, 0, -1.0]))
     assert proof is None and why.startswith("turning, bolt meets block after 0.0")
     proof, why = prove_step(asm, [bolt], [block], dict(up, pitch=-1.25))
@@ -262,3 +262,49 @@ def test_an_oval_cam_in_its_hole_does_not_turn_even_on_a_joint():
     turn = {"type": "rotation", "axis": [0, 0, 1.0], "point": [0, 0, 0.0], "pitch": 0.0}
     proof, why = prove_step(asm, [1], [0], turn)
     assert proof is None and why.startswith("turning, cam meets block after 0")
+
+
+def _revolve(profile: list[tuple[float, float]], tube: bool, n: int = 96) -> trimesh.Trimesh:
+    """A solid of revolution about z from its ``(r, z)`` profile: a closed loop (``tube``)
+    or a path from the axis to the axis, ``n`` facets a turn."""
+    th = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    verts: list = []
+    index: dict = {}
+
+    def vid(i: int, j: int) -> int:
+        r, z = profile[i]
+        key = (i, 0) if r == 0 else (i, j % n)
+        if key not in index:
+            index[key] = len(verts)
+            verts.append((r * np.cos(th[j % n]), r * np.sin(th[j % n]), z))
+        return index[key]
+
+    m = len(profile)
+    edges = [(i, (i + 1) % m) for i in range(m)] if tube else [(i, i + 1) for i in range(m - 1)]
+    faces = []
+    for a, b in edges:
+        for j in range(n):
+            p, q, s, t = vid(a, j), vid(a, j + 1), vid(b, j + 1), vid(b, j)
+            faces += [f for f in ((p, q, s), (p, s, t)) if len(set(f)) == 3]
+    mesh = trimesh.Trimesh(np.array(verts), np.array(faces), process=True)
+    mesh.fix_normals()
+    return mesh
+
+
+def test_a_rod_screwed_through_a_narrower_hole_is_refused():
+    """A rod of radius 4 (its end faces ringed at 2.09) screwed along a declared joint
+    through a hole of radius 2 (its faces ringed at 3.91): every triangle pair where the
+    boundaries cross has one side within the allowance (0.1 + sag) of the other's cylinder,
+    but the block lies across the rod's path at radius 2, 2 mm deep (manifold3d: 377 mm^3
+    of overlap half way): the rod's wall is tested, and the step refused at once."""
+    from ndbg_cli.core.assembly import Joint
+
+    rod = _revolve([(0, 10), (2.09, 10), (4, 10), (4, 20), (2.09, 20), (0, 20)], False)
+    block = _revolve([(2, 0), (3.91, 0), (6, 0), (6, 10), (3.91, 10), (2, 10)], True)
+    pitch = 320 / 79.5
+    asm = Assembly("press", (make_part("block", *_arrays(block))[0],
+                             make_part("rod", *_arrays(rod))[0]), tolerance=0.1,
+                   joints=(Joint("screw", ("rod", "block"), (0, 0, -1.0), (0, 0, 0.0), pitch),))
+    screw = {"type": "screw", "axis": [0, 0, -1.0], "point": [0, 0, 0.0], "pitch": pitch}
+    proof, why = prove_step(asm, [1], [0], screw)
+    assert proof is None and why.startswith("turning, rod meets block after 0")

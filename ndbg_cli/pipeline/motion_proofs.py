@@ -98,11 +98,12 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
     tris = {k: np.asarray(asm.parts[k].mesh.triangles, dtype=float) for k in moved + rest}
     moving = np.concatenate([tris[k] for k in moved])
     fixed = np.concatenate([tris[k] for k in rest])
-    bands = (_bands(asm, moved, screw, joined), _bands(asm, rest, screw, joined))
+    angles = _angles(asm, moved, rest, screw, joined)
+    bands = _joint_bands(asm, moved, rest, screw, joined, screw.advance * max(angles, default=0))
     eps = MOTION_EPS * asm.size
     dirs = _directions(screw)
     start, intervals = 0.0, 0
-    for angle in _angles(asm, moved, rest, screw, joined):
+    for angle in angles:
         got = check_motion(screw, moving, fixed, angle, eps, MIN_STEP, budget=PAIR_BUDGET,
                            start=start, bands=bands)
         intervals += got.intervals
@@ -128,47 +129,87 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
     return None, "no angle tried frees it by a translation along the axis or a coordinate axis"
 
 
-def _bands(asm: Assembly, parts: list[int], screw: Screw, joined: list[tuple[int, int]]
-           ) -> np.ndarray:
-    """:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands` of the triangles of ``parts``
-    (concatenated), each allowed the length tolerance plus its chord sag and half its facet
-    angle beyond the angular tolerance (the contacts'
-    :class:`~ndbg_cli.contacts.facets.PartGeometry`), with a fifth column: the index of the
-    joint of ``joined`` its part belongs to (-1 for none: its cylinder facets are tested like
-    any triangle). A cylinder facet also needs its whole connected surface of such facets
-    within the allowance (a slightly oval cam passes facet by facet, not as a surface)."""
+def _joint_bands(asm: Assembly, moved: list[int], rest: list[int], screw: Screw,
+                 joined: list[tuple[int, int]], shift: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~ndbg_cli.ndbg.generalized.finite.cylinder_bands` of the moving and the fixed
+    triangles (``moved``'s and ``rest``'s, concatenated), with a fifth column: the index of
+    the joint of ``joined`` a triangle's part belongs to (-1 for none: its cylinder facets
+    are tested like any triangle). ``shift``: the motion's whole advance along the axis.
+
+    A cylinder facet keeps its mark only as part of a connected surface of such facets
+    that lies, as a whole, within the allowance (a slightly oval cam passes facet by facet,
+    not as a surface), and only when the jointed part lies wholly across it over the length
+    the surface sweeps: every triangle of the other part that the moving one passes there
+    no nearer the axis than the surface less the allowance (a shank's) or no farther than
+    it plus the allowance (a bore's). A hole narrower than its screw, a step in its mouth,
+    would otherwise hide material behind its own rim."""
     tol = asm.length_tolerance
-    out = []
-    for k in parts:
+    info: dict[int, tuple] = {}
+    for k in moved + rest:
         g = part_geometry(asm.parts[k], tol, CONTACT_ANGLE_TOL_RAD)
         # a facet's normal is off the radius at its centroid by up to half its facet angle
         b = cylinder_bands(g.triangles, screw, tol + g.sag,
                            g.smooth_angle / 2 + CONTACT_ANGLE_TOL_RAD)
-        _whole_surfaces(b, g.adjacency)
-        group = next((i for i, pair in enumerate(joined) if k in pair), -1)
-        out.append(np.column_stack([b, np.full(len(b), float(group))]))
-    return np.concatenate(out)
+        label = _surfaces(b, g.adjacency)
+        z = (g.triangles - screw.center) @ screw.axis
+        info[k] = (b, label, z.min(axis=1), z.max(axis=1))
+    for a, c in joined:  # a moves, c stays
+        for mine, other, moves in ((a, c, shift), (c, a, -shift)):
+            _across(info[mine], info[other], moves, tol)
+    out = []
+    for parts in (moved, rest):
+        rows = []
+        for k in parts:
+            b = info[k][0]
+            group = next((i for i, pair in enumerate(joined) if k in pair), -1)
+            rows.append(np.column_stack([b, np.full(len(b), float(group))]))
+        out.append(np.concatenate(rows))
+    return out[0], out[1]
 
 
-def _whole_surfaces(bands: np.ndarray, adjacency: np.ndarray) -> None:
-    """Unmark (kind 0) the cylinder facets of ``bands`` whose connected surface of facets of
-    one kind spreads over more radii than its largest allowance."""
+def _surfaces(bands: np.ndarray, adjacency: np.ndarray) -> np.ndarray:
+    """Label ``(k,)`` of the connected surface of cylinder facets of one kind each facet of
+    ``bands`` belongs to (-1 for other triangles); unmarks (kind 0) the facets of surfaces
+    spreading over more radii than their largest allowance."""
     kind = bands[:, 3]
     facet = np.abs(kind) == 1
+    label = np.full(len(bands), -1)
     if not facet.any():
-        return
+        return label
     e = adjacency[facet[adjacency].all(axis=1)]
     e = e[kind[e[:, 0]] == kind[e[:, 1]]]
-    label = graph_components(len(bands), e)
-    n = int(label.max()) + 1
-    lo = np.full(n, np.inf)
-    hi = np.full(n, -np.inf)
-    allow = np.zeros(n)
-    np.minimum.at(lo, label[facet], bands[facet, 0])
-    np.maximum.at(hi, label[facet], bands[facet, 1])
-    np.maximum.at(allow, label[facet], bands[facet, 2])
-    wide = hi - lo > allow
-    bands[facet & wide[label], 3] = 0.0
+    comp = graph_components(len(bands), e)
+    n = int(comp.max()) + 1
+    lo, hi, allow = np.full(n, np.inf), np.full(n, -np.inf), np.zeros(n)
+    np.minimum.at(lo, comp[facet], bands[facet, 0])
+    np.maximum.at(hi, comp[facet], bands[facet, 1])
+    np.maximum.at(allow, comp[facet], bands[facet, 2])
+    keep = facet & ~(hi - lo > allow)[comp]
+    bands[facet & ~keep, 3] = 0.0
+    label[keep] = comp[keep]
+    return label
+
+
+def _across(mine: tuple, other: tuple, shift: float, tol: float) -> None:
+    """Unmark the surfaces of ``mine`` (bands, labels, axial extents) that ``other``'s part
+    does not lie wholly across over the length they sweep relative to it (``shift``: how far
+    ``mine``'s part advances along the axis relative to ``other``'s)."""
+    bands, label, z0, z1 = mine
+    ob, _, oz0, oz1 = other
+    for s in np.unique(label[label >= 0]):
+        rows = np.flatnonzero(label == s)
+        if bands[rows[0], 3] == 0:
+            continue
+        allow = bands[rows, 2].max()
+        lo = z0[rows].min() + min(shift, 0.0) + tol
+        hi = z1[rows].max() + max(shift, 0.0) - tol
+        near = (oz1 > lo) & (oz0 < hi)
+        if bands[rows[0], 3] > 0:  # a shank: the other part beyond it
+            ok = (ob[near, 0] >= bands[rows, 0].min() - allow).all()
+        else:  # a bore: the other part within it
+            ok = (ob[near, 1] <= bands[rows, 1].max() + allow).all()
+        if not ok:
+            bands[rows, 3] = 0.0
 
 
 def _owner(parts: list[int], tris: dict[int, np.ndarray], k: int) -> int:
