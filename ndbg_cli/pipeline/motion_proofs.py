@@ -30,7 +30,9 @@ from ..ndbg.generalized.finite import Screw, alignment_angles, check_motion, cyl
 from ..ndbg.infinite.sweep import SweepChecker
 
 #: Rounding allowance of the motion check, times the model's size: far below the length
-#: tolerance (1e-4), so sliding faces pass and crossing ones do not.
+#: tolerance (1e-4 of the size by default; at most a hundredth of an explicit one), above the
+#: rounding of float32 mesh files (about 1e-7 of the size), so sliding faces pass and
+#: crossing ones do not.
 MOTION_EPS = 1e-6
 #: Narrowest angle interval (radians) the motion check halves down to.
 MIN_STEP = 1e-5
@@ -100,7 +102,7 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
     fixed = np.concatenate([tris[k] for k in rest])
     angles = _angles(asm, moved, rest, screw, joined)
     bands = _joint_bands(asm, moved, rest, screw, joined, screw.advance * max(angles, default=0))
-    eps = MOTION_EPS * asm.size
+    eps = min(MOTION_EPS * asm.size, asm.length_tolerance / 100)  # an explicit, finer tolerance
     dirs = _directions(screw)
     start, intervals = 0.0, 0
     for angle in angles:
