@@ -80,13 +80,20 @@ def fcl_object(part: Part) -> fcl.CollisionObject:
     return fcl.CollisionObject(fcl_model(part), fcl.Transform())
 
 
+def closed(part: Part) -> bool:
+    """Whether the part's mesh bounds a solid (watertight, consistently wound): what
+    manifold3d needs, and what the overlap bounds' ray arguments
+    (:mod:`ndbg_cli.contacts.overlap_bounds`) need."""
+    return bool(part.check.watertight and part.check.winding_consistent)
+
+
 def manifold_model(part: Part) -> manifold3d.Manifold | None:
     """The part as a ``manifold3d.Manifold`` (float64 vertices), cached by :attr:`Part.hash`;
     ``None`` when the mesh is not a closed, consistently wound 2-manifold."""
     if part.hash in _MANIFOLD_CACHE:
         return _MANIFOLD_CACHE[part.hash]
     solid = None
-    if part.check.watertight and part.check.winding_consistent:
+    if closed(part):
         mesh = part.mesh
         try:
             cand = manifold3d.Manifold(manifold3d.Mesh64(

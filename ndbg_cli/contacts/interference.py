@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core.assembly import Assembly, Diagnostic, Part, point_extent
 from ..core.errors import InterferenceError
-from .facets import PartGeometry, fcl_model, fcl_object, manifold_model
+from .facets import PartGeometry, closed, fcl_model, fcl_object, manifold_model
 from .fits import Fit, classify_overlap, fcl_separates, manifold_separates
 from .overlap_bounds import thin_shell, thin_slab
 
@@ -66,7 +66,7 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     the manifold3d solids and their boolean. The bounds hold for any watertight,
     consistently wound mesh, including the few manifold3d rejects (four faces at an edge),
     which would otherwise take the open-mesh fallback."""
-    if _closed(pa) and _closed(pb) and (thin_slab(ga, gb, allowance)
+    if closed(pa) and closed(pb) and (thin_slab(ga, gb, allowance)
                                         or thin_shell(ga, gb, allowance)):
         return None, False
     ma, mb = manifold_model(pa), manifold_model(pb)
@@ -99,12 +99,6 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
                         fcl_separates(fcl_model(pa), fcl_object(pb), tol), tol)
         return Interference(ia, ib, 0.0, depth, "fcl-depth", fit), True
     return None, True
-
-
-def _closed(p: Part) -> bool:
-    """Whether the part's mesh bounds a solid (watertight, consistently wound): what the
-    overlap bounds' ray arguments need."""
-    return bool(p.check.watertight and p.check.winding_consistent)
 
 
 def _classify(tri: np.ndarray, depth: float, pa: Part, pb: Part, separates, tol: float,

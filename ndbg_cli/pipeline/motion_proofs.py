@@ -118,9 +118,8 @@ def prove_step(asm: Assembly, moved: list[int], rest: list[int], motion: dict
             return None, f"turning, {a} meets {b} after {at}"
         start = angle
         sweep = _checker(asm, moved, rest, screw, angle)
-        every = (1 << (len(moved) + len(rest))) - 1
         for d in dirs:
-            if sweep.frees((1 << len(moved)) - 1, every ^ ((1 << len(moved)) - 1), d):
+            if sweep.frees(*_sides(moved, rest), d):
                 proof = {"test": "motion", "motion": "screw" if screw.advance else "rotation",
                          "angle": round(float(angle), 9),
                          "then": [round(float(x), 12) + 0.0 for x in d],
@@ -153,7 +152,7 @@ def _joint_bands(asm: Assembly, moved: list[int], rest: list[int], screw: Screw,
         b = cylinder_bands(g.triangles, screw, tol + g.sag,
                            g.smooth_angle / 2 + CONTACT_ANGLE_TOL_RAD)
         label = _surfaces(b, g.adjacency)
-        z = (g.triangles - screw.center) @ screw.axis
+        z = screw.cylindrical(g.triangles)[0]
         info[k] = (b, label, z.min(axis=1), z.max(axis=1))
     for a, c in joined:  # a moves, c stays
         for mine, other, moves in ((a, c, shift), (c, a, -shift)):
@@ -285,9 +284,13 @@ def _frees(asm: Assembly, moved: list[int], rest: list[int], screw: Screw | None
            angle: float, d: np.ndarray) -> bool:
     """Whether the parts ``moved``, turned by ``screw`` through ``angle`` (unmoved without a
     screw), leave the parts ``rest`` by a translation to infinity along ``d``."""
-    return _checker(asm, moved, rest, screw, angle).frees(
-        (1 << len(moved)) - 1, ((1 << (len(moved) + len(rest))) - 1) ^ ((1 << len(moved)) - 1),
-        d)
+    return _checker(asm, moved, rest, screw, angle).frees(*_sides(moved, rest), d)
+
+
+def _sides(moved: list[int], rest: list[int]) -> tuple[int, int]:
+    """The bitmasks of the moved and the rest parts in a :func:`_checker` (moved first)."""
+    m = (1 << len(moved)) - 1
+    return m, ((1 << (len(moved) + len(rest))) - 1) ^ m
 
 
 def _checker(asm: Assembly, moved: list[int], rest: list[int], screw: Screw | None,

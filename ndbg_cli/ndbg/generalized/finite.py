@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...contacts.facets import box_tree, origin_distance_2d
+from ...geometry.vectors import plane_basis
 
 __all__ = ["Screw", "MotionCheck", "check_motion", "alignment_angles"]
 
@@ -64,11 +65,17 @@ class Screw:
             raise ValueError("a translation is not a screw motion")
         return cls(np.cross(w, v) / ww, w / np.sqrt(ww), float(w @ v) / ww)
 
-    def move(self, points: np.ndarray, angle: float) -> np.ndarray:
-        """``points`` (any shape ending in 3) after turning by ``angle`` radians."""
+    def cylindrical(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(along, radial)`` of ``points`` (any shape ending in 3): each point's coordinate
+        along the axis from ``center``, and its offset square to the axis (which the motion
+        turns and keeps the length of)."""
         rel = np.asarray(points, dtype=float) - self.center
         along = rel @ self.axis
-        radial = rel - along[..., None] * self.axis
+        return along, rel - along[..., None] * self.axis
+
+    def move(self, points: np.ndarray, angle: float) -> np.ndarray:
+        """``points`` (any shape ending in 3) after turning by ``angle`` radians."""
+        along, radial = self.cylindrical(points)
         return (self.center + (along + self.advance * angle)[..., None] * self.axis
                 + self._turn(radial, angle))
 
@@ -80,9 +87,7 @@ class Screw:
         ``tris`` ``(k, 3, 3)`` for angles in ``[t0, t1]`` (``t1 - t0 < pi``): per vertex its
         two ends and the meeting point of its arc's end tangents (``m = 9``), each at both
         ends of the interval's advance for a screw (``m = 18``)."""
-        rel = tris - self.center
-        along = rel @ self.axis
-        radial = rel - along[..., None] * self.axis
+        along, radial = self.cylindrical(tris)
         half = (t1 - t0) / 2.0
         arc = [self._turn(radial, t0), self._turn(radial, t1),
                self._turn(radial, t0 + half) / np.cos(half)]
@@ -211,12 +216,9 @@ def cylinder_bands(tris: np.ndarray, screw: Screw, allowance: np.ndarray,
     the radius at its centroid, both within ``angle_tol`` (per triangle, radians: half its
     facet angle plus the angular tolerance), its radii within its allowance. A face square
     to the axis: its normal along the axis within ``angle_tol``."""
-    rel = tris - screw.center
-    radial = rel - (rel @ screw.axis)[..., None] * screw.axis
+    radial = screw.cylindrical(tris)[1]
     rmax = np.linalg.norm(radial, axis=2).max(axis=1)
-    e1 = np.cross(screw.axis, np.eye(3)[int(np.argmin(np.abs(screw.axis)))])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(screw.axis, e1)
+    e1, e2 = plane_basis(screw.axis)
     rmin = origin_distance_2d(np.stack([radial @ e1, radial @ e2], axis=2))
     n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
