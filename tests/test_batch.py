@@ -305,6 +305,40 @@ def test_one_assembly_with_workers_gives_the_same_report_and_a_failing_side_job_
         Forked(divmod, 1, 0).result()
 
 
+def _sum_after(path, parts, get):
+    """A ``later`` job's body: waits until ``path`` exists (the parent makes it only once its
+    ``send`` has returned), then adds what it was sent."""
+    import time
+
+    while not path.exists():
+        time.sleep(0.01)
+    return sum(parts) + sum(get())
+
+
+def test_a_forked_job_given_its_input_later(tmp_path):
+    """``Forked(..., later=True)``: the child starts on its arguments and waits for the
+    value the parent sends; a value larger than a pipe's buffer does not make ``send`` wait
+    for the child to ask for it (the child asks only after the parent's ``send`` returned:
+    without the child's reader this deadlocks), and the same value comes without a child."""
+    from ndbg_cli.core.pools import Forked
+
+    big = list(range(200_000))  # about 1 MB pickled, over the 64 KiB of a pipe
+    for enabled in (True, False):
+        flag = tmp_path / f"sent-{enabled}"
+        job = Forked(_sum_after, flag, [1, 2], enabled=enabled, later=True)
+        job.send(big)
+        flag.touch()
+        assert job.result() == 3 + sum(big)
+    with pytest.raises(RuntimeError):
+        Forked(divmod, 1, 2).send(3)  # not a later job
+    # a job dropped before its input is sent: the child reads end of file and ends
+    dropped = Forked(_sum_after, flag, [], later=True)
+    child = dropped._proc
+    del dropped
+    child.join(timeout=30)
+    assert child.exitcode == 0
+
+
 def test_contacts_in_worker_processes_are_the_contacts_found_in_one(monkeypatch):
     """The narrow phase over forked workers (``analyze_contacts(workers=2)``, here with the
     work threshold lowered so a small example takes that path) finds the same contacts and

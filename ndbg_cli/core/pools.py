@@ -67,22 +67,57 @@ class Forked:
     copy-on-write, nothing is pickled on the way in): the value is the same as calling
     ``fn`` here, which is what :meth:`result` does when no child could be started (no
     ``fork``, a daemonic process, ``enabled`` false) or the child died or failed. Only the
-    value travels back, pickled; ``seconds`` is the child's own time for it."""
+    value travels back, pickled; ``seconds`` is the child's own time for it.
 
-    def __init__(self, fn: Callable[..., Any], *args: Any, enabled: bool = True) -> None:
-        self._fn, self._args = fn, args
-        self._proc = None
+    With ``later``, ``fn`` is called as ``fn(*args, get)``: the child starts at once on what
+    it can do with ``args``, and ``get()`` waits for the one value the caller gives later by
+    :meth:`send` (pickled on its way; ``EOFError`` in the child when the caller dropped the
+    job without sending, which ends the child).
+
+    >>> job = Forked(lambda x, get: x + get(), 1, later=True)
+    >>> job.send(2)
+    >>> job.result()
+    3
+    """
+
+    _UNSENT = object()
+
+    def __init__(self, fn: Callable[..., Any], *args: Any, enabled: bool = True,
+                 later: bool = False) -> None:
+        self._fn, self._args, self._later = fn, args, later
+        self._proc = self._input = None
+        self._sent: Any = self._UNSENT
         self.seconds = 0.0
         if not enabled:
             return
         try:
             ctx = multiprocessing.get_context("fork")
             self._recv, send = ctx.Pipe(duplex=False)
-            self._proc = ctx.Process(target=_forked_child, args=(send, fn, args), daemon=True)
+            get = None
+            if later:
+                get, self._input = ctx.Pipe(duplex=False)
+            self._proc = ctx.Process(target=_forked_child, args=(send, fn, args, get,
+                                                                 self._input), daemon=True)
             self._proc.start()
             send.close()
+            if get is not None:
+                get.close()
         except (OSError, ValueError, AssertionError):  # no fork here, or a daemonic process
-            self._proc = None
+            self._proc = self._input = None
+
+    def send(self, value: Any) -> None:
+        """Give the child the value its ``get()`` waits for (once; ``later`` jobs only)."""
+        if not self._later or self._sent is not self._UNSENT:
+            raise RuntimeError("send() is for a job made with later=True, once")
+        self._sent = value
+        if self._input is not None:
+            try:
+                self._input.send(value)
+            except (OSError, ValueError):  # the child is gone: result() computes it here
+                pass
+            finally:
+                self._input.close()
+                self._input = None
 
     def result(self) -> Any:
         """The value of ``fn(*args)``: the child's, else computed here."""
@@ -102,24 +137,65 @@ class Forked:
                 self.seconds = seconds
                 return value
         t0 = time.perf_counter()
-        value = self._fn(*self._args)
+        value = self._fn(*self._args, self._given) if self._later else self._fn(*self._args)
         self.seconds = time.perf_counter() - t0
         return value
 
+    def _given(self) -> Any:
+        if self._sent is self._UNSENT:
+            raise RuntimeError("the job's input was never sent")
+        return self._sent
 
-def _forked_child(send: Any, fn: Callable[..., Any], args: tuple) -> None:
+
+def _forked_child(send: Any, fn: Callable[..., Any], args: tuple, get: Any = None,
+                  parent_end: Any = None) -> None:
     """:class:`Forked`'s child: ``(True, value, seconds)`` sent back, or ``(False, None, 0)``
-    when ``fn`` raised (the parent then calls it itself, and sees the error there)."""
+    when ``fn`` raised (the parent then calls it itself, and sees the error there). ``get``:
+    the reading end of a ``later`` job's input (``parent_end``, its writing end, inherited
+    through fork, is closed here so that the parent's dropping it reads as end of file)."""
     t0 = time.perf_counter()
+    if parent_end is not None:
+        parent_end.close()
     try:
-        got = (True, fn(*args), time.perf_counter() - t0)
+        value = fn(*args, _reader(get)) if get is not None else fn(*args)
+        got = (True, value, time.perf_counter() - t0)
     except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
         got = (False, None, 0.0)
     try:
-        send.send(got)
-    except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes it)
-        send.send((False, None, 0.0))
+        try:
+            send.send(got)
+        except OSError:
+            raise
+        except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes it)
+            send.send((False, None, 0.0))
+    except OSError:  # the parent dropped the job: nobody reads
+        pass
     send.close()
+
+
+def _reader(conn: Any) -> Callable[[], Any]:
+    """``get()`` of a ``later`` job's child: the value is read from ``conn`` by a thread from
+    the start, so that the parent's :meth:`Forked.send` of a value larger than the pipe's
+    buffer returns at once instead of waiting for the child to ask."""
+    box: list = []
+
+    def read() -> None:
+        try:
+            box.append((True, conn.recv()))
+        except BaseException as exc:  # noqa: BLE001 (EOFError: the parent dropped the job)
+            box.append((False, exc))
+
+    thread = threading.Thread(target=read, daemon=True)
+    thread.start()
+
+    def get() -> Any:
+        thread.join()
+        ok, value = box[0]
+        if not ok:
+            raise value
+        return value
+
+    return get
 
 
 class Mapper(ABC):

@@ -14,7 +14,7 @@ algorithm of single translations, its first removal step a motion that frees som
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -23,7 +23,8 @@ from ..core.assembly import Assembly
 from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
 from ..ndbg.model import NDBG
 
-__all__ = ["apply_witnesses", "conservative_contacts", "interlock_and_grasp"]
+__all__ = ["apply_witnesses", "conservative_contacts", "interlock_and_grasp",
+           "interlock_and_grasp_later"]
 
 
 def conservative_contacts(analysis: Any) -> tuple[int, int]:
@@ -35,8 +36,8 @@ def conservative_contacts(analysis: Any) -> tuple[int, int]:
     return len(found), sum(1 for c in found if getattr(c, "blocking", "any") == "any")
 
 
-def interlock_and_grasp(asm: Assembly, ca: Any, ndbgs: dict[str, NDBG]
-                        ) -> tuple[dict | None, dict]:
+def interlock_and_grasp(asm: Assembly, ca: Any, ndbgs: dict[str, NDBG],
+                        faces: list | None = None) -> tuple[dict | None, dict]:
     """Infinitesimal interlocking (LP over part velocities, any number of hands) and the
     prismatic form-closure grasps of the translational families.
 
@@ -48,6 +49,9 @@ def interlock_and_grasp(asm: Assembly, ca: Any, ndbgs: dict[str, NDBG]
         Its contacts.
     ndbgs : dict
         Family name -> NDBG, the usable ones.
+    faces : list, optional
+        The finger placements (:func:`~ndbg_cli.planning.fingers.exterior_faces` of ``asm``)
+        when already computed.
 
     Returns
     -------
@@ -83,10 +87,22 @@ def interlock_and_grasp(asm: Assembly, ca: Any, ndbgs: dict[str, NDBG]
             lock["exact"] = False
             lock["why"] += (f" ({edge_point} edge/point contacts read as every normal of their "
                             "cone: conservative, may call a product interlocked that is not)")
-    faces = exterior_faces(asm)
+    if faces is None:
+        faces = exterior_faces(asm)
     grasps = {fam: grasp(ndbgs[fam], faces) for fam in (INFINITESIMAL, INFINITE)
               if fam in ndbgs}
     return lock, grasps
+
+
+def interlock_and_grasp_later(asm: Assembly, ca: Any, get: Callable[[], dict[str, NDBG]]
+                              ) -> tuple[dict | None, dict]:
+    """:func:`interlock_and_grasp` with the NDBGs given later (``get()``): the finger
+    placements, which need the parts alone, are found first (a
+    :class:`~ndbg_cli.core.pools.Forked` job started before the NDBGs are built)."""
+    from ..planning.fingers import exterior_faces
+
+    faces = exterior_faces(asm)
+    return interlock_and_grasp(asm, ca, get(), faces)
 
 
 def _threads_of(asm: Assembly, ndbgs: dict[str, NDBG]) -> list[tuple[int, int]]:

@@ -282,7 +282,7 @@ def _infinite_family(asm: Assembly, contacts: Contacts, options: Options, thread
 
 def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
             options: Options = Options(), *, timings: dict[str, float] | None = None,
-            defer: bool = False) -> Measures:
+            defer: bool = False, side: Any = None) -> Measures:
     """The classes and measures of paper section 7 on the usable NDBGs ``ndbgs`` (family ->
     NDBG): interlocking, grasps, monotonicity, linearity, depth, and the AND/OR graphs.
 
@@ -302,6 +302,9 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
         With ``options.workers`` above 1, the interlock LP and the grasps are computed in a
         forked process (:class:`~ndbg_cli.core.pools.Forked`) while the caller goes on (the
         planner needs neither): :meth:`Measures.finish` adds them. Same classes.
+    side : Forked, optional
+        That computation already started (:func:`interlock_job`) and given the translational
+        NDBGs of ``ndbgs``.
 
     Returns
     -------
@@ -324,11 +327,9 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     clock = Clock(timings)
     budget = _budget(options)
     base = asm.index(asm.base) if asm.base is not None else None
-    from ..core.pools import Forked
-    from .interlocking import interlock_and_grasp
-
-    side = Forked(interlock_and_grasp, asm, contacts.analysis, ndbgs,
-                  enabled=defer and options.workers > 1)
+    if side is None:
+        side = interlock_job(asm, contacts, options, defer=defer)
+        side.send(_translational(ndbgs))
     graphs: dict = {}
     classes = clock("classes_s", lambda: classes_section(
         ndbgs, base=base, budget=budget, graphs=graphs))
@@ -345,6 +346,25 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                            "apart; --threads-as-cylinders treats them as plain cylinders"}
     got = Measures(classes, andor, graphs, (side, ndbgs))
     return got if defer else got.finish(timings)
+
+
+def interlock_job(asm: Assembly, contacts: Contacts, options: Options = Options(), *,
+                  defer: bool = True) -> Any:
+    """The interlocking LP and the grasps of :func:`measure`
+    (:func:`~ndbg_cli.pipeline.interlocking.interlock_and_grasp_later`), to be given the
+    usable translational NDBGs by ``send`` when built: a forked process with ``defer`` and
+    ``options.workers`` above 1 (:class:`~ndbg_cli.core.pools.Forked`; it finds the finger
+    placements meanwhile), else computed when its result is asked for."""
+    from ..core.pools import Forked
+    from .interlocking import interlock_and_grasp_later
+
+    return Forked(interlock_and_grasp_later, asm, contacts.analysis,
+                  enabled=defer and options.workers > 1, later=True)
+
+
+def _translational(ndbgs: dict[str, NDBG]) -> dict[str, NDBG]:
+    """The translational families of ``ndbgs`` (what the interlock LP and the grasps read)."""
+    return {k: v for k, v in ndbgs.items() if k in (INFINITESIMAL, INFINITE)}
 
 
 def _load_kernels() -> None:
@@ -553,7 +573,13 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     asm, contacts = _keep_clashes_together(asm, contacts, options, pairs, timings, out)
     families: dict[str, Family] = {}
     inf = None
+    # the interlock LP and the grasps, beside: the finger placements (the parts alone) while
+    # the NDBGs are built here, then, given the translational NDBGs, the LP and the grasps
+    # while the generalized NDBG, the classes and the plan are computed here
+    side = interlock_job(asm, contacts, options)
     for name in FAMILIES_OF[options.motion]:
+        if name == GENERALIZED:
+            side.send(_translational({k: f.ndbg for k, f in families.items() if f.usable}))
         fam = build_ndbg(asm, name, contacts, options, cache=cache, infinitesimal=inf,
                          timings=timings)
         if name == INFINITESIMAL:
@@ -576,7 +602,9 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
         # infinitesimal NDBG (computed for that alone) and each proven by the sweep test
         proposer = build_ndbg(asm, INFINITESIMAL, contacts, options, cache=cache,
                               timings=timings).ndbg
-    measures = measure(asm, contacts, ndbgs, options, timings=timings, defer=True)
+    if GENERALIZED not in families:
+        side.send(_translational(ndbgs))
+    measures = measure(asm, contacts, ndbgs, options, timings=timings, defer=True, side=side)
     out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
                                 proposer=proposer)
     measures.finish(timings)

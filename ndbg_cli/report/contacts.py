@@ -15,10 +15,17 @@ def _r(x: float) -> float:
 
 
 def _vecs(a: np.ndarray | None) -> list | None:
+    """A vector or a matrix, each number as :func:`_r` rounds it (one string formatting for
+    the whole array: the engine's report holds a few hundred thousand numbers)."""
     if a is None:
         return None
     a = np.asarray(a, dtype=float)
-    return [_r(x) for x in a] if a.ndim == 1 else [[_r(x) for x in row] for row in a]
+    flat = a.ravel().tolist()
+    vals = list(map(float, ("%.10g," * len(flat) % tuple(flat)).split(",")[:-1]))
+    if a.ndim == 1:
+        return vals
+    m = a.shape[1]
+    return [vals[k:k + m] for k in range(0, len(vals), m)]
 
 
 def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
