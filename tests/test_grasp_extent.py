@@ -101,9 +101,9 @@ def test_2d_house_assembly_end_to_end(tmp_path):
     seen = {}
     orig = pipeline.interlock_and_grasp
 
-    def keep(a, ca, ndbgs):
+    def keep(a, ca, ndbgs, faces=None):
         seen.update(ndbgs)
-        return orig(a, ca, ndbgs)
+        return orig(a, ca, ndbgs, faces)
 
     pipeline.interlock_and_grasp = keep
     try:
