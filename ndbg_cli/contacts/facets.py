@@ -20,6 +20,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..core.assembly import Part
+from ..geometry.vectors import cross
 
 #: Largest dihedral angle (radians) between adjacent triangles that is read as the tessellation
 #: of a smooth (curved) surface rather than as a real edge: 31 degrees, i.e. a cylinder, cone or
@@ -155,9 +156,9 @@ def part_geometry(part: Part, tolerance: float, angle_tolerance: float) -> PartG
 
 def _build_geometry(mesh: Any, tri: np.ndarray, tree: Any, tol: float, ang: float
                     ) -> PartGeometry:
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area2 = np.linalg.norm(cross, axis=1)
-    normals = cross / np.where(area2 > 0, area2, 1.0)[:, None]
+    twice = cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(twice, axis=1)
+    normals = twice / np.where(area2 > 0, area2, 1.0)[:, None]
     areas = area2 / 2.0
     nf = len(tri)
     adj = np.asarray(mesh.face_adjacency, dtype=np.int64).reshape(-1, 2)
@@ -275,9 +276,9 @@ def sat_gap(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
     small factor below the true distance for skew ones. Unit: the assembly unit."""
     ea = np.roll(ta, -1, axis=1) - ta
     eb = np.roll(tb, -1, axis=1) - tb
-    na = np.cross(ea[:, 0], ea[:, 1])
-    nb = np.cross(eb[:, 0], eb[:, 1])
-    cr = np.cross(ea[:, :, None, :], eb[:, None, :, :]).reshape(-1, 9, 3)
+    na = cross(ea[:, 0], ea[:, 1])
+    nb = cross(eb[:, 0], eb[:, 1])
+    cr = cross(ea[:, :, None, :], eb[:, None, :, :]).reshape(-1, 9, 3)
     axes = np.concatenate([na[:, None], nb[:, None], cr], axis=1)
     norm = np.linalg.norm(axes, axis=2)
     scale = np.maximum(norm.max(axis=1, keepdims=True), 1e-300)
@@ -397,19 +398,19 @@ def _pierces(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
     never pierced; an edge touching the plane at an end meets ``tb`` only where the
     closest-feature distance is 0 already."""
     b0 = tb[:, 0]
-    nb = np.cross(tb[:, 1] - b0, tb[:, 2] - b0)
+    nb = cross(tb[:, 1] - b0, tb[:, 2] - b0)
     out = np.zeros(len(ta), dtype=bool)
     for k in range(3):
         p, q = ta[:, k], ta[:, (k + 1) % 3]
         sp = np.einsum("ij,ij->i", p - b0, nb)
         sq = np.einsum("ij,ij->i", q - b0, nb)
-        cross = sp * sq < 0
+        through = sp * sq < 0
         with np.errstate(divide="ignore", invalid="ignore"):
-            x = p + (q - p) * np.where(cross, sp / (sp - sq), 0.0)[:, None]
-        inside = cross.copy()
+            x = p + (q - p) * np.where(through, sp / (sp - sq), 0.0)[:, None]
+        inside = through.copy()
         for m in range(3):
             e0, e1 = tb[:, m], tb[:, (m + 1) % 3]
-            inside &= np.einsum("ij,ij->i", np.cross(e1 - e0, x - e0), nb) >= 0
+            inside &= np.einsum("ij,ij->i", cross(e1 - e0, x - e0), nb) >= 0
         out |= inside
     return out
 

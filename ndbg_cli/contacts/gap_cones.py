@@ -19,6 +19,7 @@ from scipy.optimize import linprog
 from scipy.spatial import ConvexHull, QhullError
 
 from ..geometry.directions import circle_frames
+from ..geometry.vectors import cross
 
 #: Pairs farther apart than this fraction of the length tolerance are near misses with a
 #: gap direction; closer ones are touching.
@@ -100,7 +101,7 @@ def _cone(w: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
     if hull.volume <= 1e-12:
         return None
     corner = n + xy[hull.vertices, :1] * u + xy[hull.vertices, 1:] * e
-    m = np.cross(corner, np.roll(corner, -1, axis=0))
+    m = cross(corner, np.roll(corner, -1, axis=0))
     m *= np.sign(m @ corner.mean(axis=0))[:, None]
     rays = corner / np.linalg.norm(corner, axis=1)[:, None]
     return rays, m / np.linalg.norm(m, axis=1)[:, None]

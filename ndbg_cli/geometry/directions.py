@@ -16,7 +16,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..core.constants import ANGLE_TOL_RAD
-from .vectors import close_pairs, unique_rows, unit
+from .vectors import close_pairs, cross, unique_rows, unit
 
 __all__ = ["TWO_PI", "chord", "circle_frames", "cluster_labels", "merge_directions"]
 
@@ -255,6 +255,6 @@ def circle_frames(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     are computed in this frame, and the regions' order follows), so these callers keep it."""
     m = np.atleast_2d(m)
     helper = np.where((np.abs(m[:, 0]) < 0.9)[:, None], [[1.0, 0, 0]], [[0, 1.0, 0]])
-    e1 = unit(np.cross(m, helper))
-    e2 = np.cross(m, e1)
+    e1 = unit(cross(m, helper))
+    e2 = cross(m, e1)
     return e1, e2

@@ -1,6 +1,6 @@
-"""Small vector helpers shared by every stage: unit vectors, a line's sign-fixed direction, a
-plane's orthonormal basis, the distinct rows of an array and the pairs of points within a
-distance.
+"""Small vector helpers shared by every stage: unit vectors, cross products, a line's
+sign-fixed direction, a plane's orthonormal basis, the distinct rows of an array and the pairs
+of points within a distance.
 
 Lowest of the geometry modules (numpy and scipy only): the clusterings of normals, contacts,
 the NDBG builders and planning import these instead of writing their own.
@@ -23,6 +23,25 @@ def unit(v: np.ndarray) -> np.ndarray:
     v = np.asarray(v, dtype=float)
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.divide(v, n, out=np.zeros_like(v), where=n > 0)
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross(a, b)`` of 3-vectors (last axis; broadcast like ``np.cross``), equal to it
+    to the last bit (the same products and differences in the same order), without its axis
+    handling: about 40 us a call in ``np.cross``, which the contacts' and the grasps' small
+    arrays call tens of thousands of times.
+
+    >>> cross(np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])).tolist()
+    [0.0, 0.0, 1.0]
+    """
+    a, b = np.asarray(a), np.asarray(b)
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.result_type(a, b))
+    np.subtract(a1 * b2, a2 * b1, out=out[..., 0])
+    np.subtract(a2 * b0, a0 * b2, out=out[..., 1])
+    np.subtract(a0 * b1, a1 * b0, out=out[..., 2])
+    return out
 
 
 def line_direction(v: np.ndarray) -> np.ndarray:
@@ -49,8 +68,8 @@ def plane_basis(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     m = np.asarray(m, dtype=float)
     helper = np.eye(3)[np.argmin(np.abs(m), axis=-1)]
-    e1 = unit(np.cross(m, helper))
-    return e1, np.cross(m, e1)
+    e1 = unit(cross(m, helper))
+    return e1, cross(m, e1)
 
 
 def unique_rows(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from ..geometry.directions import circle_frames
-from ..geometry.vectors import unit
+from ..geometry.vectors import cross, unit
 from ..ndbg.model import NDBG
 
 #: Arcs and polygon edges longer than this (radians) are cut (arcs) or given inner vertices
@@ -27,7 +27,7 @@ def _turn(a: np.ndarray, axis: np.ndarray | None) -> np.ndarray:
     """The unit tangent at ``a`` turning counter-clockwise (2D) or about ``axis`` (3D)."""
     if len(a) == 2:
         return np.array([-a[1], a[0]])
-    return unit(np.cross(axis, a))
+    return unit(cross(axis, a))
 
 
 def _arc(a: np.ndarray, theta: float, axis: np.ndarray | None = None,
@@ -98,7 +98,7 @@ def _arrangement_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
             out.append(_orthants([], list(_axes(m))))
             continue
         va, vb = verts[a], verts[b]
-        theta = math.atan2(float(np.cross(va, vb) @ m), float(va @ vb)) % (2 * math.pi)
+        theta = math.atan2(float(cross(va, vb) @ m), float(va @ vb)) % (2 * math.pi)
         out.append(_arc(va, theta or 2 * math.pi, m, vb))
     for f in range(nf):
         cyc = arr.face_vertices[f]
@@ -112,7 +112,7 @@ def _arrangement_pieces(ndbg: NDBG) -> list[list[np.ndarray]] | None:
         elif len(cyc) == 2:  # a lune of a pencil of circles through +-p
             p = verts[cyc[0]]
             e1, e2 = _axes(p)
-            rays = unit(np.cross(p[None], circles))
+            rays = unit(cross(p[None], circles))
             rays = np.vstack([rays, -rays])
             ang = np.arctan2(rays @ e2, rays @ e1)
             at = math.atan2(float(rep @ e2), float(rep @ e1))
