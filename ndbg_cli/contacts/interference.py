@@ -116,10 +116,18 @@ def _classify(tri: np.ndarray, depth: float, pa: Part, pb: Part, separates, tol:
 
 def _part_size(p: Part) -> float:
     """:func:`ndbg_cli.core.assembly.point_extent` of a part's vertices (its box diagonal
-    when it has none)."""
+    when it has none), once per :attr:`Part.hash` (a part in many crossing pairs: a
+    crankcase, a housing)."""
     if p.mesh is None or len(p.mesh.vertices) == 0:
         return float(np.linalg.norm(np.ptp(p.bounds, axis=0)))
-    return point_extent(np.asarray(p.mesh.vertices, dtype=float))[0]
+    size = _SIZES.get(p.hash)
+    if size is None:
+        size = _SIZES[p.hash] = point_extent(np.asarray(p.mesh.vertices, dtype=float))[0]
+    return size
+
+
+#: :func:`_part_size` by part hash.
+_SIZES: dict[str, float] = {}
 
 
 def crossing_depth(ta: np.ndarray, na: np.ndarray, tb: np.ndarray, nb: np.ndarray,
