@@ -337,6 +337,37 @@ def test_a_forked_job_given_its_input_later(tmp_path):
     del dropped
     child.join(timeout=30)
     assert child.exitcode == 0
+    # dropped after it was sent, with a result larger than a pipe's buffer: the child's
+    # write breaks (it holds no reading end of its own), it does not wait for ever
+    dropped = Forked(_big_after, flag, later=True)
+    dropped.send(1)
+    child = dropped._proc
+    del dropped
+    child.join(timeout=30)
+    assert child.exitcode == 0
+    # cancelled while it waits for its input: ended at once
+    job = Forked(_sum_after, flag, [], later=True)
+    child = job._proc
+    job.cancel()
+    assert not child.is_alive()
+
+
+def _big_after(path, get):
+    return "x" * 1_000_000 * get()
+
+
+def test_a_later_jobs_seconds_leave_out_its_wait_for_the_input(tmp_path):
+    """The child's own seconds (``--timings``' ``interlock_s``) do not count the time it
+    waited for its input: here it is sent after a second, and its work takes none."""
+    import time
+
+    from ndbg_cli.core.pools import Forked
+
+    job = Forked(_sum_after, tmp_path, [1], later=True)
+    time.sleep(1.0)
+    job.send([2])
+    assert job.result() == 3
+    assert 0 <= job.seconds < 0.5
 
 
 def test_contacts_in_worker_processes_are_the_contacts_found_in_one(monkeypatch):

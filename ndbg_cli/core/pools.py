@@ -96,8 +96,8 @@ class Forked:
             get = None
             if later:
                 get, self._input = ctx.Pipe(duplex=False)
-            self._proc = ctx.Process(target=_forked_child, args=(send, fn, args, get,
-                                                                 self._input), daemon=True)
+            self._proc = ctx.Process(target=_forked_child, daemon=True, args=(
+                send, fn, args, get, (self._recv, self._input)))
             self._proc.start()
             send.close()
             if get is not None:
@@ -141,6 +141,21 @@ class Forked:
         self.seconds = time.perf_counter() - t0
         return value
 
+    def cancel(self) -> None:
+        """Drop the job: its child ended now (a ``later`` child waiting for its input first
+        reads end of file), nothing computed here."""
+        if self._input is not None:
+            self._input.close()
+            self._input = None
+        if self._proc is not None:
+            proc, self._proc = self._proc, None
+            self._recv.close()
+            proc.terminate()
+            proc.join(timeout=JOIN_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+
     def _given(self) -> Any:
         if self._sent is self._UNSENT:
             raise RuntimeError("the job's input was never sent")
@@ -148,17 +163,21 @@ class Forked:
 
 
 def _forked_child(send: Any, fn: Callable[..., Any], args: tuple, get: Any = None,
-                  parent_end: Any = None) -> None:
+                  parent_ends: tuple = ()) -> None:
     """:class:`Forked`'s child: ``(True, value, seconds)`` sent back, or ``(False, None, 0)``
-    when ``fn`` raised (the parent then calls it itself, and sees the error there). ``get``:
-    the reading end of a ``later`` job's input (``parent_end``, its writing end, inherited
-    through fork, is closed here so that the parent's dropping it reads as end of file)."""
+    when ``fn`` raised (the parent then calls it itself, and sees the error there);
+    ``seconds`` leaves out the wait for a ``later`` job's input. ``get``: the reading end of
+    that input. ``parent_ends``: the parent's ends of the pipes, inherited through fork and
+    closed here, so that the parent's dropping the job reads as end of file here (its input)
+    and as a broken pipe (the result), never as a wait without end."""
     t0 = time.perf_counter()
-    if parent_end is not None:
-        parent_end.close()
+    for end in parent_ends:
+        if end is not None:
+            end.close()
+    reader = _reader(get) if get is not None else None
     try:
-        value = fn(*args, _reader(get)) if get is not None else fn(*args)
-        got = (True, value, time.perf_counter() - t0)
+        value = fn(*args, reader) if reader is not None else fn(*args)
+        got = (True, value, time.perf_counter() - t0 - getattr(reader, "waited", 0.0))
     except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
         got = (False, None, 0.0)
     try:
@@ -176,7 +195,8 @@ def _forked_child(send: Any, fn: Callable[..., Any], args: tuple, get: Any = Non
 def _reader(conn: Any) -> Callable[[], Any]:
     """``get()`` of a ``later`` job's child: the value is read from ``conn`` by a thread from
     the start, so that the parent's :meth:`Forked.send` of a value larger than the pipe's
-    buffer returns at once instead of waiting for the child to ask."""
+    buffer returns at once instead of waiting for the child to ask (``get.waited``: the
+    seconds the child then waited for it)."""
     box: list = []
 
     def read() -> None:
@@ -189,7 +209,9 @@ def _reader(conn: Any) -> Callable[[], Any]:
     thread.start()
 
     def get() -> Any:
+        t0 = time.perf_counter()
         thread.join()
+        get.waited = time.perf_counter() - t0  # type: ignore[attr-defined]
         ok, value = box[0]
         if not ok:
             raise value

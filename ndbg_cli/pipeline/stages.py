@@ -561,7 +561,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     :func:`plan_assembly`. ``timings`` receives seconds per stage. Raises
     :class:`~ndbg_cli.core.errors.InputError` (e.g. an interference under
     ``--interference error``)."""
-    from ..core.cache import CACHE_FAULTS, MemoryCache, open_cache
+    from ..core.cache import MemoryCache, open_cache
 
     cache = open_cache(options.cache)
     # without a cache folder, the contacts of the pairs clash units leave unchanged are still
@@ -571,12 +571,48 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     out: dict = dict(contacts.sections)
     warnings = list(contacts.warnings)
     asm, contacts = _keep_clashes_together(asm, contacts, options, pairs, timings, out)
-    families: dict[str, Family] = {}
-    inf = None
     # the interlock LP and the grasps, beside: the finger placements (the parts alone) while
     # the NDBGs are built here, then, given the translational NDBGs, the LP and the grasps
     # while the generalized NDBG, the classes and the plan are computed here
     side = interlock_job(asm, contacts, options)
+    try:
+        ndbgs, proposer = _build_families(asm, contacts, options, cache, timings, side, out,
+                                          warnings)
+        measures = measure(asm, contacts, ndbgs, options, timings=timings, defer=True,
+                           side=side)
+        out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
+                                    proposer=proposer)
+        measures.finish(timings)
+    except BaseException:
+        side.cancel()  # its child would wait for the NDBGs, or to hand its result over
+        raise
+    out["classes"], out["andor"] = measures.classes, measures.andor
+    from .interlocking import apply_witnesses
+
+    # what the plan proves refutes a conservative "interlocked" or "no candidate tree"
+    apply_witnesses(out, asm.ids, contacts.analysis, asm.base)
+    if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
+        from .proofs import proven_classes
+
+        cands = out["classes"].get(INFINITESIMAL) or _proposer_classes(asm, proposer)
+        got = proven_classes(out["plan"], cands, asm.base)
+        if got:
+            out["classes"] = dict(sorted({**out["classes"], INFINITE: got}.items()))
+    return out, warnings
+
+
+def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: Any,
+                    timings: dict[str, float], side: Any, out: dict, warnings: list
+                    ) -> tuple[dict[str, NDBG], NDBG | None]:
+    """The NDBG of each family of ``options.motion`` (:func:`build_ndbg`), their report
+    sections and partitionings put in ``out`` and their warnings in ``warnings``; ``side``
+    (:func:`interlock_job`) is sent the usable translational NDBGs as soon as they are
+    built. Returns the usable NDBGs and the infinitesimal NDBG proposing the splits of an
+    infinite-translation plan when the exact family is restricted or skipped (or None)."""
+    from ..core.cache import CACHE_FAULTS
+
+    families: dict[str, Family] = {}
+    inf = None
     for name in FAMILIES_OF[options.motion]:
         if name == GENERALIZED:
             side.send(_translational({k: f.ndbg for k, f in families.items() if f.usable}))
@@ -596,31 +632,15 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
             out[CACHE_FAULTS] = cache.faults()
     out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
     ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
+    if GENERALIZED not in families:
+        side.send(_translational(ndbgs))
     proposer = None
     if INFINITE in families and not families[INFINITE].usable and INFINITESIMAL not in ndbgs:
         # the exact family restricted or skipped: the plan's splits are proposed by the
         # infinitesimal NDBG (computed for that alone) and each proven by the sweep test
         proposer = build_ndbg(asm, INFINITESIMAL, contacts, options, cache=cache,
                               timings=timings).ndbg
-    if GENERALIZED not in families:
-        side.send(_translational(ndbgs))
-    measures = measure(asm, contacts, ndbgs, options, timings=timings, defer=True, side=side)
-    out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
-                                proposer=proposer)
-    measures.finish(timings)
-    out["classes"], out["andor"] = measures.classes, measures.andor
-    from .interlocking import apply_witnesses
-
-    # what the plan proves refutes a conservative "interlocked" or "no candidate tree"
-    apply_witnesses(out, asm.ids, contacts.analysis, asm.base)
-    if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
-        from .proofs import proven_classes
-
-        cands = out["classes"].get(INFINITESIMAL) or _proposer_classes(asm, proposer)
-        got = proven_classes(out["plan"], cands, asm.base)
-        if got:
-            out["classes"] = dict(sorted({**out["classes"], INFINITE: got}.items()))
-    return out, warnings
+    return ndbgs, proposer
 
 
 def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, cache: Any,

@@ -25,7 +25,7 @@ def _vecs(a: np.ndarray | None) -> list | None:
     if a.ndim == 1:
         return vals
     m = a.shape[1]
-    return [vals[k:k + m] for k in range(0, len(vals), m)]
+    return [vals[k * m:(k + 1) * m] for k in range(a.shape[0])]
 
 
 def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
