@@ -14,6 +14,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 from ..core.assembly import Assembly, Diagnostic
@@ -55,13 +56,19 @@ class Clock:
 @dataclass
 class Contacts:
     """What :func:`find_contacts` found: the contact analysis, the contact graph and the
-    report's sections (``contacts``, ``interferences``, ``contact_stats``)."""
+    report's sections (``contacts``, ``interferences``, ``contact_stats``), made when first
+    asked for (the contacts of parts that clash are replaced by their unit's)."""
 
     analysis: Any  #: contacts.contacts3d.ContactAnalysis (3D) or contacts2d's contacts (2D)
     touching: list[tuple[int, int]]  #: pairs of parts in contact
     neighbours: list[int]  #: the contact graph, one bitmask of neighbours per part
-    sections: dict
+    make_sections: Callable[[], dict] = field(repr=False)
     warnings: list[Diagnostic] = field(default_factory=list)
+
+    @cached_property
+    def sections(self) -> dict:
+        """The report's contact sections."""
+        return self.make_sections()
 
 
 @dataclass
@@ -147,23 +154,28 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
             asm, tolerance=options.tolerance, cache=cache, workers=options.workers,
             meanwhile=_load_kernels if options.workers > 1 else None, mapper=options.mapper))
         warnings += check_interference_policy(asm, ca, options.interference)
-        sec = contacts_section(asm, ca)
         # wall-clock phases go to the report's timings (kept out unless asked for)
-        for k, v in sec["contact_stats"].pop("timings_s", {}).items():
-            clock.timings[f"contacts_{k}"] = v
-        sections = dict(contacts=sec["contacts"], interferences=sec["interferences"],
-                        contact_stats=sec["contact_stats"])
+        for k in ("bvh_s", "broad_s", "narrow_s", "interference_s"):
+            clock.timings[f"contacts_{k}"] = float(ca.stats.get(k, 0.0))
+
+        def sections() -> dict:
+            sec = contacts_section(asm, ca)
+            sec["contact_stats"].pop("timings_s", None)
+            return sec
         touching = ca.pairs()
     else:
         from ..contacts.contacts2d import find_contacts_2d
         from ..report.contacts import contacts_2d_section
 
         ca = clock("contacts_s", lambda: find_contacts_2d(asm, options.tolerance))
-        sections = dict(contacts=contacts_2d_section(asm, ca), interferences=[],
-                        contact_stats={"units": asm.units, "tolerance": asm.length_tolerance,
-                                       "touching_pairs": [[asm.ids[c.a], asm.ids[c.b]]
-                                                          for c in ca.contacts],
-                                       "contacts": len(ca.contacts)})
+        made = dict(contacts=contacts_2d_section(asm, ca), interferences=[],
+                    contact_stats={"units": asm.units, "tolerance": asm.length_tolerance,
+                                   "touching_pairs": [[asm.ids[c.a], asm.ids[c.b]]
+                                                      for c in ca.contacts],
+                                   "contacts": len(ca.contacts)})
+
+        def sections() -> dict:
+            return made
         touching = [(c.a, c.b) for c in ca.contacts]
     neighbours = [0] * len(asm)
     for a, b in touching:
@@ -568,9 +580,12 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     # computed once: kept in memory for the units' analysis
     pairs = cache if cache is not None else MemoryCache()
     contacts = find_contacts(asm, options, cache=pairs, timings=timings)
-    out: dict = dict(contacts.sections)
     warnings = list(contacts.warnings)
-    asm, contacts = _keep_clashes_together(asm, contacts, options, pairs, timings, out)
+    asm, contacts, interferences = _keep_clashes_together(asm, contacts, options, pairs,
+                                                           timings)
+    out: dict = dict(contacts.sections)
+    if interferences is not None:
+        out["interferences"] = interferences
     # the interlock LP and the grasps, beside: the finger placements (the parts alone) while
     # the NDBGs are built here, then, given the translational NDBGs, the LP and the grasps
     # while the generalized NDBG, the classes and the plan are computed here
@@ -644,22 +659,25 @@ def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: 
 
 
 def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, cache: Any,
-                           timings: dict[str, float], out: dict) -> tuple[Assembly, Contacts]:
+                           timings: dict[str, float]
+                           ) -> tuple[Assembly, Contacts, list[dict] | None]:
     """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`)
-    and its contacts found again (``cache`` serves the other pairs); the report keeps the
-    first analysis's interferences, each clash naming its unit. Unchanged without clashes."""
+    and its contacts found again (``cache`` serves the other pairs), with the report's
+    interferences: the first analysis's, each clash naming its unit. Unchanged without
+    clashes (and the interferences None: its own contact sections hold them)."""
+    from ..report.contacts import interference_record
     from .units import clash_units, member_order, merge_units
 
     found = getattr(contacts.analysis, "interferences", ())
     units = clash_units(len(asm), [(x.a, x.b) for x in found if x.kind == "clash"])
     if not units:
-        return asm, contacts
+        return asm, contacts, None
     unit_of = {i: [asm.ids[k] for k in member_order(asm, g)] for g in units for i in g}
-    for rec, x in zip(out["interferences"], found):
+    records = []
+    for x in found:
+        rec = interference_record(asm.ids, x)
         if x.kind == "clash":
             rec["unit"] = unit_of[x.a]
+        records.append(rec)
     merged = merge_units(asm, units)
-    again = find_contacts(merged, options, cache=cache, timings=timings)
-    keep = {k: v for k, v in again.sections.items() if k != "interferences"}
-    out.update(keep)
-    return merged, again
+    return merged, find_contacts(merged, options, cache=cache, timings=timings), records
