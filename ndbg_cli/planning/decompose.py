@@ -246,8 +246,25 @@ def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
     """
     if mask.bit_count() < 2:
         return None
+    if regions is None:
+        # the classes and the plans decompose the same subassemblies over all the regions
+        # (the engine: 622 calls, 247 distinct): each answer is kept on the NDBG
+        memo = ndbg.__dict__.get("_sink_splits")
+        if memo is None:
+            memo = {}
+            object.__setattr__(ndbg, "_sink_splits", memo)
+        key = (mask, base, linear, balanced)
+        if key not in memo:
+            memo[key] = _sink_split(ndbg, mask, range(len(ndbg.regions)), base, linear,
+                                    balanced)
+        return memo[key]
+    return _sink_split(ndbg, mask, regions, base, linear, balanced)
+
+
+def _sink_split(ndbg: NDBG, mask: int, order: Sequence[int], base: int | None, linear: bool,
+                balanced: bool) -> tuple[int, int] | None:
+    """:func:`sink_split` over the regions ``order``."""
     base_bit = 0 if base is None else (1 << base) & mask
-    order = range(len(ndbg.regions)) if regions is None else regions
     group = ndbg.dbg_group()
     tried: set[int] = set()  # regions with equal DBGs induce equal ones: the first in order
     seen: set[tuple[int, ...]] = set()
