@@ -180,15 +180,14 @@ def _forked_child(send: Any, fn: Callable[..., Any], args: tuple, get: Any = Non
         got = (True, value, time.perf_counter() - t0 - getattr(reader, "waited", 0.0))
     except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
         got = (False, None, 0.0)
-    try:
+    for value in (got, (False, None, 0.0)):
         try:
-            send.send(got)
-        except OSError:
-            raise
+            send.send(value)
+            break
+        except OSError:  # the parent dropped the job: nobody reads
+            break
         except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes it)
-            send.send((False, None, 0.0))
-    except OSError:  # the parent dropped the job: nobody reads
-        pass
+            continue
     send.close()
 
 

@@ -28,8 +28,8 @@ def unit(v: np.ndarray) -> np.ndarray:
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``np.cross(a, b)`` of 3-vectors (last axis; broadcast like ``np.cross``), equal to it
     to the last bit (the same products and differences in the same order), without its axis
-    handling: about 40 us a call in ``np.cross``, which the contacts' and the grasps' small
-    arrays call tens of thousands of times.
+    handling: half of ``np.cross``'s 20 us a call on the small arrays the contacts and the
+    grasps pass it tens of thousands of times.
 
     >>> cross(np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])).tolist()
     [0.0, 0.0, 1.0]
