@@ -17,6 +17,8 @@ INFINITE = "infinite_translation"
 GENERALIZED = "generalized"
 #: Every family, in the order the reports list them.
 FAMILIES = (INFINITESIMAL, INFINITE, GENERALIZED)
+#: The translational families: their plans are algorithms of single translations.
+TRANSLATION = (INFINITESIMAL, INFINITE)
 
 #: Default relative length tolerance: lengths below ``DEFAULT_RELATIVE_TOLERANCE`` times the
 #: model's size (``Assembly.size``, the same in any frame) are treated as zero (gaps, overlaps,

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..core.assembly import Assembly
-from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL, TRANSLATION
 from ..ndbg.model import NDBG
 
 __all__ = ["apply_witnesses", "conservative_contacts", "interlock_and_grasp",
@@ -89,7 +89,7 @@ def interlock_and_grasp(asm: Assembly, ca: Any, ndbgs: dict[str, NDBG],
                             "cone: conservative, may call a product interlocked that is not)")
     if faces is None:
         faces = exterior_faces(asm)
-    grasps = {fam: grasp(ndbgs[fam], faces) for fam in (INFINITESIMAL, INFINITE)
+    grasps = {fam: grasp(ndbgs[fam], faces) for fam in TRANSLATION
               if fam in ndbgs}
     return lock, grasps
 
@@ -142,7 +142,7 @@ def apply_witnesses(out: dict, ids: Sequence[str], analysis: Any,
     if nd and isinstance(sec, dict) and not sec.get("skipped"):
         sec["conservative_contacts"] = nd
     plan = out.get("plan") or {}
-    proven = bool(plan.get("found")) and plan.get("family") in (INFINITESIMAL, INFINITE) \
+    proven = bool(plan.get("found")) and plan.get("family") in TRANSLATION \
         and (plan.get("verified") or {}).get("value") is True
     classes = dict(out.get("classes") or {})
     lock = (classes.get(INFINITESIMAL) or {}).get("interlocked")

@@ -18,7 +18,7 @@ from functools import cached_property
 from typing import Any
 
 from ..core.assembly import Assembly, Diagnostic
-from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL, TRANSLATION
 from ..core.options import Options
 from ..ndbg.model import NDBG, ConnectivityTest
 from .families import declared_threads, generalized, infinite, infinite_skip_reason
@@ -350,7 +350,7 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
              for fam, g in sorted(graphs.items())}
     threaded = declared_threads(asm, options)
     if threaded and not options.threads_as_cylinders:
-        for fam in (INFINITESIMAL, INFINITE):
+        for fam in TRANSLATION:
             if fam in classes:
                 classes[fam]["threads"] = {
                     "value": sorted([list(p) for p in threaded]),
@@ -376,7 +376,7 @@ def interlock_job(asm: Assembly, contacts: Contacts, options: Options = Options(
 
 def _translational(ndbgs: dict[str, NDBG]) -> dict[str, NDBG]:
     """The translational families of ``ndbgs`` (what the interlock LP and the grasps read)."""
-    return {k: v for k, v in ndbgs.items() if k in (INFINITESIMAL, INFINITE)}
+    return {k: v for k, v in ndbgs.items() if k in TRANSLATION}
 
 
 def _load_kernels() -> None:
@@ -480,11 +480,11 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
                 "exact": True, "depth": None, "tree": None, "sequence": [],
                 "notes": ["no motion family computed"]}
     proof: dict = {}
-    if chosen.found and chosen.ndbg.family in (INFINITESIMAL, INFINITE):
+    if chosen.found and chosen.ndbg.family in TRANSLATION:
         # every step proven along an exact direction, or another tree that is, or why not
         proof = clock("verify_s", lambda: _prove(asm, contacts, chosen, measures, options,
                                                  base, budget, plan_conn))
-    elif chosen.ndbg.family in (INFINITESIMAL, INFINITE) and chosen.exact \
+    elif chosen.ndbg.family in TRANSLATION and chosen.exact \
             and chosen.stuck is not None:
         # no candidate tree: a subassembly no direction splits, even infinitesimally (or, for
         # the whole sphere's infinite NDBG, at all), so no plan of translations exists
@@ -606,7 +606,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
 
     # what the plan proves refutes a conservative "interlocked" or "no candidate tree"
     apply_witnesses(out, asm.ids, contacts.analysis, asm.base)
-    if INFINITE not in ndbgs and out["plan"].get("family") in (INFINITESIMAL, INFINITE):
+    if INFINITE not in ndbgs and out["plan"].get("family") in TRANSLATION:
         from .proofs import proven_classes
 
         cands = out["classes"].get(INFINITESIMAL) or _proposer_classes(asm, proposer)

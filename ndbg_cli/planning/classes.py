@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL, TRANSLATION
 from ..ndbg.components import condense
 from ..ndbg.model import NDBG
 from .andor import AndOrGraph, Budget, contains, greedy_tree, lower_bound_depth
@@ -336,7 +336,7 @@ def interlock_hands(lock: dict, ndbgs: dict[str, NDBG]) -> dict:
     if lock.get("value") is not False or not k:
         return {**out, "hands": None, "hands_lower_bound": None, "hands_exact": False}
     one, src = None, None
-    for fam in (INFINITESIMAL, INFINITE):
+    for fam in TRANSLATION:
         nd = ndbgs.get(fam)
         if nd is not None and nd.n >= 2 and one is None:
             one, src = sink_split(nd, (1 << nd.n) - 1, balanced=False), nd

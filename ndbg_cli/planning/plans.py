@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..core.constants import INFINITE, INFINITESIMAL
+from ..core.constants import TRANSLATION
 from ..ndbg.model import NDBG, ConnectivityTest
 from .andor import (
     AndOrGraph,
@@ -425,10 +425,6 @@ def sequence_json(p: Plan) -> list[dict]:
         d.update(step_motion(p.ndbg, s))
         out.append(d)
     return out
-
-
-#: The families whose proven plans are algorithms of single translations.
-TRANSLATION = (INFINITESIMAL, INFINITE)
 
 
 def plan_proves(p: dict) -> dict | None:

@@ -22,7 +22,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL
+from ..core.constants import GENERALIZED, INFINITE, INFINITESIMAL, TRANSLATION
 
 __all__ = ["CODE", "CONTAINED", "RULES", "Contradiction", "contradictions", "warnings"]
 
@@ -32,8 +32,6 @@ CODE = "inconsistent-report"
 CONTAINED = ((INFINITE, INFINITESIMAL), (INFINITESIMAL, GENERALIZED), (INFINITE, GENERALIZED))
 #: The minima of the classes (``lower_bound <= value <= upper_bound``).
 MINIMA = ("min_depth", "min_nonlinear", "min_directions")
-#: The translation families (their plans are proven by the sweep test).
-TRANSLATION = (INFINITESIMAL, INFINITE)
 
 
 @dataclass(frozen=True)
