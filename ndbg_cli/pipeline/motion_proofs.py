@@ -25,6 +25,7 @@ import numpy as np
 from ..contacts.facets import graph_components, part_geometry
 from ..core.assembly import Assembly
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
+from ..geometry.vectors import unique_rows
 from ..io.validate import make_part
 from ..ndbg.generalized.finite import Screw, alignment_angles, check_motion, cylinder_bands
 from ..ndbg.infinite.sweep import SweepChecker
@@ -261,9 +262,11 @@ def _normals(asm: Assembly, parts: list[int]) -> np.ndarray:
     :data:`NORMALS` largest faces when there are more (a fine curved surface's facets)."""
     n = np.concatenate([np.asarray(asm.parts[k].mesh.face_normals) for k in parts])
     area = np.concatenate([np.asarray(asm.parts[k].mesh.area_faces) for k in parts])
-    u, inv = np.unique(np.round(n, 9), axis=0, return_inverse=True)
+    rounded = np.round(n, 9)
+    first, inv = unique_rows(rounded)
+    u = rounded[first]
     if len(u) > NORMALS:
-        weight = np.bincount(inv.ravel(), weights=area, minlength=len(u))
+        weight = np.bincount(inv, weights=area, minlength=len(u))
         u = u[np.sort(np.argsort(-weight, kind="stable")[:NORMALS])]
     return u
 
