@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...contacts.facets import box_tree, origin_distance_2d
-from ...geometry.vectors import plane_basis
+from ...geometry.vectors import cross, plane_basis
 
 __all__ = ["Screw", "MotionCheck", "check_motion", "alignment_angles"]
 
@@ -63,7 +63,7 @@ class Screw:
         ww = float(w @ w)
         if ww <= 0:
             raise ValueError("a translation is not a screw motion")
-        return cls(np.cross(w, v) / ww, w / np.sqrt(ww), float(w @ v) / ww)
+        return cls(cross(w, v) / ww, w / np.sqrt(ww), float(w @ v) / ww)
 
     def cylindrical(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(along, radial)`` of ``points`` (any shape ending in 3): each point's coordinate
@@ -80,7 +80,7 @@ class Screw:
                 + self._turn(radial, angle))
 
     def _turn(self, radial: np.ndarray, angle: float) -> np.ndarray:
-        return radial * np.cos(angle) + np.cross(self.axis, radial) * np.sin(angle)
+        return radial * np.cos(angle) + cross(self.axis, radial) * np.sin(angle)
 
     def hull_points(self, tris: np.ndarray, t0: float, t1: float) -> np.ndarray:
         """``(k, m, 3)`` points whose convex hull holds every position of each triangle of
@@ -220,7 +220,7 @@ def cylinder_bands(tris: np.ndarray, screw: Screw, allowance: np.ndarray,
     rmax = np.linalg.norm(radial, axis=2).max(axis=1)
     e1, e2 = plane_basis(screw.axis)
     rmin = origin_distance_2d(np.stack([radial @ e1, radial @ e2], axis=2))
-    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    n = cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1), 1e-300)[:, None]
     out_dir = radial.mean(axis=1)
     out_dir /= np.maximum(np.linalg.norm(out_dir, axis=1), 1e-300)[:, None]
@@ -273,12 +273,12 @@ def _separated(hull: np.ndarray, screw: Screw, tri: np.ndarray, t0: float, t1: f
     fixed triangle's normal, the moving triangle's (``tri`` turned to ``t0``, ``t1`` and
     between) and the cross products of their edges (mid-interval)."""
     eb = np.roll(fixed, -1, axis=1) - fixed
-    axes = [np.cross(eb[:, 0], eb[:, 1])]
+    axes = [cross(eb[:, 0], eb[:, 1])]
     for t in (t0, t1, (t0 + t1) / 2):
         at = screw.move(tri, t)
         ea = np.roll(at, -1, axis=1) - at
-        axes.append(np.cross(ea[:, 0], ea[:, 1]))
-    axes += [np.cross(ea[:, i], eb[:, j]) for i in range(3) for j in range(3)]
+        axes.append(cross(ea[:, 0], ea[:, 1]))
+    axes += [cross(ea[:, i], eb[:, j]) for i in range(3) for j in range(3)]
     ok = np.zeros(len(hull), dtype=bool)
     for w in axes:
         norm = np.linalg.norm(w, axis=1)
@@ -309,7 +309,7 @@ def alignment_angles(moving: np.ndarray, fixed: np.ndarray, axis: np.ndarray,
     ra, rb = ra[ia], rb[ib]
     good = (np.linalg.norm(ra, axis=1) > tol) & (np.linalg.norm(rb, axis=1) > tol)
     ra, rb = ra[good], rb[good]
-    ang = np.mod(np.arctan2(np.einsum("ij,j->i", np.cross(ra, rb), axis),
+    ang = np.mod(np.arctan2(np.einsum("ij,j->i", cross(ra, rb), axis),
                             np.einsum("ij,ij->i", ra, rb)), 2 * np.pi)
     ang = np.unique(np.round(ang, 12))
     return ang[(ang > tol) & (ang < 2 * np.pi - tol)]
