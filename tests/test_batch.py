@@ -386,3 +386,26 @@ def test_contacts_in_worker_processes_are_the_contacts_found_in_one(monkeypatch)
         for sec in (one, two):
             sec["contact_stats"].pop("timings_s", None)
         assert dumps(one) == dumps(two), name
+
+
+def _slow_item(context: float, item: int) -> int:
+    time.sleep(context)
+    return item
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_items_dropped_before_they_start_are_not_computed(workers):
+    """``Mapper.imap``'s ``drop``: the caller adds the last items once the first value is in;
+    with one process none of them is computed, with two workers (each item 0.3 s) they are
+    still waiting then, and are not computed or yielded either."""
+    from ndbg_cli.core.pools import ForkMapper
+
+    drop: set[int] = set()
+    got = []
+    for k, value in ForkMapper(workers).imap(_slow_item, 0.3 if workers > 1 else 0.0,
+                                             list(range(12)), drop=drop):
+        assert k == value
+        got.append(k)
+        drop.update({9, 10, 11})
+    assert got[0] == 0 and not {9, 10, 11} & set(got)
+    assert set(got) >= set(range(1, 4)), got  # the first ones had started

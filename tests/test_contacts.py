@@ -243,6 +243,29 @@ def test_a_deep_overlap_is_a_clash_and_an_error_under_the_error_policy():
     assert check_interference_policy(asm, res, "ignore") == []
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_units_later_leaves_out_the_contacts_of_clashing_parts_only(monkeypatch, workers):
+    # p0 and p1 clash (a 5 mm deep overlap of 10 mm blocks); p2 rests on both tops, p4 on
+    # p3's, far from them. With units_later the contacts of p0, p1 (with p2) are not sought
+    # (the pipeline finds the unit's again); p3-p4's face contact is the full analysis's,
+    # and the clash is listed as before. Two workers take the forked path, where those may
+    # be dropped before they start.
+    monkeypatch.setattr(contacts_module, "MIN_PARALLEL_TRIANGLES", 0)
+    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
+                   box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
+                   box((10, 10, 4), (40, 5, 12)))
+    full = analyze_contacts(asm, workers=workers)
+    later = analyze_contacts(asm, workers=workers, units_later=True)
+
+    def brief(cs):
+        return [(c.a, c.b, c.kind, np.round(c.normals, 9).tolist()) for c in cs]
+    assert [(x.a, x.b, x.kind) for x in full.interferences] == [(0, 1, "clash")]
+    assert [(x.a, x.b, x.kind, x.volume) for x in later.interferences] == \
+        [(x.a, x.b, x.kind, x.volume) for x in full.interferences]
+    assert {(c.a, c.b) for c in full.contacts} == {(0, 2), (1, 2), (3, 4)}
+    assert brief(later.contacts) == brief(c for c in full.contacts if (c.a, c.b) == (3, 4))
+
+
 def test_conical_plug_in_conical_seat():
     # frustum r 10 -> 5 over z in [0, 10] (24 facets) in a 64-facet seat: a cone about +z;
     # the slope 5 in 10 gives outward normals with n.z = 5 / sqrt(10^2 + 5^2) = 1/sqrt(5);

@@ -152,6 +152,16 @@ def glb(tmp_path_factory) -> Path:
     return path
 
 
+def test_meanwhile_runs_while_a_native_reader_reads_only(glb):
+    """``load(meanwhile=)``: called here while the GLB reader's child reads (the CLI loads
+    numba's kernels then), not for a manifest of STL files, read in this process."""
+    calls: list[int] = []
+    asm = load(glb, meanwhile=lambda: calls.append(os.getpid()))
+    assert asm.ids == ["lower", "upper"] and calls == [os.getpid()]
+    load(ROOT / "assemblies" / "hover.yaml", meanwhile=lambda: calls.append(0))
+    assert calls == [os.getpid()]
+
+
 # -- the damaged files of ../shared/data/corrupt -------------------------------------------
 
 @pytest.mark.external

@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import time
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -123,7 +123,8 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                      angle_tolerance: float = CONTACT_ANGLE_TOL_RAD,
                      cache: PairCache | None = None, workers: int = 1,
                      meanwhile: Callable[[], Any] | None = None,
-                     mapper: Mapper | None = None) -> ContactAnalysis:
+                     mapper: Mapper | None = None, units_later: bool = False
+                     ) -> ContactAnalysis:
     """Find the contacts and interferences between the parts of a 3D assembly.
 
     ``tolerance`` (assembly unit) overrides ``asm.length_tolerance``; ``angle_tolerance`` is in
@@ -135,6 +136,12 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     not depend on it;
     ``meanwhile`` is called here while they work. Raises :class:`InputError` for a 2D assembly
     or a non-positive tolerance.
+
+    ``units_later``: the caller makes each group of clashing parts one unit and analyses the
+    units again (:mod:`ndbg_cli.pipeline.units`). The contacts of a clashing part are then
+    not listed (the interferences all are), and the pairs whose surfaces cross go first,
+    so that once their interference tests tell the clashes, the other pairs of a clashing
+    part are no longer computed.
 
     Tolerance model (lengths in the assembly unit):
 
@@ -194,20 +201,20 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                               approximate, [dataclasses.replace(c, a=a, b=b) for c in cs],
                               count, 0.0)
     todo = [k for k in range(len(pairs)) if results[k] is None]
-    size = [len(geos[pairs[k][0]].triangles) + len(geos[pairs[k][1]].triangles) for k in todo]
-    # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
-    # by their triangles
-    order = sorted(range(len(todo)), key=lambda x: (-bool(pairs[todo[x]][2]), -size[x], x))
     mapper = ForkMapper(workers) if mapper is None else mapper
-    # few triangles are not worth the workers' start, unless this process has work of its
-    # own meanwhile (numba's start, 0.5 s or more), which their time then hides
-    got = mapper.map(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo], order,
-                     small=sum(size) < MIN_PARALLEL_TRIANGLES and meanwhile is None,
-                     meanwhile=meanwhile)
-    for k, res in zip(todo, got):
-        results[k] = res
-        if keys[k] is not None:
-            cache.put("contacts", keys[k], res[:4])
+    ti = time.perf_counter()
+    inside = _nested(asm, nested, tol)
+    t_int += time.perf_counter() - ti
+    clashing = _clashing(inside, results) if units_later else None
+    _pair_results(asm, geos, tol, ang, pairs, results, todo, mapper, meanwhile, clashing)
+    fresh = set(todo)
+    for k, (a, b, _) in enumerate(pairs):
+        if clashing is not None and (a in clashing or b in clashing):
+            # left to the units' analysis (whether or not a worker computed it)
+            found, approximate, _, _, seconds = results[k]
+            results[k] = (found, approximate, [], 0, seconds)
+        elif keys[k] is not None and k in fresh:
+            cache.put("contacts", keys[k], results[k][:4])
     for (a, b, _), (found, approximate, cs, count, seconds) in zip(pairs, results):
         if approximate:
             approx.append((asm.parts[a].id, asm.parts[b].id))
@@ -216,9 +223,7 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
         contacts += cs
         tri_pairs += count
         t_int += seconds
-    ti = time.perf_counter()
-    interferences += _nested(asm, nested, tol)
-    t_int += time.perf_counter() - ti
+    interferences += inside
     t3 = time.perf_counter()
     contacts.sort(key=_sort_key)
     stats.update({
@@ -235,6 +240,55 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     })
     return ContactAnalysis(tuple(contacts), tuple(sorted(interferences, key=lambda x: (x.a, x.b))),
                            tol, ang, stats)
+
+
+def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: float,
+                  pairs: list[tuple[int, int, bool]], results: list, todo: list[int],
+                  mapper: Mapper, meanwhile: Callable[[], Any] | None,
+                  clashing: set[int] | None) -> None:
+    """Put :func:`_pair_result` of ``pairs[k]`` in ``results[k]`` for ``k`` in ``todo``, by
+    ``mapper`` (``meanwhile`` as in :func:`analyze_contacts`). With ``clashing`` (the parts
+    of the clashes known so far, grown here), once the crossing pairs' interference tests
+    are all in, the pairs of a clashing part not yet started are left out (their result is
+    ``(None, False, [], 0, 0.0)``)."""
+    size = {k: len(geos[pairs[k][0]].triangles) + len(geos[pairs[k][1]].triangles)
+            for k in todo}
+    # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
+    # by their triangles
+    todo = sorted(todo, key=lambda k: (-bool(pairs[k][2]), -size[k], k))
+    crossing_left = sum(1 for k in todo if pairs[k][2])
+    drop: set[int] = set()
+
+    def known() -> None:  # every clash known: the other pairs of its parts can go
+        drop.update(y for y, j in enumerate(todo) if results[j] is None
+                    and (pairs[j][0] in clashing or pairs[j][1] in clashing))
+    if clashing and not crossing_left:
+        known()
+    # few triangles are not worth the workers' start, unless this process has work of its
+    # own meanwhile (numba's start, 0.5 s or more), which their time then hides
+    for x, res in mapper.imap(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo],
+                              small=sum(size.values()) < MIN_PARALLEL_TRIANGLES
+                              and meanwhile is None, meanwhile=meanwhile, drop=drop):
+        k = todo[x]
+        results[k] = res
+        crossing_left -= bool(pairs[k][2])
+        if clashing is not None and pairs[k][2]:
+            clashing |= _clashing([res[0]], [])
+            if not crossing_left:
+                known()
+    for k in todo:
+        if results[k] is None:
+            results[k] = (None, False, [], 0, 0.0)
+
+
+def _clashing(found: Sequence[Interference | None], results: Sequence[tuple | None]
+              ) -> set[int]:
+    """The parts of the clashes among ``found`` and the pair results ``results``."""
+    out = set()
+    for x in (*found, *(r[0] for r in results if r is not None)):
+        if x is not None and x.kind == "clash":
+            out |= {x.a, x.b}
+    return out
 
 
 def _narrow_phase(context: tuple[Assembly, float, float], pair: tuple[int, int, bool]) -> tuple:

@@ -234,7 +234,8 @@ class Mapper(ABC):
     @abstractmethod
     def imap(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
              order: Sequence[int] | None = None, *, small: bool = False,
-             meanwhile: Callable[[], Any] | None = None) -> Iterator[tuple[int, Any]]:
+             meanwhile: Callable[[], Any] | None = None, drop: set[int] | None = None
+             ) -> Iterator[tuple[int, Any]]:
         """``(k, fn(context, items[k]))`` for every ``k``, each as soon as it is known.
 
         Parameters
@@ -250,6 +251,11 @@ class Mapper(ABC):
         meanwhile : callable, optional
             Called here once while the workers compute (work this process needs later, e.g.
             loading compiled kernels), or first when there are none.
+        drop : set of int, optional
+            Items the caller no longer wants, which it may add to while it reads the values
+            (e.g. once some values tell it): an item not yet started then is not computed
+            and not yielded. A mapper may still compute and yield it: the caller must
+            accept both.
 
         Yields
         ------
@@ -286,33 +292,44 @@ class ForkMapper(Mapper):
 
     def imap(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
              order: Sequence[int] | None = None, *, small: bool = False,
-             meanwhile: Callable[[], Any] | None = None) -> Iterator[tuple[int, Any]]:
+             meanwhile: Callable[[], Any] | None = None, drop: set[int] | None = None
+             ) -> Iterator[tuple[int, Any]]:
         n = len(items)
+        drop = set() if drop is None else drop
         ctx = None if small or self.workers <= 1 or n <= 1 else _fork_context()
         if ctx is None:
             if meanwhile is not None:
                 meanwhile()
             for k in range(n):
-                yield k, fn(context, items[k])
+                if k not in drop:
+                    yield k, fn(context, items[k])
             return
         order = list(range(n)) if order is None else list(order)
         pool = ProcessPoolExecutor(max_workers=min(self.workers, n), mp_context=ctx,
                                    initializer=_fork_init,
                                    initargs=((fn, context, items), os.getpid()))
         futures: dict = {}
-        done: set[int] = set()
+        done: set[int] = set()  # yielded, or dropped before a worker took it
+        dropped = 0
         try:
             try:
                 futures = {k: pool.submit(_fork_call, k) for k in order}
                 if meanwhile is not None:
                     meanwhile()
                 for k in order:
+                    if len(drop) > dropped:  # not started yet: not started at all
+                        dropped = len(drop)
+                        for j in drop:
+                            if j not in done and futures[j].cancel():
+                                done.add(j)
+                    if k in done:
+                        continue
                     value = futures[k].result()
                     done.add(k)
                     yield k, value
             except BrokenProcessPool:  # a worker died: its values known so far, the rest here
                 for k in order:
-                    if k not in done:
+                    if k not in done and k not in drop:
                         f = futures.get(k)
                         ok = (f is not None and f.done() and not f.cancelled()
                               and f.exception() is None)

@@ -103,13 +103,16 @@ def prestart(*preload: str) -> None:
 def run_isolated(func: str, args: tuple, *, file: str, reader: str, timeout: float | None,
                  memory_gib: float | None, preload: tuple[str, ...] = (),
                  timeout_hint: str = "", part: str | None = None,
-                 progress: Callable[[str, float], None] | None = None) -> Any:
+                 progress: Callable[[str, float], None] | None = None,
+                 meanwhile: Callable[[], Any] | None = None) -> Any:
     """``func(*args, stage=...)`` (``func`` named ``"module:function"``) in a child process;
     its return value. ``stage(text)`` inside the child reports what it is doing; here,
     ``progress(stage, seconds)`` is called with the latest stage every :data:`TICK_S`.
     ``preload``: modules the child imports before it reads its request (a child
     :func:`prestart`-ed with the same ones is used if there is one). ``timeout_hint``: what
-    the timeout's message suggests besides a longer limit.
+    the timeout's message suggests besides a longer limit. ``meanwhile()`` is called here
+    once the request is sent, before the answer is read: work of this process that the
+    child's time then hides (the limits still count from the request).
 
     An :class:`InputError` raised in the child is raised here (with ``file``, and ``part``
     when it names none); any other
@@ -132,6 +135,8 @@ def run_isolated(func: str, args: tuple, *, file: str, reader: str, timeout: flo
             child.proc.stdin.close()
         except BrokenPipeError:  # the child died at once: told below
             pass
+        if meanwhile is not None:
+            meanwhile()
         messages = _receive(child.fd, start, timeout, progress)
     finally:
         notes = child.end()

@@ -65,13 +65,15 @@ class Reading:
     isolate: bool | None = None
     progress: bool = False
     max_triangles: int | None = MAX_TRIANGLES
+    meanwhile: Callable[[], Any] | None = None
 
 
 def load(path: str | Path, *, units: str | None = None, tolerance: float | None = None,
          allow_outside_paths: bool = False, mesh_tolerance: float | None = None,
          load_timeout: float | None = LOAD_TIMEOUT_S,
          load_memory: float | None = LOAD_MEMORY_GIB, isolate: bool | None = None,
-         progress: bool = False, max_triangles: int | None = MAX_TRIANGLES) -> Assembly:
+         progress: bool = False, max_triangles: int | None = MAX_TRIANGLES,
+         meanwhile: Callable[[], Any] | None = None) -> Assembly:
     """Load one assembly from a manifest, a model file, or a directory of mesh files.
 
     ``units`` overrides the unit the input's lengths are in (for files whose unit is not
@@ -87,7 +89,9 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     1 m, see :data:`ndbg_cli.core.constants.DEFLECTION_RELATIVE`). ``progress``: a status line
     on stderr while a child reads (see :class:`ndbg_cli.core.progress.StatusLine`).
     More than ``max_triangles`` triangles in the files (``None``: no limit) is an
-    :class:`InputError`, raised as soon as the files read so far pass it.
+    :class:`InputError`, raised as soon as the files read so far pass it. ``meanwhile()``
+    is called while each native reader's child reads (work of the caller's that the read
+    then hides; it should cost nothing when called again).
 
     * a YAML manifest (``.yaml``/``.yml``): parts are mesh files or 2D polygons;
     * one multi-body file: STEP/STP and IGES/IGS (tessellated with OpenCASCADE through
@@ -131,7 +135,7 @@ def load(path: str | Path, *, units: str | None = None, tolerance: float | None 
     check_max_triangles(max_triangles, str(path))
     reading = Reading(units=units, mesh_tolerance=mesh_tolerance, load_timeout=load_timeout,
                       load_memory=load_memory, isolate=isolate, progress=progress,
-                      max_triangles=max_triangles)
+                      max_triangles=max_triangles, meanwhile=meanwhile)
     with _quiet_numerics():
         asm = _load(p, str(path), reading, allow_outside_paths)
     if tolerance is not None:
@@ -585,7 +589,7 @@ def _read_instances(path: Path, reading: Reading, *, part: str | None = None
         return run_isolated(READ_MODEL, args, file=str(path), reader=reader_name(suffix),
                             timeout=reading.load_timeout, memory_gib=reading.load_memory,
                             preload=reader_preload(suffix), timeout_hint=hint,
-                            progress=status.update, part=part)
+                            progress=status.update, part=part, meanwhile=reading.meanwhile)
     finally:
         status.close()
 

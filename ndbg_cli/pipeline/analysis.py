@@ -121,13 +121,17 @@ def analyze_path(path: str | Path, options: Options = Options(),
     so one bad assembly in a batch does not stop the others. ``on_loaded(path, assembly)``
     is called with the loaded assembly (the pictures of ``ndbg analyze --html`` draw its
     meshes without reading the model again)."""
+    from .stages import load_kernels
+
     t0 = time.perf_counter()
     try:
         asm = load(path, units=options.units, tolerance=options.tolerance,
                    allow_outside_paths=options.allow_outside_paths,
                    mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
                    load_memory=options.load_memory, progress=options.progress,
-                   max_triangles=options.max_triangles)
+                   max_triangles=options.max_triangles,
+                   # with a second core, numba's start while a native reader's child reads
+                   meanwhile=load_kernels if options.workers > 1 else None)
     except NdbgError as exc:
         return error_record(path, exc, options.root)
     t_load = time.perf_counter() - t0

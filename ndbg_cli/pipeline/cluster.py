@@ -133,7 +133,9 @@ class ClusterMapper(Mapper):
 
     def imap(self, fn: Callable[[Any, Any], Any], context: Any, items: Sequence,
              order: Sequence[int] | None = None, *, small: bool = False,
-             meanwhile: Callable[[], Any] | None = None) -> Iterator[tuple[int, Any]]:
+             meanwhile: Callable[[], Any] | None = None, drop: set[int] | None = None
+             ) -> Iterator[tuple[int, Any]]:
+        # ``drop`` is not used: the hands are dealt before any value is known
         order = list(range(len(items))) if order is None else list(order)
         if not order:
             if meanwhile is not None:

@@ -11,6 +11,7 @@ suggested rotations/screws (5.2, 6), ``all`` = every one.
 
 from __future__ import annotations
 
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -114,7 +115,8 @@ class Measures:
 
 
 def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = None,
-                  timings: dict[str, float] | None = None) -> Contacts:
+                  timings: dict[str, float] | None = None, units_later: bool = False
+                  ) -> Contacts:
     """The contacts of ``asm`` (paper section 4.3), the contact graph and their report
     sections; the ``--interference`` policy applied (its warnings, or an
     :class:`~ndbg_cli.core.errors.InputError` under ``error``).
@@ -129,6 +131,10 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
         The per-part-pair result cache (:func:`ndbg_cli.core.cache.open_cache`), or None.
     timings : dict, optional
         Receives the wall-clock seconds of each stage.
+    units_later : bool
+        The caller makes each group of clashing parts one unit and finds the units' contacts
+        again (:func:`run_stages`): the contacts of clashing parts are not sought here
+        (``analyze_contacts``'s ``units_later``).
 
     Returns
     -------
@@ -152,7 +158,8 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
 
         ca = clock("contacts_s", lambda: analyze_contacts(
             asm, tolerance=options.tolerance, cache=cache, workers=options.workers,
-            meanwhile=_load_kernels if options.workers > 1 else None, mapper=options.mapper))
+            meanwhile=load_kernels if options.workers > 1 and _kernels_cold() else None,
+            mapper=options.mapper, units_later=units_later))
         warnings += check_interference_policy(asm, ca, options.interference)
         # wall-clock phases go to the report's timings (kept out unless asked for)
         for k in ("bvh_s", "broad_s", "narrow_s", "interference_s"):
@@ -379,13 +386,21 @@ def _translational(ndbgs: dict[str, NDBG]) -> dict[str, NDBG]:
     return {k: v for k, v in ndbgs.items() if k in TRANSLATION}
 
 
-def _load_kernels() -> None:
-    """Load the compiled kernels of the sweep test (numba's start, about 0.4 s, is paid by
-    the first kernel called in a process): done while the contact workers compute, since the
-    plan's proofs call them next."""
+def load_kernels() -> None:
+    """Load the compiled kernels of the sweep test (numba's start, about 0.3 s, is paid by
+    the first kernel called in a process), since the plan's proofs call them: done while a
+    native reader's child reads the model (:func:`ndbg_cli.io.loaders.load`'s
+    ``meanwhile``), else while the contact workers compute. Costs nothing once done."""
     from ..ndbg.infinite.sweep import warm_up
 
     warm_up()
+
+
+def _kernels_cold() -> bool:
+    """Whether :func:`load_kernels` is still to be done in this process (asked without
+    importing the kernels' module, which starts numba)."""
+    sweep = sys.modules.get("ndbg_cli.ndbg.infinite.sweep")
+    return sweep is None or not sweep.kernels_loaded()
 
 
 #: Strategies whose trees :func:`_prove` checks besides the reported plan's.
@@ -579,7 +594,7 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     # without a cache folder, the contacts of the pairs clash units leave unchanged are still
     # computed once: kept in memory for the units' analysis
     pairs = cache if cache is not None else MemoryCache()
-    contacts = find_contacts(asm, options, cache=pairs, timings=timings)
+    contacts = find_contacts(asm, options, cache=pairs, timings=timings, units_later=True)
     warnings = list(contacts.warnings)
     asm, contacts, interferences = _keep_clashes_together(asm, contacts, options, pairs,
                                                            timings)

@@ -319,6 +319,11 @@ def warm_up() -> None:
                   1.0, 1.0)
 
 
+def kernels_loaded() -> bool:
+    """Whether :func:`warm_up` (or a first test) has loaded this test's kernels here."""
+    return bool(first_blocking.signatures)
+
+
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
     """Whether part ``j`` blocks the infinite translation of part ``i`` along direction ``d``
     (a 3-vector; in 2D a 2-vector). Builds a :class:`SweepChecker`; reuse one for many calls."""
