@@ -409,3 +409,23 @@ def test_items_dropped_before_they_start_are_not_computed(workers):
         drop.update({9, 10, 11})
     assert got[0] == 0 and not {9, 10, 11} & set(got)
     assert set(got) >= set(range(1, 4)), got  # the first ones had started
+
+
+def _fails_in_a_child(parent: int, item: int) -> int:
+    if item == 3 and os.getpid() != parent:
+        raise RuntimeError("only in the child")
+    return 2 * item
+
+
+def test_a_helpers_batch_that_fails_in_its_child_is_computed_here():
+    """``Helper``: a batch whose function raises in the child is computed by the caller
+    (which would see the error itself); the next batches still go to the child."""
+    from ndbg_cli.core.pools import Helper
+
+    with Helper(_fails_in_a_child, os.getpid()) as helper:
+        helper.start([1, 2, 3])
+        assert helper.values() == [2, 4, 6]
+        helper.start([4, 5])
+        assert helper.values() == [8, 10]
+        with pytest.raises(RuntimeError):
+            helper.values()  # no batch started

@@ -389,6 +389,23 @@ def test_bruteforce_against_andor(seed, kind):
         assert c["min_directions"]["value"] == best
 
 
+@pytest.mark.parametrize("cut", [None, "work", "nodes"])
+def test_a_build_with_a_helper_process_is_the_build_in_one(cut):
+    """``Budget.workers`` 2: the nodes are expanded in batches, half of each in a forked
+    :class:`~ndbg_cli.core.pools.Helper`, and replayed in order, so the graph (its nodes in
+    the same order, their hyperarcs), the work spent and where a budget cuts it are those
+    of one process, whether the budget cuts it or not."""
+    rng = random.Random(7)
+    nd = random_ndbg(rng, 12, 3, 0.15)  # 352 subassemblies, 8,303 work units
+    limits = {None: {}, "work": {"max_work": 4_000}, "nodes": {"max_nodes": 250}}[cut]
+    one, two = (AndOrGraph(nd, base=0, budget=Budget(workers=w, **limits)).build()
+                for w in (1, 2))
+    assert list(two.arcs.items()) == list(one.arcs.items())
+    assert (two.truncated, two.cut_by, two.work, two.built_size) == \
+        (one.truncated, one.cut_by, one.work, one.built_size)
+    assert one.cut_by == cut and len(one.arcs) > 3 * 32  # several batches
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_bruteforce_eight_parts(seed):
     rng = random.Random(1000 + seed)

@@ -1,6 +1,7 @@
 """Process pools: ending one at once (Ctrl-C, SIGTERM, an error, a consumer that stops early),
 :func:`end_pool`, shared by the batch (:mod:`ndbg_cli.pipeline.batch`) and :class:`ForkMapper`;
-one function run beside the caller in a forked process (:class:`Forked`); and where one
+one function run beside the caller in a forked process (:class:`Forked`); a forked process
+computing batches of items beside the caller (:class:`Helper`); and where one
 assembly's per-pair work runs (:class:`Mapper`: :class:`ForkMapper`, forked processes on this
 machine, or :class:`ndbg_cli.pipeline.cluster.ClusterMapper`, a dask.distributed cluster).
 """
@@ -217,6 +218,101 @@ def _reader(conn: Any) -> Callable[[], Any]:
         return value
 
     return get
+
+
+class Helper:
+    """One forked process computing ``fn(context, item)`` for the batches of items the caller
+    hands it (:meth:`start`) while the caller computes others; :meth:`values` gives a
+    batch's values, in order. As for :class:`Forked`, ``fn`` and ``context`` reach the child
+    through fork; the items and the values travel pickled. Where no child could be started
+    (no ``fork``, a daemonic process), or it died or ``fn`` raised there, :meth:`values`
+    computes the batch here: the values are always those of a loop here. :meth:`close` (or
+    the end of a ``with`` block) ends the child.
+
+    >>> with Helper(lambda c, x: c * x, 10) as h:
+    ...     h.start([1, 2])
+    ...     h.values()
+    [10, 20]
+    """
+
+    def __init__(self, fn: Callable[[Any, Any], Any], context: Any) -> None:
+        self._fn, self._context = fn, context
+        self._batch: list | None = None
+        self._proc = None
+        try:
+            ctx = multiprocessing.get_context("fork")
+            self._conn, child = ctx.Pipe(duplex=True)
+            self._proc = ctx.Process(target=_helper_child, daemon=True,
+                                     args=(child, self._conn, fn, context))
+            self._proc.start()
+            child.close()
+        except (OSError, ValueError, AssertionError):  # no fork here, or a daemonic process
+            self._proc = None
+
+    def start(self, items: list) -> None:
+        """Hand the child ``items`` (the previous batch's values must have been taken)."""
+        if self._batch is not None:
+            raise RuntimeError("values() of the previous batch first")
+        self._batch = list(items)
+        if self._proc is not None:
+            try:
+                self._conn.send(self._batch)
+            except (OSError, ValueError):  # the child is gone: values() computes them
+                self.close()
+
+    def values(self) -> list:
+        """The values of the batch given to :meth:`start`: the child's, else computed here."""
+        batch, self._batch = self._batch, None
+        if batch is None:
+            raise RuntimeError("start() a batch first")
+        if self._proc is not None:
+            try:
+                ok, got = self._conn.recv()
+                if ok:
+                    return got
+            except (EOFError, OSError):  # the child died (killed, out of memory)
+                self.close()
+        return [self._fn(self._context, x) for x in batch]
+
+    def close(self) -> None:
+        """End the child (it reads end of file, or is killed after :data:`JOIN_S`)."""
+        if self._proc is not None:
+            proc, self._proc = self._proc, None
+            self._conn.close()
+            proc.join(timeout=JOIN_S)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+
+    def __enter__(self) -> Helper:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _helper_child(conn: Any, parent_end: Any, fn: Callable[[Any, Any], Any],
+                  context: Any) -> None:
+    """:class:`Helper`'s child: each batch received gets ``(True, values)`` back, or
+    ``(False, None)`` when ``fn`` raised (the parent then computes the batch itself); ends
+    at end of file."""
+    parent_end.close()
+    while True:
+        try:
+            batch = conn.recv()
+        except (EOFError, OSError):
+            break
+        try:
+            got = (True, [fn(context, x) for x in batch])
+        except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
+            got = (False, None)
+        try:
+            conn.send(got)
+        except OSError:  # the parent is gone
+            break
+        except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes)
+            conn.send((False, None))
+    conn.close()
 
 
 class Mapper(ABC):

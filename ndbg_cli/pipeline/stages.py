@@ -411,7 +411,7 @@ def _budget(options: Options) -> Any:
     from ..planning.andor import Budget
 
     return Budget(max_nodes=options.max_nodes, max_work=options.max_work,
-                  time_limit=options.time_limit)
+                  time_limit=options.time_limit, workers=options.workers)
 
 
 def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],

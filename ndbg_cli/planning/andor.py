@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core.constants import WORK_LIMIT
 from ..core.gc_pause import gc_paused
+from ..core.pools import Helper
 from ..ndbg.candidates import connected_free_sets
 from ..ndbg.components import balanced_free_set, condense, free_sets, strongly_connected
 from ..ndbg.dbg import bits, closure_table
@@ -30,6 +31,11 @@ from ..ndbg.model import NDBG, ConnectivityTest
 #: on sparse random DBGs over grid-like contact graphs, where most connected sets leave a
 #: split rest, it costs far more (benchmarks/NOTES.md).
 CONNECTED_SEARCH = 20_000
+#: :meth:`AndOrGraph.build` with ``Budget.workers`` over 1 starts its :class:`Helper` once
+#: this many subassemblies wait, then expands them this many at a time (half there): a
+#: stop mid-batch wastes at most one batch.
+HELPER_QUEUE = 16
+BATCH = 32
 
 
 @dataclass(frozen=True)
@@ -44,6 +50,9 @@ class Budget:
     time_limit: float | None = None
     split_limit: int | None = 5_000
     max_work: int | None = WORK_LIMIT
+    #: processes :meth:`AndOrGraph.build` may use (a second one is a :class:`Helper`); the
+    #: graph does not depend on it
+    workers: int = 1
 
     def meter(self) -> Meter:
         """A fresh :class:`Meter` for one search under this budget."""
@@ -248,6 +257,16 @@ def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,
     return _hyperarcs(mask, found), truncated
 
 
+def _splits(context: tuple, mask: int) -> tuple[list[Hyperarc], bool, int]:
+    """:func:`node_splits` of ``mask`` with ``context`` ``(ndbg, base, connected, limit)``:
+    ``(hyperarcs, truncated, work units spent)``."""
+    ndbg, base, connected, limit = context
+    meter = Meter(Budget(max_work=None))
+    arcs, trunc = node_splits(ndbg, mask, base=base, connected=connected, limit=limit,
+                              meter=meter)
+    return arcs, trunc, meter.work
+
+
 def _hyperarcs(mask: int, found: dict[int, list[int]]) -> list[Hyperarc]:
     """Moved sets merged by unordered pair into hyperarcs, sorted by ``(balance, left)``."""
     low = mask & -mask
@@ -301,17 +320,24 @@ class AndOrGraph:
         self.cut_from: AndOrGraph | None = None
         self._built = False
 
-    def expand(self, mask: int, meter: Meter | None = None) -> list[Hyperarc]:
+    def expand(self, mask: int, meter: Meter | None = None,
+               splits: tuple[list[Hyperarc], bool, int] | None = None) -> list[Hyperarc]:
         """The hyperarcs of ``mask`` (memoized; the work of computing them is charged to
-        ``meter``, the calling search's)."""
+        ``meter``, the calling search's). ``splits``: :func:`_splits` of ``mask``, when the
+        caller has it."""
         got = self.arcs.get(mask)
         if got is None:
-            got, trunc = node_splits(self.ndbg, mask, base=self.base, connected=self.connected,
-                                     limit=self.budget.split_limit, meter=meter)
+            got, trunc, work = splits or _splits(self._context, mask)
+            if meter is not None:
+                meter.charge(work)
             self.split_truncated |= trunc
             self.truncated |= trunc
             self.arcs[mask] = got
         return got
+
+    @property
+    def _context(self) -> tuple:
+        return self.ndbg, self.base, self.connected, self.budget.split_limit
 
     @gc_paused()
     def build(self) -> AndOrGraph:
@@ -325,29 +351,17 @@ class AndOrGraph:
         meter = self.budget.meter()
         queue = deque([self.root])
         seen = {self.root}
-        while queue:
-            # every subassembly seen must be expanded: more than max_nodes of them can
-            # never make a complete graph, so stop at once (deterministic, unlike the clock)
-            if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
-                self.truncated, self.cut_by = True, "nodes"
-                break
-            why = meter.spent()
-            if why is not None:
-                self.truncated, self.cut_by = True, why
-                break
-            m = queue.popleft()
-            arcs = self.expand(m, meter)
-            if self.split_truncated:
-                # A node's partitionings were cut: the graph cannot be complete, so the
-                # exact counts are out of reach; stop now and leave the rest to the
-                # anytime searches.
-                self.truncated, self.cut_by = True, "splits"
-                break
-            for h in arcs:
-                for child in (h.right, h.left):
-                    if child not in seen:
-                        seen.add(child)
-                        queue.append(child)
+        helper = None
+        try:
+            while queue:
+                if helper is None and self.budget.workers > 1 and len(queue) >= HELPER_QUEUE:
+                    helper = Helper(_splits, self._context)
+                batch = [queue.popleft() for _ in range(min(len(queue), BATCH if helper else 1))]
+                if not self._grow(batch, self._batch_splits(batch, helper), meter, seen, queue):
+                    break
+        finally:
+            if helper is not None:
+                helper.close()
         self.elapsed = time.perf_counter() - start
         self.work = meter.work
         # the size the build reached (the anytime searches may expand more nodes later)
@@ -355,6 +369,48 @@ class AndOrGraph:
         self._built = True
         self._dp: dict[str, dict[int, int | None]] = {}
         return self
+
+    def _batch_splits(self, batch: list[int], helper: Helper | None) -> list:
+        """:func:`_splits` of the nodes of ``batch`` not expanded yet (else None), half of
+        them computed by ``helper`` meanwhile."""
+        todo = [m for m in batch if m not in self.arcs]
+        if helper is None or len(todo) < 2:
+            found = {m: _splits(self._context, m) for m in todo}
+        else:
+            # every other node there (neighbours in the queue cost alike)
+            helper.start(todo[1::2])
+            found = {m: _splits(self._context, m) for m in todo[::2]}
+            found.update(zip(todo[1::2], helper.values()))
+        return [found.get(m) for m in batch]
+
+    def _grow(self, batch: list[int], splits: list, meter: Meter, seen: set[int],
+              queue: deque) -> bool:
+        """The nodes of ``batch`` expanded in order (their ``splits``), as one at a time
+        would: before each, the budget checked; after it, its children queued. False when
+        the build must stop."""
+        for m, got in zip(batch, splits):
+            # every subassembly seen must be expanded: more than max_nodes of them can
+            # never make a complete graph, so stop at once (deterministic, unlike the clock)
+            if len(seen) > self.budget.max_nodes or len(self.arcs) >= self.budget.max_nodes:
+                self.truncated, self.cut_by = True, "nodes"
+                return False
+            why = meter.spent()
+            if why is not None:
+                self.truncated, self.cut_by = True, why
+                return False
+            arcs = self.expand(m, meter, got)
+            if self.split_truncated:
+                # A node's partitionings were cut: the graph cannot be complete, so the
+                # exact counts are out of reach; stop now and leave the rest to the
+                # anytime searches.
+                self.truncated, self.cut_by = True, "splits"
+                return False
+            for h in arcs:
+                for child in (h.right, h.left):
+                    if child not in seen:
+                        seen.add(child)
+                        queue.append(child)
+        return True
 
     # ------------------------------------------------------------------ exact measures
     @property
