@@ -233,7 +233,16 @@ def triangle_pairs(asm: Assembly) -> int:
     (:func:`~ndbg_cli.ndbg.infinite.convex_cones.far_convex` decides), counts as
     :data:`CONVEX_PAIR_COST` plus one per :data:`CONVEX_DIFFERENCES_PER_PAIR` difference
     vectors. The CLI skips the NDBG with a warning above
-    ``--infinite-budget`` (example counts in benchmarks/NOTES.md)."""
+    ``--infinite-budget`` (example counts in benchmarks/NOTES.md). Kept on ``asm`` (the
+    CLI asks twice: to decide, then to say why)."""
+    got = asm.__dict__.get("_triangle_pairs")
+    if got is None:
+        got = _triangle_pairs(asm)
+        object.__setattr__(asm, "_triangle_pairs", got)
+    return got
+
+
+def _triangle_pairs(asm: Assembly) -> int:
     closed = closed_parts(asm)
     # open shells count twice: their triangles face both ways (part_triangles)
     t = np.array([p.check.triangles * (1 if c else 2) if asm.dimension == 3
