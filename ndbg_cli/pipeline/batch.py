@@ -13,7 +13,6 @@ that imports ``distributed``), where a single assembly's pair work is spread ins
 
 from __future__ import annotations
 
-import asyncio
 import dataclasses
 import multiprocessing
 import os
@@ -270,6 +269,8 @@ def _one_here(client, cluster, target: Path, options: Options, debug: bool,
 
 def _gather_in_order(client, cluster, targets: list[Path], options: Options,
                      debug: bool) -> Iterator[dict]:
+    import asyncio  # here: a cluster's run only (its import costs 20 ms on every run)
+
     from .cluster import disconnect
 
     previous = signal.signal(signal.SIGTERM, _raise_interrupted)
