@@ -429,3 +429,23 @@ def test_a_helpers_batch_that_fails_in_its_child_is_computed_here():
         assert helper.values() == [8, 10]
         with pytest.raises(RuntimeError):
             helper.values()  # no batch started
+
+
+def test_a_helper_left_with_a_batch_under_way_ends_at_once():
+    """``Helper.close`` after ``start`` without ``values`` (the caller raised meanwhile): the
+    child, busy with the batch, is terminated rather than waited for."""
+    from ndbg_cli.core.pools import Helper
+
+    helper = Helper(_slow_item, 30.0)
+    helper.start([1])
+    t0 = time.monotonic()
+    helper.close()
+    assert time.monotonic() - t0 < 3.0
+
+
+def test_items_that_do_not_pickle_are_computed_by_the_caller():
+    from ndbg_cli.core.pools import Helper
+
+    with Helper(lambda c, x: x(c), 3) as helper:
+        helper.start([lambda c: c + 1, lambda c: c * 2])  # lambdas: no pickle
+        assert helper.values() == [4, 6]

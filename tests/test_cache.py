@@ -46,6 +46,20 @@ def test_warm_run_hits_every_pair_and_is_byte_identical(tmp_path):
     assert any(cache.rglob("*.pkl"))
 
 
+def test_a_warm_run_with_a_clash_recomputes_no_pair(tmp_path):
+    """clash.yaml: the first analysis leaves the clashing parts' contacts to the units' (its
+    pairs of a clashing part may be dropped before they start), yet every pair it computed
+    is cached, the interference booleans included: a warm run misses none."""
+    shutil.copytree(EX / "meshes" / "clash", tmp_path / "a" / "meshes" / "clash")
+    manifest = tmp_path / "a" / "clash.yaml"
+    shutil.copy(EX / "clash.yaml", manifest)
+    cache = tmp_path / "cache"
+    cold = _counts(manifest, cache)
+    warm = _counts(manifest, cache)
+    assert cold["contacts_misses"] > 0
+    assert warm["contacts_misses"] == 0 and warm["contacts_hits"] > 0
+
+
 def test_editing_one_part_recomputes_only_its_pairs(tmp_path):
     manifest = _copy_hover(tmp_path / "a")
     cache = tmp_path / "cache"

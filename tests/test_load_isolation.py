@@ -320,6 +320,17 @@ def test_child_timeout_and_progress(child_path):
     assert "sleeping" in seen
 
 
+def test_work_meanwhile_longer_than_the_limit_is_not_the_readers_timeout(child_path):
+    """``run_isolated(meanwhile=)`` outlasting ``timeout``: the child answered in time, and
+    what waits in the pipe is read before any timeout is declared (a small --load-timeout
+    and numba compiling its kernels meanwhile gave 'did not finish')."""
+    calls = []
+    got = run_isolated("ndbg_test_child_funcs:arrays", (10,), file="f.step",
+                       reader="the X reader", timeout=1.0, memory_gib=2.0,
+                       meanwhile=lambda: (time.sleep(1.5), calls.append(1)))
+    assert calls == [1] and got[0][0] == "a"
+
+
 def test_child_arrays_cross_exactly(child_path):
     (name, v, f), = _isolated("arrays", 200_000)
     rng = np.random.default_rng(200_000)

@@ -207,14 +207,15 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     t_int += time.perf_counter() - ti
     clashing = _clashing(inside, results) if units_later else None
     _pair_results(asm, geos, tol, ang, pairs, results, todo, mapper, meanwhile, clashing)
-    fresh = set(todo)
+    for k in todo:
+        if results[k] is not None and keys[k] is not None:
+            cache.put("contacts", keys[k], results[k][:4])
     for k, (a, b, _) in enumerate(pairs):
         if clashing is not None and (a in clashing or b in clashing):
-            # left to the units' analysis (whether or not a worker computed it)
-            found, approximate, _, _, seconds = results[k]
+            # left to the units' analysis (whether or not a worker computed it, or it was
+            # dropped: None)
+            found, approximate, _, _, seconds = results[k] or (None, False, [], 0, 0.0)
             results[k] = (found, approximate, [], 0, seconds)
-        elif keys[k] is not None and k in fresh:
-            cache.put("contacts", keys[k], results[k][:4])
     for (a, b, _), (found, approximate, cs, count, seconds) in zip(pairs, results):
         if approximate:
             approx.append((asm.parts[a].id, asm.parts[b].id))
@@ -249,8 +250,8 @@ def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: floa
     """Put :func:`_pair_result` of ``pairs[k]`` in ``results[k]`` for ``k`` in ``todo``, by
     ``mapper`` (``meanwhile`` as in :func:`analyze_contacts`). With ``clashing`` (the parts
     of the clashes known so far, grown here), once the crossing pairs' interference tests
-    are all in, the pairs of a clashing part not yet started are left out (their result is
-    ``(None, False, [], 0, 0.0)``)."""
+    are all in, the pairs of a clashing part not yet started are left out (their result
+    stays None)."""
     size = {k: len(geos[pairs[k][0]].triangles) + len(geos[pairs[k][1]].triangles)
             for k in todo}
     # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
@@ -266,9 +267,11 @@ def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: floa
         known()
     # few triangles are not worth the workers' start, unless this process has work of its
     # own meanwhile (numba's start, 0.5 s or more), which their time then hides
+    # (``drop`` only with the clashes to follow: a caller's own Mapper may predate it)
+    more = {} if clashing is None else {"drop": drop}
     for x, res in mapper.imap(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo],
                               small=sum(size.values()) < MIN_PARALLEL_TRIANGLES
-                              and meanwhile is None, meanwhile=meanwhile, drop=drop):
+                              and meanwhile is None, meanwhile=meanwhile, **more):
         k = todo[x]
         results[k] = res
         crossing_left -= bool(pairs[k][2])
@@ -276,9 +279,6 @@ def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: floa
             clashing |= _clashing([res[0]], [])
             if not crossing_left:
                 known()
-    for k in todo:
-        if results[k] is None:
-            results[k] = (None, False, [], 0, 0.0)
 
 
 def _clashing(found: Sequence[Interference | None], results: Sequence[tuple | None]

@@ -257,8 +257,8 @@ class Helper:
         if self._proc is not None:
             try:
                 self._conn.send(self._batch)
-            except (OSError, ValueError):  # the child is gone: values() computes them
-                self.close()
+            except Exception:  # noqa: BLE001 (the child is gone, or the items do not
+                self.close()    # pickle: values() computes them here)
 
     def values(self) -> list:
         """The values of the batch given to :meth:`start`: the child's, else computed here."""
@@ -275,10 +275,13 @@ class Helper:
         return [self._fn(self._context, x) for x in batch]
 
     def close(self) -> None:
-        """End the child (it reads end of file, or is killed after :data:`JOIN_S`)."""
+        """End the child: it reads end of file when idle; with a batch under way (the caller
+        left before its values), it is terminated (killed after :data:`JOIN_S`)."""
         if self._proc is not None:
             proc, self._proc = self._proc, None
             self._conn.close()
+            if self._batch is not None:
+                proc.terminate()
             proc.join(timeout=JOIN_S)
             if proc.is_alive():
                 proc.kill()
@@ -295,7 +298,8 @@ def _helper_child(conn: Any, parent_end: Any, fn: Callable[[Any, Any], Any],
                   context: Any) -> None:
     """:class:`Helper`'s child: each batch received gets ``(True, values)`` back, or
     ``(False, None)`` when ``fn`` raised (the parent then computes the batch itself); ends
-    at end of file."""
+    at end of file. Ctrl-C is left to the parent (which then ends it)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     parent_end.close()
     while True:
         try:
@@ -416,7 +420,7 @@ class ForkMapper(Mapper):
                     if len(drop) > dropped:  # not started yet: not started at all
                         dropped = len(drop)
                         for j in drop:
-                            if j not in done and futures[j].cancel():
+                            if j not in done and j in futures and futures[j].cancel():
                                 done.add(j)
                     if k in done:
                         continue

@@ -171,14 +171,15 @@ def _receive(fd: int, start: float, timeout: float | None,
     last_tick = -TICK_S
     while True:
         now = time.monotonic() - start
-        if timeout is not None and now >= timeout:
-            return None
+        late = timeout is not None and now >= timeout
         if progress is not None and now - last_tick >= TICK_S:
             progress(stage, now)
             last_tick = now
         wait = TICK_S if timeout is None else min(TICK_S, timeout - now)
         ready, _, _ = select.select([fd], [], [], max(wait, 0.0))
         if not ready:
+            if late:  # nothing more came (what came before the limit has been read)
+                return None
             continue
         chunk = os.read(fd, 1 << 20)
         if not chunk:
