@@ -50,8 +50,9 @@ from ._pictures import Pictures
               "is its file).")
 @click.option("-j", "--jobs", type=click.IntRange(1), default=None,
               help="Worker processes: one assembly each in a batch; for a single assembly, "
-              "its part pairs (contacts, infinite-translation NDBG) (default: the number of "
-              "cores; with --scheduler local, the cluster's workers). Same reports.")
+              "its part pairs (contacts, infinite-translation NDBG) and its AND/OR graph "
+              "(default: the number of cores; with --scheduler local, the cluster's "
+              "workers). Same reports.")
 @click.option("--scheduler", metavar="ADDRESS", help="Run on a dask.distributed cluster: "
               "a batch one assembly per task; a single assembly here, with its part pairs "
               "(contacts, infinite-translation NDBG) on the cluster. tcp://HOST:PORT of a "
