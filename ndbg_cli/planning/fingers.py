@@ -7,7 +7,7 @@ import numpy as np
 import shapely
 
 from ..contacts.facets import point_triangle_distance, triangle_index
-from ..core.assembly import Assembly
+from ..core.assembly import Assembly, Part
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 
 
@@ -23,58 +23,69 @@ def exterior_faces(asm: Assembly, digits: int = 6) -> list[tuple[int, list[float
     kept if all are covered: a finger cannot touch a face another part lies on; a part that
     interpenetrates the face deeply is not seen, interferences are reported apart)."""
     gap = 2.0 * asm.length_tolerance
-    # (part, normal key, point, outward unit normal), each orientation's faces largest first
-    groups: list[list[tuple[int, list[float], list[float], np.ndarray]]] = []
-    for k, part in enumerate(asm.parts):
-        if asm.dimension == 2:
-            poly = part.polygon
-            xy = np.asarray(poly.exterior.coords)[:-1]
-            ccw = poly.exterior.is_ccw
-            edges: dict[tuple[float, ...], list[tuple[float, list[float]]]] = {}
-            for a, b in zip(xy, np.roll(xy, -1, axis=0)):
-                e = b - a
-                nrm = np.array([e[1], -e[0]]) if ccw else np.array([-e[1], e[0]])
-                length = np.linalg.norm(nrm)
-                if length > 0:
-                    key = tuple(np.round(nrm / length, digits).tolist())
-                    edges.setdefault(key, []).append((float(length), ((a + b) / 2).tolist()))
-            for key, cands in edges.items():
-                groups.append([(k, list(key), mid, np.asarray(key)) for _, mid in
-                               sorted(cands, key=lambda c: -c[0])[:FINGER_TRIES]])
-            continue
-        mesh = part.mesh
-        unit = np.asarray(mesh.face_normals)
-        areas = np.asarray(mesh.area_faces)
-        # one orientation: normals within the contact angle tolerance of a leader's (a
-        # finely tessellated curved face is not thousands of orientations: a finger blocks
-        # the same directions on any of them, up to that tolerance)
-        inverse = orientations(unit, areas)
-        # each orientation's faces, largest first (ties: lower index first)
-        order = np.lexsort((np.arange(len(areas)), -areas, inverse))
-        # the first FINGER_TRIES faces of each orientation, in that order
-        counts = np.bincount(inverse)
-        starts = np.cumsum(counts) - counts
-        rank = np.arange(len(order)) - np.repeat(starts, counts)
-        tried = order[rank < FINGER_TRIES]
-        keys = np.round(unit[tried], digits).tolist()
-        centers = np.asarray(mesh.triangles_center)[tried].tolist()
-        ends = np.cumsum(np.minimum(counts, FINGER_TRIES)).tolist()
-        for lo, hi in zip([0] + ends[:-1], ends):
-            groups.append([(k, keys[x], centers[x], unit[tried[x]]) for x in range(lo, hi)])
-    # round r tries the r-th face of every orientation still without an exposed one
-    chosen: list[tuple | None] = [None] * len(groups)
-    todo = list(range(len(groups)))
+    # the faces tried, orientation by orientation (each one's largest first): their part,
+    # orientation (numbered over all parts) and rank in it, normal key, point and outward
+    # unit normal, as arrays (the engine tries about 100,000 faces)
+    tried = [_tried_faces(part, asm.dimension, digits) for part in asm.parts]
+    sizes = [int(t[0].max()) + 1 if len(t[0]) else 0 for t in tried]
+    first = np.cumsum([0] + sizes[:-1])
+    owner = np.concatenate([np.full(len(t[0]), k) for k, t in enumerate(tried)]).astype(int)
+    group = np.concatenate([t[0] + f for t, f in zip(tried, first)]).astype(int)
+    rank, keys, point, normal = (np.concatenate([t[j] for t in tried])
+                                 for j in range(1, 5))
+    # round r tries the r-th face of every orientation still without an exposed one (in the
+    # orientations' order, as the probes' test wants them)
+    chosen = np.full(sum(sizes), -1)
     for r in range(FINGER_TRIES):
-        todo = [g for g in todo if chosen[g] is None and r < len(groups[g])]
-        if not todo:
+        todo = np.flatnonzero((rank == r) & (chosen[group] < 0))
+        if not len(todo):
             break
-        cands = [groups[g][r] for g in todo]
-        owner = np.array([c[0] for c in cands])
-        probe = np.array([np.asarray(c[2]) + gap * c[3] for c in cands])
-        for g, c, cov in zip(todo, cands, covered(asm, owner, probe, gap)):
-            if not cov:
-                chosen[g] = c[:3]
-    return [c for c in chosen if c is not None]
+        free = todo[~covered(asm, owner[todo], point[todo] + gap * normal[todo], gap)]
+        chosen[group[free]] = free
+    got = chosen[chosen >= 0]
+    return list(zip(owner[got].tolist(), keys[got].tolist(), point[got].tolist()))
+
+
+def _tried_faces(part: Part, dimension: int, digits: int) -> tuple[np.ndarray, ...]:
+    """:func:`exterior_faces`' faces of one part: ``(orientation, rank, key, point, normal)``
+    arrays, orientation by orientation (numbered from 0), largest face first in each (ties:
+    lower index first), at most :data:`FINGER_TRIES` each. 3D: triangles, keyed by their
+    normal rounded to ``digits``, at their centroid; 2D: polygon edges, keyed and directed
+    by their rounded normal, at their midpoint."""
+    if dimension == 2:
+        poly = part.polygon
+        xy = np.asarray(poly.exterior.coords)[:-1]
+        ccw = poly.exterior.is_ccw
+        edges: dict[tuple[float, ...], list[tuple[float, list[float]]]] = {}
+        for a, b in zip(xy, np.roll(xy, -1, axis=0)):
+            e = b - a
+            nrm = np.array([e[1], -e[0]]) if ccw else np.array([-e[1], e[0]])
+            length = np.linalg.norm(nrm)
+            if length > 0:
+                key = tuple(np.round(nrm / length, digits).tolist())
+                edges.setdefault(key, []).append((float(length), ((a + b) / 2).tolist()))
+        rows = [(g, r, key, mid) for g, (key, cands) in enumerate(edges.items())
+                for r, (_, mid) in enumerate(sorted(cands, key=lambda c: -c[0])[:FINGER_TRIES])]
+        if not rows:
+            return np.zeros(0, int), np.zeros(0, int), *(np.zeros((0, 2)),) * 3
+        g, r, key, mid = (np.array(x) for x in zip(*rows))
+        return g, r, key.astype(float), mid.astype(float), key.astype(float)
+    mesh = part.mesh
+    unit = np.asarray(mesh.face_normals)
+    areas = np.asarray(mesh.area_faces)
+    # one orientation: normals within the contact angle tolerance of a leader's (a finely
+    # tessellated curved face is not thousands of orientations: a finger blocks the same
+    # directions on any of them, up to that tolerance)
+    inverse = orientations(unit, areas)
+    # each orientation's faces, largest first (ties: lower index first)
+    order = np.lexsort((np.arange(len(areas)), -areas, inverse))
+    counts = np.bincount(inverse)
+    starts = np.cumsum(counts) - counts
+    rank = np.arange(len(order)) - np.repeat(starts, counts)
+    keep = rank < FINGER_TRIES
+    faces = order[keep]
+    return (inverse[faces], rank[keep], np.round(unit[faces], digits),
+            np.asarray(mesh.triangles_center)[faces], unit[faces])
 
 
 def orientations(normals: np.ndarray, areas: np.ndarray) -> np.ndarray:
@@ -114,6 +125,8 @@ def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.n
     shapely distances)."""
     out = np.zeros(len(q), dtype=bool)
     reach = 1.5 * gap
+    by_x = np.argsort(q[:, 0], kind="stable") if asm.dimension == 3 else None
+    xs = q[by_x, 0] if by_x is not None else None
     for j, other in enumerate(asm.parts):
         if asm.dimension == 2:
             near = owner != j
@@ -122,8 +135,11 @@ def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.n
                 out[near] |= shapely.distance(other.polygon, pts) <= reach
             continue
         lo, hi = other.mesh.bounds
-        near = np.flatnonzero((owner != j) & ~out
-                              & np.all((q >= lo - reach) & (q <= hi + reach), axis=1))
+        # the points in the part's grown box: those in its x range first (sorted by x)
+        span = by_x[np.searchsorted(xs, lo[0] - reach, "left"):
+                    np.searchsorted(xs, hi[0] + reach, "right")]
+        near = np.sort(span[(owner[span] != j) & ~out[span]
+                            & np.all((q[span] >= lo - reach) & (q[span] <= hi + reach), axis=1)])
         if len(near):
             # the triangles whose boxes meet each point's ball (the part's R-tree, all points
             # in one query), then the exact point-triangle distances
