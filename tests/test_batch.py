@@ -449,3 +449,17 @@ def test_items_that_do_not_pickle_are_computed_by_the_caller():
     with Helper(lambda c, x: x(c), 3) as helper:
         helper.start([lambda c: c + 1, lambda c: c * 2])  # lambdas: no pickle
         assert helper.values() == [4, 6]
+
+
+def test_spare_workers_leave_out_a_forked_job_still_at_work():
+    """``spare_workers(2)``: none while a ``Forked`` job's child works (the AND/OR build then
+    starts no Helper beside it: three busy processes on two cores), one once its value is
+    sent, and again after it is taken."""
+    from ndbg_cli.core.pools import Forked, spare_workers
+
+    assert spare_workers(2) == 1
+    job = Forked(_slow_item, 1.0, 7)
+    assert spare_workers(2) == 0
+    time.sleep(2.0)  # its value is in the pipe
+    assert spare_workers(2) == 1
+    assert job.result() == 7 and spare_workers(2) == 1

@@ -13,6 +13,7 @@ import os
 import signal
 import threading
 import time
+import weakref
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -103,8 +104,14 @@ class Forked:
             send.close()
             if get is not None:
                 get.close()
+            _RUNNING.add(self)
         except (OSError, ValueError, AssertionError):  # no fork here, or a daemonic process
             self._proc = self._input = None
+
+    def busy(self) -> bool:
+        """Whether a child works on the job (or waits for its input): it has not sent its
+        value yet."""
+        return self._proc is not None and not self._recv.poll()
 
     def send(self, value: Any) -> None:
         """Give the child the value its ``get()`` waits for (once; ``later`` jobs only)."""
@@ -122,6 +129,7 @@ class Forked:
 
     def result(self) -> Any:
         """The value of ``fn(*args)``: the child's, else computed here."""
+        _RUNNING.discard(self)
         if self._proc is not None:
             proc, self._proc = self._proc, None
             try:
@@ -145,6 +153,7 @@ class Forked:
     def cancel(self) -> None:
         """Drop the job: its child ended now (a ``later`` child waiting for its input first
         reads end of file), nothing computed here."""
+        _RUNNING.discard(self)
         if self._input is not None:
             self._input.close()
             self._input = None
@@ -161,6 +170,17 @@ class Forked:
         if self._sent is self._UNSENT:
             raise RuntimeError("the job's input was never sent")
         return self._sent
+
+
+#: This process's :class:`Forked` jobs with a child, until their value is taken.
+_RUNNING: weakref.WeakSet = weakref.WeakSet()
+
+
+def spare_workers(workers: int) -> int:
+    """How many processes beside this one are free for more work, of ``workers`` in all:
+    ``workers - 1`` less this process's :class:`Forked` jobs whose child still works (so
+    that a :class:`Helper` does not make three busy processes on two cores)."""
+    return workers - 1 - sum(1 for job in list(_RUNNING) if job.busy())
 
 
 def _forked_child(send: Any, fn: Callable[..., Any], args: tuple, get: Any = None,

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..core.constants import WORK_LIMIT
 from ..core.gc_pause import gc_paused
-from ..core.pools import Helper
+from ..core.pools import Helper, spare_workers
 from ..ndbg.candidates import connected_free_sets
 from ..ndbg.components import balanced_free_set, condense, free_sets, strongly_connected
 from ..ndbg.dbg import bits, closure_table
@@ -32,8 +32,10 @@ from ..ndbg.model import NDBG, ConnectivityTest
 #: split rest, it costs far more (benchmarks/NOTES.md).
 CONNECTED_SEARCH = 20_000
 #: :meth:`AndOrGraph.build` with ``Budget.workers`` over 1 starts its :class:`Helper` once
-#: this many subassemblies wait, then expands them this many at a time (half there): a
-#: stop mid-batch wastes at most one batch.
+#: this many subassemblies wait and a process is spare (not while the side job of the
+#: interlock LP and the grasps still works: :func:`~ndbg_cli.core.pools.spare_workers`),
+#: then expands them this many at a time (half there): a stop mid-batch wastes at most one
+#: batch.
 HELPER_QUEUE = 16
 BATCH = 32
 
@@ -354,7 +356,8 @@ class AndOrGraph:
         helper = None
         try:
             while queue:
-                if helper is None and self.budget.workers > 1 and len(queue) >= HELPER_QUEUE:
+                if (helper is None and self.budget.workers > 1 and len(queue) >= HELPER_QUEUE
+                        and spare_workers(self.budget.workers) > 0):
                     helper = Helper(_splits, self._context)
                 batch = [queue.popleft() for _ in range(min(len(queue), BATCH if helper else 1))]
                 if not self._grow(batch, self._batch_splits(batch, helper), meter, seen, queue):
