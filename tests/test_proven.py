@@ -15,6 +15,10 @@ from ndbg_cli.ndbg.infinite.sweep import SweepChecker
 from ndbg_cli.ndbg.model import NDBG, Region
 from ndbg_cli.planning.proven import Rows, chooser, directions, greedy, prove, snap
 
+from conftest import ROOT
+
+EX = ROOT / "assemblies"
+
 
 def _solid(pid, *boxes):
     """A part made of the union of axis-aligned ``boxes`` ``((lo), (hi))``."""
@@ -75,6 +79,20 @@ def test_pocket_under_bridge_is_taken_apart_bridge_first_along_exact_axes():
         assert _moves_apart(asm, s["moved"], s["onto"], d)
     # and the block, moved first along +z, does hit the bridge (the check can fail)
     assert not _moves_apart(asm, ["block"], ["base", "bridge"], (0, 0, 1))
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_rows_filled_at_once_are_the_rows_asked_one_by_one(workers):
+    """``Rows.fill``: every part's row along the first directions, every other direction in
+    a forked Helper with two workers, equal to the rows the sweep test gives one by one (the
+    bell's 22 parts along the six axes: parts that block and parts that do not)."""
+    asm = ndbg_cli.load(EX / "bell.yaml")
+    dirs = directions(3, [], [])
+    filled, one = Rows(SweepChecker(asm), len(asm), dirs), Rows(SweepChecker(asm), len(asm), dirs)
+    filled.fill(range(len(dirs)), workers)
+    want = {(k, i): one.row(k, i) for k in range(len(dirs)) for i in range(len(asm))}
+    assert {(k, i): filled.row(k, i) for k in range(len(dirs)) for i in range(len(asm))} == want
+    assert any(want.values()) and not all(want.values())
 
 
 def test_a_failing_candidate_step_is_replaced_by_a_searched_proven_tree():

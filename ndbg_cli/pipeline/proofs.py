@@ -22,6 +22,7 @@ from ..ndbg.dbg import bits
 from ..ndbg.model import NDBG, ConnectivityTest
 from ..planning.plans import Plan, Step, region_rank
 from ..planning.proven import (
+    GREEDY_WIDE,
     Direction,
     Rows,
     chooser,
@@ -82,7 +83,7 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
                others: Sequence[str] = (), budget: int = 1_000_000,
                exact_rounds: int = EXACT_ROUNDS,
                shallow: Callable[[int], Sequence[tuple[int, int, Sequence[float] | None]]
-                                 | None] | None = None) -> dict:
+                                 | None] | None = None, workers: int = 1) -> dict:
     """Prove ``chosen`` (a found translation plan) step by step, replacing its steps by
     proven ones (or by a proven tree when a step fails); ``found`` becomes False when no
     proven tree exists along the directions tried. Returns the report's ``verified``,
@@ -94,7 +95,9 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     NDBG may be computed (:data:`EXACT_ROUNDS`). ``shallow``: given the least depth of the proven
     trees found, the steps of a shallower candidate tree of the least candidate depth (or
     ``None``), proven step by step; proven, it joins ``proofs`` (strategy ``shortest``) and
-    decides the proven minimum depth."""
+    decides the proven minimum depth. With ``workers`` over 1, a candidate tree and
+    ``others``, the rows the greedy searches read (every part along the first natural
+    directions) are computed first, half in a second process (:meth:`Rows.fill`)."""
     from ..ndbg.infinite.sweep import SweepChecker
 
     nd = chosen.ndbg
@@ -107,6 +110,8 @@ def prove_plan(asm: Assembly, analysis: Any, chosen: Plan, *, strategy: str,
     n_nat = sum(d.source != "region" for d in dirs)  # natural ones first (directions())
     cand = [(s.mask, s.moved, None if s.region is None else nd.regions[s.region].direction)
             for s in chosen.sequence()]
+    if workers > 1 and cand and others:
+        rows.fill(range(min(n_nat, GREEDY_WIDE)), workers)
     room = _Clearance(analysis, nd.space_dimension)
     used: set[int] = set()  # read by the key (fewest-directions), filled by the search
     key = chooser(strategy, connected, used, dirs, room)

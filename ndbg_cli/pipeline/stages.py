@@ -578,7 +578,8 @@ def _prove(asm: Assembly, contacts: Contacts, chosen: Any, measures: Measures,
                       connected=conn, others=others, budget=options.infinite_budget,
                       shallow=lambda best: shallowest(chosen, classes.get("min_depth"),
                                                       measures.graphs.get(chosen.ndbg.family),
-                                                      base, budget, best))
+                                                      base, budget, best),
+                      workers=options.workers)
 
 
 def run_stages(asm: Assembly, options: Options, timings: dict[str, float]

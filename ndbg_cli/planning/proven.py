@@ -145,6 +145,21 @@ def directions(dimension: int, natural: Sequence[tuple[Sequence[float], str]],
     return out
 
 
+def _direction_rows(rows: Rows, k: int) -> list[int]:
+    """Every part's row along ``rows.dirs[k]`` (:meth:`Rows.fill`'s unit of work)."""
+    return [rows.row(k, i) for i in range(rows.n)]
+
+
+class _NoHelper:
+    """A stand-in for a :class:`~ndbg_cli.core.pools.Helper` that is not needed."""
+
+    def __enter__(self) -> _NoHelper:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+
 class Rows:
     """Blocking rows per direction, computed when first asked: ``row(k, i)`` is the bitmask of
     the parts that block part ``i`` along ``dirs[k]``, over the whole product."""
@@ -170,6 +185,25 @@ class Rows:
             known |= todo
             self._rows[k, i] = (known, got)
         return got & want
+
+    def fill(self, ks: Sequence[int], workers: int = 1) -> None:
+        """Every part's row along each direction ``dirs[k]``, ``k`` in ``ks``, computed now
+        (the greedy searches read them all), every other direction in a forked
+        :class:`~ndbg_cli.core.pools.Helper` meanwhile when ``workers`` is over 1 and a
+        process is spare: the same rows as asked one by one."""
+        from ..core.pools import Helper, spare_workers
+
+        todo = [k for k in ks if any(self._rows.get((k, i), (0,))[0] != self._all
+                                     for i in range(self.n))]
+        theirs = todo[1::2] if workers > 1 and spare_workers(workers) > 0 else []
+        with Helper(_direction_rows, self) if theirs else _NoHelper() as helper:
+            if theirs:
+                helper.start(theirs)
+            for k in todo[::2] if theirs else todo:
+                _direction_rows(self, k)
+            for k, got in zip(theirs, helper.values() if theirs else []):
+                for i, row in enumerate(got):
+                    self._rows[k, i] = (self._all, row)
 
     def blocked_by(self, k: int) -> list[int]:
         """``blocked_by(k)[i]``: the parts that part ``i`` blocks along ``dirs[k]`` (the rows
