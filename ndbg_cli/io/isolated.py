@@ -112,7 +112,8 @@ def run_isolated(func: str, args: tuple, *, file: str, reader: str, timeout: flo
     :func:`prestart`-ed with the same ones is used if there is one). ``timeout_hint``: what
     the timeout's message suggests besides a longer limit. ``meanwhile()`` is called here
     once the request is sent, before the answer is read: work of this process that the
-    child's time then hides (the limits still count from the request).
+    child's time then hides (the time limit still counts from the request; an answer
+    already waiting when it has passed is read, not called a timeout).
 
     An :class:`InputError` raised in the child is raised here (with ``file``, and ``part``
     when it names none); any other

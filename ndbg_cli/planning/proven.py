@@ -37,6 +37,7 @@ from typing import Protocol
 import numpy as np
 
 from ..core.constants import ANGLE_TOL_RAD
+from ..core.pools import Helper, spare_workers
 from ..ndbg.dbg import bits, tarjan
 from ..ndbg.model import NDBG, ConnectivityTest
 
@@ -150,16 +151,6 @@ def _direction_rows(rows: Rows, k: int) -> list[int]:
     return [rows.row(k, i) for i in range(rows.n)]
 
 
-class _NoHelper:
-    """A stand-in for a :class:`~ndbg_cli.core.pools.Helper` that is not needed."""
-
-    def __enter__(self) -> _NoHelper:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        return None
-
-
 class Rows:
     """Blocking rows per direction, computed when first asked: ``row(k, i)`` is the bitmask of
     the parts that block part ``i`` along ``dirs[k]``, over the whole product."""
@@ -191,17 +182,17 @@ class Rows:
         (the greedy searches read them all), every other direction in a forked
         :class:`~ndbg_cli.core.pools.Helper` meanwhile when ``workers`` is over 1 and a
         process is spare: the same rows as asked one by one."""
-        from ..core.pools import Helper, spare_workers
-
         todo = [k for k in ks if any(self._rows.get((k, i), (0,))[0] != self._all
                                      for i in range(self.n))]
-        theirs = todo[1::2] if workers > 1 and spare_workers(workers) > 0 else []
-        with Helper(_direction_rows, self) if theirs else _NoHelper() as helper:
-            if theirs:
-                helper.start(theirs)
-            for k in todo[::2] if theirs else todo:
+        if len(todo) < 2 or workers < 2 or spare_workers(workers) < 1:
+            for k in todo:
                 _direction_rows(self, k)
-            for k, got in zip(theirs, helper.values() if theirs else []):
+            return
+        with Helper(_direction_rows, self) as helper:
+            helper.start(todo[1::2])
+            for k in todo[::2]:
+                _direction_rows(self, k)
+            for k, got in zip(todo[1::2], helper.values()):
                 for i, row in enumerate(got):
                     self._rows[k, i] = (self._all, row)
 
