@@ -138,10 +138,7 @@ class Forked:
                 ok = False
             finally:
                 self._recv.close()
-                proc.join(timeout=JOIN_S)
-                if proc.is_alive():
-                    proc.kill()
-                    proc.join()
+                _reap(proc)
             if ok:
                 self.seconds = seconds
                 return value
@@ -160,16 +157,23 @@ class Forked:
         if self._proc is not None:
             proc, self._proc = self._proc, None
             self._recv.close()
-            proc.terminate()
-            proc.join(timeout=JOIN_S)
-            if proc.is_alive():
-                proc.kill()
-                proc.join()
+            _reap(proc, terminate=True)
 
     def _given(self) -> Any:
         if self._sent is self._UNSENT:
             raise RuntimeError("the job's input was never sent")
         return self._sent
+
+
+def _reap(proc: Any, terminate: bool = False) -> None:
+    """Wait for the child ``proc`` to end (terminated first with ``terminate``), killed when
+    still alive after :data:`JOIN_S`."""
+    if terminate:
+        proc.terminate()
+    proc.join(timeout=JOIN_S)
+    if proc.is_alive():
+        proc.kill()
+        proc.join()
 
 
 #: This process's :class:`Forked` jobs with a child, until their value is taken.
@@ -300,12 +304,7 @@ class Helper:
         if self._proc is not None:
             proc, self._proc = self._proc, None
             self._conn.close()
-            if self._batch is not None:
-                proc.terminate()
-            proc.join(timeout=JOIN_S)
-            if proc.is_alive():
-                proc.kill()
-                proc.join()
+            _reap(proc, terminate=self._batch is not None)
 
     def __enter__(self) -> Helper:
         return self
