@@ -386,14 +386,29 @@ def _translational(ndbgs: dict[str, NDBG]) -> dict[str, NDBG]:
     return {k: v for k, v in ndbgs.items() if k in TRANSLATION}
 
 
+#: Modules the stages import when first needed, imported by :func:`load_kernels` too (about
+#: 0.05 s, then off the way: during a native read or the contact workers' time).
+STAGE_MODULES = ("ndbg_cli.contacts.contacts3d", "ndbg_cli.ndbg.infinitesimal.build",
+                 "ndbg_cli.ndbg.infinite.build", "ndbg_cli.ndbg.generalized.build",
+                 "ndbg_cli.planning.classes", "ndbg_cli.planning.plans",
+                 "ndbg_cli.pipeline.interlocking", "ndbg_cli.pipeline.proofs",
+                 "ndbg_cli.pipeline.units", "ndbg_cli.report.classes",
+                 "ndbg_cli.report.contacts", "ndbg_cli.report.plans")
+
+
 def load_kernels() -> None:
     """Load the compiled kernels of the sweep test (numba's start, about 0.3 s, is paid by
-    the first kernel called in a process), since the plan's proofs call them: done while a
-    native reader's child reads the model (:func:`ndbg_cli.io.loaders.load`'s
-    ``meanwhile``), else while the contact workers compute. Costs nothing once done."""
+    the first kernel called in a process), since the plan's proofs call them, and import
+    :data:`STAGE_MODULES`: done while a native reader's child reads the model
+    (:func:`ndbg_cli.io.loaders.load`'s ``meanwhile``), else while the contact workers
+    compute. Costs nothing once done."""
+    import importlib
+
     from ..ndbg.infinite.sweep import warm_up
 
     warm_up()
+    for name in STAGE_MODULES:
+        importlib.import_module(name)
 
 
 def _kernels_cold() -> bool:
