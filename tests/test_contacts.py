@@ -266,6 +266,20 @@ def test_units_later_leaves_out_the_contacts_of_clashing_parts_only(monkeypatch,
     assert brief(later.contacts) == brief(c for c in full.contacts if (c.a, c.b) == (3, 4))
 
 
+def test_units_later_with_a_clash_known_before_any_pair_is_tested():
+    # p1 lies wholly inside p0 (no surfaces cross: a nested clash, found before the pairs);
+    # p2 rests on p0's top: its pair is left out from the start, p3-p4 away are kept
+    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((2, 2, 2), (5, 5, 5)),
+                   box((10, 10, 2), (5, 5, 11)), box((10, 10, 10), (40, 5, 5)),
+                   box((10, 10, 2), (40, 5, 11)))
+    full = analyze_contacts(asm)
+    later = analyze_contacts(asm, units_later=True)
+    assert [(x.a, x.b, x.kind) for x in full.interferences] == [(0, 1, "clash")]
+    assert [(x.a, x.b, x.kind) for x in later.interferences] == [(0, 1, "clash")]
+    assert {(c.a, c.b) for c in full.contacts} == {(0, 2), (3, 4)}
+    assert {(c.a, c.b) for c in later.contacts} == {(3, 4)}
+
+
 def test_conical_plug_in_conical_seat():
     # frustum r 10 -> 5 over z in [0, 10] (24 facets) in a 64-facet seat: a cone about +z;
     # the slope 5 in 10 gives outward normals with n.z = 5 / sqrt(10^2 + 5^2) = 1/sqrt(5);

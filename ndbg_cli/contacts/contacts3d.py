@@ -258,19 +258,19 @@ def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: floa
     # by their triangles
     todo = sorted(todo, key=lambda k: (-bool(pairs[k][2]), -size[k], k))
     crossing_left = sum(1 for k in todo if pairs[k][2])
+    if clashing and not crossing_left:  # the clashes known already (cached, nested)
+        todo = [k for k in todo if pairs[k][0] not in clashing and pairs[k][1] not in clashing]
     drop: set[int] = set()
 
     def known() -> None:  # every clash known: the other pairs of its parts can go
         drop.update(y for y, j in enumerate(todo) if results[j] is None
                     and (pairs[j][0] in clashing or pairs[j][1] in clashing))
-    if clashing and not crossing_left:
-        known()
     # few triangles are not worth the workers' start, unless this process has work of its
     # own meanwhile (numba's start, 0.5 s or more), which their time then hides
     # (``drop`` only with the clashes to follow: a caller's own Mapper may predate it)
     more = {} if clashing is None else {"drop": drop}
     for x, res in mapper.imap(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo],
-                              small=sum(size.values()) < MIN_PARALLEL_TRIANGLES
+                              small=sum(size[k] for k in todo) < MIN_PARALLEL_TRIANGLES
                               and meanwhile is None, meanwhile=meanwhile, **more):
         k = todo[x]
         results[k] = res
