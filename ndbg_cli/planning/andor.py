@@ -356,7 +356,7 @@ class AndOrGraph:
         helper = None
         try:
             while queue:
-                if (helper is None and self.budget.workers > 1 and len(queue) >= HELPER_QUEUE
+                if (helper is None and len(queue) >= HELPER_QUEUE
                         and spare_workers(self.budget.workers) > 0):
                     helper = Helper(_splits, self._context)
                 batch = [queue.popleft() for _ in range(min(len(queue), BATCH if helper else 1))]
@@ -377,13 +377,10 @@ class AndOrGraph:
         """:func:`_splits` of the nodes of ``batch`` not expanded yet (else None), half of
         them computed by ``helper`` meanwhile."""
         todo = [m for m in batch if m not in self.arcs]
-        if helper is None or len(todo) < 2:
-            found = {m: _splits(self._context, m) for m in todo}
-        else:
-            # every other node there (neighbours in the queue cost alike)
-            helper.start(todo[1::2])
-            found = {m: _splits(self._context, m) for m in todo[::2]}
-            found.update(zip(todo[1::2], helper.values()))
+        # every other node there (neighbours in the queue cost alike)
+        got = (helper.share(todo) if helper is not None
+               else [_splits(self._context, m) for m in todo])
+        found = dict(zip(todo, got))
         return [found.get(m) for m in batch]
 
     def _grow(self, batch: list[int], splits: list, meter: Meter, seen: set[int],

@@ -184,15 +184,12 @@ class Rows:
         process is spare: the same rows as asked one by one."""
         todo = [k for k in ks if any(self._rows.get((k, i), (0,))[0] != self._all
                                      for i in range(self.n))]
-        if len(todo) < 2 or workers < 2 or spare_workers(workers) < 1:
+        if len(todo) < 2 or spare_workers(workers) < 1:
             for k in todo:
                 _direction_rows(self, k)
             return
         with Helper(_direction_rows, self) as helper:
-            helper.start(todo[1::2])
-            for k in todo[::2]:
-                _direction_rows(self, k)
-            for k, got in zip(todo[1::2], helper.values()):
+            for k, got in zip(todo, helper.share(todo)):
                 for i, row in enumerate(got):
                     self._rows[k, i] = (self._all, row)
 
