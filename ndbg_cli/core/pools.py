@@ -205,15 +205,23 @@ def _forked_child(send: Any, fn: Callable[..., Any], args: tuple, get: Any = Non
         got = (True, value, time.perf_counter() - t0 - getattr(reader, "waited", 0.0))
     except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
         got = (False, None, 0.0)
-    for value in (got, (False, None, 0.0)):
-        try:
-            send.send(value)
-            break
-        except OSError:  # the parent dropped the job: nobody reads
-            break
-        except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes it)
-            continue
+    _answer(send, got, (False, None, 0.0))
     send.close()
+
+
+def _answer(conn: Any, value: Any, failed: Any) -> bool:
+    """A child's answer to its parent: ``value`` sent on ``conn``, or ``failed`` when
+    ``value`` does not pickle (the parent then computes it itself); False when nobody reads
+    (the parent dropped the job, or is gone)."""
+    for got in (value, failed):
+        try:
+            conn.send(got)
+            return True
+        except OSError:
+            return False
+        except Exception:  # noqa: BLE001 (a value that does not pickle)
+            continue
+    return True
 
 
 def _reader(conn: Any) -> Callable[[], Any]:
@@ -345,12 +353,8 @@ def _helper_child(conn: Any, parent_end: Any, fn: Callable[[Any, Any], Any],
             got = (True, [fn(context, x) for x in batch])
         except BaseException:  # noqa: BLE001 (re-raised in the parent by its own call)
             got = (False, None)
-        try:
-            conn.send(got)
-        except OSError:  # the parent is gone
+        if not _answer(conn, got, (False, None)):
             break
-        except Exception:  # noqa: BLE001 (a value that does not pickle: the parent computes)
-            conn.send((False, None))
     conn.close()
 
 
