@@ -21,6 +21,7 @@ import numpy as np
 
 from .constants import DEFAULT_RELATIVE_TOLERANCE, MIN_TOLERANCE
 from .errors import InputError
+from .memo import kept
 
 
 @dataclass(frozen=True)
@@ -199,11 +200,7 @@ class Assembly:
         return self._measure()[1].copy()
 
     def _measure(self) -> tuple[float, np.ndarray]:
-        got = self.__dict__.get("_size")
-        if got is None:
-            got = _size(self)
-            object.__setattr__(self, "_size", got)
-        return got
+        return kept(self, "_size", lambda: _size(self))
 
     @property
     def length_tolerance(self) -> float:

@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
+from ..core.memo import kept
 from .dbg import DBG, bits, free_subsets, mask_of, reach
 
 
@@ -81,20 +82,18 @@ class NDBG:
         return self._groups()[0]
 
     def _groups(self) -> tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]:
-        # computed once per NDBG (frozen: kept beside the fields, not one of them)
-        got = self.__dict__.get("_dbg_groups")
-        if got is None:
-            seen: dict[tuple[int, ...], int] = {}
-            group, members = [], []
-            for k, r in enumerate(self.regions):
-                g = seen.setdefault(r.dbg.succ, len(seen))
-                if g == len(members):
-                    members.append([])
-                members[g].append(k)
-                group.append(g)
-            got = (tuple(group), tuple(map(tuple, members)))
-            object.__setattr__(self, "_dbg_groups", got)
-        return got
+        return kept(self, "_dbg_groups", self._make_groups)  # once per NDBG
+
+    def _make_groups(self) -> tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]:
+        seen: dict[tuple[int, ...], int] = {}
+        group, members = [], []
+        for k, r in enumerate(self.regions):
+            g = seen.setdefault(r.dbg.succ, len(seen))
+            if g == len(members):
+                members.append([])
+            members[g].append(k)
+            group.append(g)
+        return tuple(group), tuple(map(tuple, members))
 
     def region_counts(self) -> dict[str, int]:
         counts: dict[str, int] = {}

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core.constants import WORK_LIMIT
 from ..core.gc_pause import gc_paused
+from ..core.memo import kept
 from ..core.pools import Helper, spare_workers
 from ..ndbg.candidates import connected_free_sets
 from ..ndbg.components import balanced_free_set, condense, free_sets, strongly_connected
@@ -166,11 +167,7 @@ class _Groups:
 
 def _groups_of(ndbg: NDBG) -> _Groups:
     """The :class:`_Groups` of ``ndbg``, kept on the (frozen) instance after the first call."""
-    got = ndbg.__dict__.get("_andor_groups")
-    if got is None:
-        got = _Groups(ndbg)
-        object.__setattr__(ndbg, "_andor_groups", got)
-    return got
+    return kept(ndbg, "_andor_groups", lambda: _Groups(ndbg))
 
 
 def node_splits(ndbg: NDBG, mask: int, *, base: int | None = None,

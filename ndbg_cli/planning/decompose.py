@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from ..core.gc_pause import gc_paused
+from ..core.memo import kept
 from ..ndbg.components import balanced_free_set, condense
 from ..ndbg.dbg import DBG, bits
 from ..ndbg.model import NDBG, ConnectivityTest
@@ -249,10 +250,7 @@ def sink_split(ndbg: NDBG, mask: int, regions: Sequence[int] | None = None, *,
     if regions is None:
         # the classes and the plans decompose the same subassemblies over all the regions
         # (the engine: 622 calls, 247 distinct): each answer is kept on the NDBG
-        memo = ndbg.__dict__.get("_sink_splits")
-        if memo is None:
-            memo = {}
-            object.__setattr__(ndbg, "_sink_splits", memo)
+        memo = kept(ndbg, "_sink_splits", dict)
         key = (mask, base, linear, balanced)
         if key not in memo:
             memo[key] = _sink_split(ndbg, mask, range(len(ndbg.regions)), base, linear,

@@ -7,6 +7,7 @@ import heapq
 from collections.abc import Sequence
 
 from ..core.constants import ANGLE_TOL_RAD, INFINITESIMAL
+from ..core.memo import kept
 from ..ndbg.dbg import DBG, bits
 from ..ndbg.model import NDBG, Partitioning
 
@@ -77,11 +78,8 @@ def partitioning_record(ndbg: NDBG, p: Partitioning) -> dict:
 
 def _ranks(ndbg: NDBG) -> list[tuple[int, int]]:
     """``(dimension, index)`` of every region of ``ndbg`` (kept on the instance)."""
-    got = ndbg.__dict__.get("_report_ranks")
-    if got is None:
-        got = [(r.dimension, k) for k, r in enumerate(ndbg.regions)]
-        object.__setattr__(ndbg, "_report_ranks", got)
-    return got
+    return kept(ndbg, "_report_ranks",
+                lambda: [(r.dimension, k) for k, r in enumerate(ndbg.regions)])
 
 
 def _vec(v: Sequence[float]) -> str:

@@ -19,6 +19,7 @@ import shapely
 
 from ...core.assembly import Assembly, content_hash
 from ...core.cache import PairCache
+from ...core.memo import kept
 from ...core.pools import ForkMapper, Mapper
 from ...core.progress import progress as bar
 from ..dbg import DBG
@@ -235,11 +236,7 @@ def triangle_pairs(asm: Assembly) -> int:
     vectors. The CLI skips the NDBG with a warning above
     ``--infinite-budget`` (example counts in benchmarks/NOTES.md). Kept on ``asm`` (the
     CLI asks twice: to decide, then to say why)."""
-    got = asm.__dict__.get("_triangle_pairs")
-    if got is None:
-        got = _triangle_pairs(asm)
-        object.__setattr__(asm, "_triangle_pairs", got)
-    return got
+    return kept(asm, "_triangle_pairs", lambda: _triangle_pairs(asm))
 
 
 def _triangle_pairs(asm: Assembly) -> int:
