@@ -66,7 +66,7 @@ def _orthants(fixed: list[np.ndarray], free: list[np.ndarray]) -> list[np.ndarra
             continue
         g = np.array(gens)
         if len(g) == 2 and float(g[0] @ g[1]) < math.cos(LONG):
-            out += _arc(g[0], math.acos(max(-1.0, float(g[0] @ g[1]))), np.cross(g[0], g[1])
+            out += _arc(g[0], math.acos(max(-1.0, float(g[0] @ g[1]))), cross(g[0], g[1])
                         if g.shape[1] == 3 else None, g[1])
         else:
             out.append(_densify(g) if len(g) >= 3 else g)
@@ -270,5 +270,5 @@ def split_piece(g: np.ndarray, v: np.ndarray, tol: float) -> list[np.ndarray]:
     pieces = [_densify(np.array(out))]
     if dots[a, b] >= 1 - 1e-15:
         return pieces + [on_a[a][None]]
-    axis = np.cross(on_a[a], on_a[b]) if g.shape[1] == 3 else None
+    axis = cross(on_a[a], on_a[b]) if g.shape[1] == 3 else None
     return pieces + _arc(on_a[a], math.acos(max(-1.0, float(dots[a, b]))), axis, on_a[b])
