@@ -7,7 +7,7 @@ matmul uses one, see the dot products below), so the results are bit-identical; 
 padding of the outputs (entries past a count) may differ, and no caller reads it. The first
 call in a fresh environment compiles the kernels (the cache lives in ``__pycache__`` beside
 this file, or in the user's cache folder when that is not writable). Numba freezes module
-globals (:data:`FACES`) into the compiled code.
+globals (:data:`~._cube_faces.FACES`) into the compiled code.
 """
 
 from __future__ import annotations
@@ -16,6 +16,8 @@ import llvmlite.ir as llir
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
+
+from ._cube_faces import FACES
 
 # --------------------------------------------------------------------------------------------
 # Dot products of 3-vectors, rounded as numpy rounds them
@@ -27,17 +29,6 @@ from numba.extending import intrinsic
 # comparison exactly at its threshold could see).
 
 
-#: The six cube faces of the gnomonic cube map, (axis e, chart u, chart v) as rows of a
-#: (6, 3, 3) array; frozen into the kernels when they compile. Defined here, the lowest
-#: layer, so that the kernels import no wrapper (:mod:`.cubemap` uses it).
-FACES = np.array([
-    [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
-    [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
-    [[0, 1, 0], [0, 0, 1], [1, 0, 0]],
-    [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
-    [[0, 0, 1], [1, 0, 0], [0, 1, 0]],
-    [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
-], dtype=np.float64)
 
 
 @intrinsic

@@ -1,4 +1,6 @@
-"""Compiled kernels (numba) of the direct sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`).
+"""Compiled kernels (numba) of the direct sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`),
+which calls them compiled ahead of time when built (:mod:`._compiled`), else through numba's
+just-in-time compiler.
 
 One part pair along one direction: the facing triangles of the moved part and of the blocker,
 projected along the direction to ``(u, v, z)``, are binned on a grid over the common part of
@@ -15,6 +17,19 @@ from numba import njit
 
 #: Vertices a clipped polygon can reach: a triangle cut by four lines.
 MAX_VERTICES = 8
+
+_T, _P, _I1, _I2 = "f8[:,:,::1]", "f8[:,::1]", "i8[::1]", "i8[:,::1]"
+#: The kernels :mod:`..sweep` calls, and their numba signatures (C-contiguous float64 and
+#: int64 arrays, as the wrappers pass them): :mod:`._compiled` builds these ahead of time.
+EXPORTS = {
+    "boxes": f"{_P}({_T})",
+    "wide_triangles": f"b1[::1]({_T},f8)",
+    "first_blocking": f"Tuple((i8,i8,{_I2},i8))({_T},{_T},{_P},{_P},f8,f8,f8)",
+    "front_polygons": f"Tuple(({_P},{_I1}))({_T},{_T},{_I2},f8,f8)",
+    "clipped_areas": f"f8[::1]({_P},{_I1},{_I1},{_I1},f8,f8,f8,f8)",
+    "overlap_centroid": f"UniTuple(f8,2)({_P},{_P})",
+    "plane": f"UniTuple(f8,3)({_P})",
+}
 
 
 @njit(cache=True)

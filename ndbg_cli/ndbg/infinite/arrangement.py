@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
-from ._kernels import FACES
+from ._cube_faces import FACES
 from .chart_union import GRID, antipodal
 from .cubemap import SQUARE_MARGIN, direction_of
 

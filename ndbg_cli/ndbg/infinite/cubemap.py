@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import FACES
+from ._cube_faces import FACES
 
 #: Slight enlargement of the chart square so that directions on a cube edge are covered on
 #: both faces (chart units).

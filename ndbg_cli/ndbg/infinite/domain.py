@@ -18,7 +18,7 @@ import shapely
 
 from ..dbg import DBG, strong_components
 from ..infinitesimal.build import blocking_sides
-from ._kernels import FACES
+from ._cube_faces import FACES
 from .chart_union import antipodal
 from .cover import RASTER, cells_window
 

@@ -9,11 +9,11 @@ the orthographic projection along ``d``, and somewhere in the overlap ``t_j`` is
 narrower than the length tolerance ``eps``: the blocking region (the union, over the triangle
 pairs, of where ``t_j`` is in front) must hold a disk of diameter ``eps``, as two parts closer
 than ``eps`` touch (a faceted rod in a faceted hole: slivers no wider than the facets'
-sagitta; a press fit within tolerance). The triangle pairs
-whose shadows meet are found on a grid and tested exactly by the compiled
-:mod:`ndbg_cli.ndbg.infinite._sweep_kernels`: one direction's whole DBG costs milliseconds to
-a second on real products, fine for plan proofs (:mod:`ndbg_cli.planning.proven`) and single
-queries (``ndbg query --direction``), not for sweeping the whole sphere.
+sagitta; a press fit within tolerance). The triangle pairs whose shadows meet are found on a
+grid and tested exactly by the compiled :mod:`ndbg_cli.ndbg.infinite._sweep_kernels` (built
+ahead of time when possible, :mod:`._compiled`): one direction's whole DBG costs milliseconds
+to a second on real products, fine for plan proofs (:mod:`ndbg_cli.planning.proven`) and
+single queries (``ndbg query --direction``), not for sweeping the whole sphere.
 """
 
 from __future__ import annotations
@@ -23,15 +23,17 @@ import numpy as np
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
-from ._sweep_kernels import (
-    boxes,
-    clipped_areas,
-    first_blocking,
-    front_polygons,
-    overlap_centroid,
-    plane,
-    wide_triangles,
-)
+from ._compiled import kernels
+
+# compiled ahead of time when built (no numba start), else numba's just-in-time kernels
+_kernels = kernels("_sweep_kernels")
+boxes = _kernels.boxes
+clipped_areas = _kernels.clipped_areas
+first_blocking = _kernels.first_blocking
+front_polygons = _kernels.front_polygons
+overlap_centroid = _kernels.overlap_centroid
+plane = _kernels.plane
+wide_triangles = _kernels.wide_triangles
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
@@ -306,8 +308,9 @@ class _DiskSearch:
 
 
 def warm_up() -> None:
-    """Load this test's compiled kernels now (from numba's cache; the first kernel of a
-    process also starts numba): a caller with time to spare makes the first test cheaper."""
+    """Load this test's kernels now: when they run just in time (not built ahead of time,
+    :mod:`._compiled`), numba starts and loads them from its cache, about 0.4 s of CPU that a
+    caller with time to spare takes off the first test; built ahead of time, nothing."""
     t = np.zeros((1, 3, 3))
     t[0, 1, 0] = t[0, 2, 1] = 1.0
     b = boxes(t)
@@ -320,8 +323,8 @@ def warm_up() -> None:
 
 
 def kernels_loaded() -> bool:
-    """Whether :func:`warm_up` (or a first test) has loaded this test's kernels here (always,
-    with numba's compilation off: ``NUMBA_DISABLE_JIT``)."""
+    """Whether :func:`warm_up` (or a first test) has loaded this test's kernels here (always
+    when built ahead of time, or with numba's compilation off: ``NUMBA_DISABLE_JIT``)."""
     return bool(getattr(first_blocking, "signatures", True))
 
 

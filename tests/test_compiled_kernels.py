@@ -1,0 +1,107 @@
+"""The sweep test's kernels compiled ahead of time (:mod:`ndbg_cli.ndbg.infinite._compiled`):
+the same results as numba's just-in-time kernels to the bit, on random triangle sets where
+every branch is taken (blocking pairs, narrow pairs, empty overlaps); a stale or switched-off
+build is not used."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from ndbg_cli.ndbg.infinite import _compiled
+from ndbg_cli.ndbg.infinite import _sweep_kernels as jit
+
+compiled = _compiled._compiled("_sweep_kernels")
+needs_build = pytest.mark.skipif(
+    compiled is None, reason="kernels not compiled ahead of time here (make bytecode builds "
+    "them; without a C compiler they run just in time)")
+
+
+def _same(a, b) -> None:
+    """Equal to the bit: the same types, shapes and bytes (tuples element by element)."""
+    if isinstance(a, tuple):
+        assert isinstance(b, tuple) and len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            _same(x, y)
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    else:
+        assert type(a) is type(b) and np.array(a).tobytes() == np.array(b).tobytes()
+
+
+def _triangles(rng: np.random.Generator, n: int, z: float) -> np.ndarray:
+    """``n`` projected triangles (u, v, z) of sizes from slivers to a fifth of the unit
+    square, at depths around ``z``."""
+    centres = rng.uniform(0, 1, (n, 1, 3))
+    size = rng.choice([1e-4, 0.02, 0.2], size=(n, 1, 1))
+    t = centres + size * rng.normal(size=(n, 3, 3))
+    t[:, :, 2] = z + 0.01 * rng.normal(size=(n, 3))
+    return np.ascontiguousarray(t)
+
+
+@needs_build
+@pytest.mark.parametrize("seed", range(6))
+def test_compiled_kernels_equal_the_just_in_time_ones_to_the_bit(seed):
+    rng = np.random.default_rng(seed)
+    pi, pj = _triangles(rng, 60, 0.0), _triangles(rng, 50, 0.005 * (seed - 2))
+    eps, amin, tiny = 10.0 ** -rng.integers(2, 5), 1e-12, 1e-9
+    bi, bj = jit.boxes(pi), jit.boxes(pj)
+    _same(compiled.boxes(pi), bi)
+    _same(compiled.wide_triangles(pi, eps), jit.wide_triangles(pi, eps))
+    got = compiled.first_blocking(pi, pj, bi, bj, eps, amin, tiny)
+    want = jit.first_blocking(pi, pj, bi, bj, eps, amin, tiny)
+    _same(got[:2] + (got[3],), want[:2] + (want[3],))
+    _same(got[2][:got[3]], want[2][:want[3]])  # rows past the count are padding
+    pairs = np.ascontiguousarray(np.stack([rng.integers(0, 60, 400),
+                                           rng.integers(0, 50, 400)], axis=1))
+    coords, counts = jit.front_polygons(pi, pj, pairs, amin, 1e-3 * eps)
+    assert counts.any() and not counts.all()  # both kinds of pair are met
+    _same(compiled.front_polygons(pi, pj, pairs, amin, 1e-3 * eps), (coords, counts))
+    kept = np.flatnonzero(counts)
+    starts = np.concatenate([[0], np.cumsum(counts[kept])[:-1]]).astype(np.int64)
+    ring = np.ascontiguousarray(counts[kept])
+    idx = np.arange(len(kept), dtype=np.int64)
+    window = [float(x) for x in (*rng.uniform(0, 0.5, 2), *rng.uniform(0.5, 1, 2))]
+    _same(compiled.clipped_areas(coords, starts, ring, idx, *window),
+          jit.clipped_areas(coords, starts, ring, idx, *window))
+    for a, b in pairs[:50]:
+        _same(compiled.overlap_centroid(pi[a], pj[b]), jit.overlap_centroid(pi[a], pj[b]))
+        _same(compiled.plane(pj[b]), jit.plane(pj[b]))
+
+
+@needs_build
+def test_first_blocking_finds_a_blocking_pair_in_the_random_sets():
+    """The comparison above is not vacuous: the sets hold blocking pairs."""
+    rng = np.random.default_rng(0)
+    pi, pj = _triangles(rng, 60, 0.0), _triangles(rng, 50, 0.01)
+    ki, kj, _, _ = compiled.first_blocking(pi, pj, compiled.boxes(pi), compiled.boxes(pj),
+                                           1e-3, 1e-12, 1e-9)
+    assert ki >= 0 and kj >= 0
+
+
+@needs_build
+def test_the_sweep_test_runs_the_compiled_kernels():
+    from ndbg_cli.ndbg.infinite import sweep
+
+    assert sweep.first_blocking is compiled.first_blocking and sweep.kernels_loaded()
+
+
+def test_a_stale_build_is_not_used(monkeypatch):
+    """A build from another source (its recorded digest differs) is left for numba's."""
+    monkeypatch.setattr(_compiled, "_digest", lambda module: 12345)
+    assert _compiled.kernels("_sweep_kernels") is jit
+
+
+def test_numba_disable_jit_runs_the_python_source():
+    code = ("from ndbg_cli.ndbg.infinite._compiled import kernels; "
+            "print(kernels('_sweep_kernels').__name__)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "NUMBA_DISABLE_JIT": "1"}, check=True)
+    assert out.stdout.strip() == "ndbg_cli.ndbg.infinite._sweep_kernels"
+
+
+@needs_build
+def test_a_fresh_build_is_not_built_again():
+    assert _compiled.build() == []
