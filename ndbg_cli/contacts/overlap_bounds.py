@@ -102,10 +102,14 @@ def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
     roles = sorted([(ga, gb), (gb, ga)], key=lambda r: _box_volume(r[0]))
     axes = patch_axes(ga, gb) + patch_axes(gb, ga)
     for center, u in axes:
-        for peg, hole in roles:
-            for s in (1.0, -1.0):
-                if shell_bound(peg, hole, center, s * u, width) <= width:
-                    return True
+        for s in (1.0, -1.0):
+            if not (np.isfinite(center).all() and np.isfinite(u).all()) or not np.any(u):
+                continue
+            # each part seen once about this axis, as peg and as hole
+            views = {id(g): _View(g, center, s * u) for g in (ga, gb)}
+            if any(_bound(views[id(peg)], views[id(hole)], width) <= width
+                   for peg, hole in roles):
+                return True
     return False
 
 
@@ -143,24 +147,43 @@ def shell_bound(peg: PartGeometry, hole: PartGeometry, center: np.ndarray, u: np
     """
     if not (np.isfinite(center).all() and np.isfinite(u).all()) or not np.any(u):
         return np.inf
-    u = np.asarray(u, dtype=float) / np.linalg.norm(u)
-    e1, e2 = plane_basis(u)
-    frame = np.stack([e1, e2, u])
-    pv = (peg.vertices - center) @ frame.T
-    pt = pv[peg.faces]
+    return _bound(_View(peg, center, u), _View(hole, center, u), width)
+
+
+class _View:
+    """A part about an axis (the line through ``center`` along ``u``): its vertices in the
+    frame ``(e1, e2, u)`` centred there, and each triangle's least and greatest coordinates
+    and its greatest distance to the axis, computed from its vertices (a corner's value is
+    the vertex's, so these are what the triangles' corners give, bit for bit). One view
+    serves the part both as peg and as hole."""
+
+    def __init__(self, g: PartGeometry, center: np.ndarray, u: np.ndarray) -> None:
+        u = np.asarray(u, dtype=float) / np.linalg.norm(u)
+        e1, e2 = plane_basis(u)
+        self.faces = g.faces
+        self.v = (g.vertices - center) @ np.stack([e1, e2, u]).T
+        corners = [self.v[g.faces[:, k]] for k in range(3)]
+        self.lo = np.minimum(np.minimum(corners[0], corners[1]), corners[2])
+        self.hi = np.maximum(np.maximum(corners[0], corners[1]), corners[2])
+        r = np.sqrt(self.v[:, 0] ** 2 + self.v[:, 1] ** 2)[g.faces]
+        self.rmax = np.maximum(np.maximum(r[:, 0], r[:, 1]), r[:, 2])
+
+
+def _bound(peg: _View, hole: _View, width: float) -> float:
+    """:func:`shell_bound` of two parts seen about one axis."""
+    pv = peg.v
     z_lo = float(pv[:, 2].min())
-    a_zmin = pt[:, :, 2].min(axis=1)
-    a_rmax = np.sqrt((pt[:, :, :2] ** 2).sum(axis=2)).max(axis=1)
-    ht = ((hole.vertices - center) @ frame.T)[hole.faces]
-    lo, hi = ht.min(axis=1), ht.max(axis=1)
+    a_zmin, a_rmax = peg.lo[:, 2], peg.rmax
+    lo, hi = hole.lo, hole.hi
     plo, phi = pv[:, :2].min(axis=0), pv[:, :2].max(axis=0)
     near = np.all((lo[:, :2] <= phi) & (hi[:, :2] >= plo), axis=1) & (hi[:, 2] >= z_lo)
     if not near.any():
         return 0.0
+    ht = hole.v[hole.faces[near]]
     b_zmax = hi[near, 2]
-    b_rmin = origin_distance_2d(ht[near][:, :, :2])
+    b_rmin = origin_distance_2d(ht[:, :, :2])
     z_top = float(b_zmax.max())
-    slack = 1e-9 * float(np.abs(pv).max() + np.abs(ht[near]).max())
+    slack = 1e-9 * float(np.abs(pv).max() + np.abs(ht).max())
     # R_s(z0): the peg's largest radius among triangles reaching below z0 (running maximum
     # in the order of their lowest points); R_h(z1): the hole's least radius among those
     # reaching above z1 (running minimum from the highest down)

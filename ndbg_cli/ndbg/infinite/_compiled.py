@@ -65,9 +65,9 @@ def kernels(module: str) -> ModuleType:
     --------
     >>> from ndbg_cli.ndbg.infinite._compiled import kernels
     >>> import numpy as np
-    >>> t = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
-    >>> kernels("_sweep_kernels").boxes(t).tolist()
-    [[0.0, 0.0, 1.0, 1.0]]
+    >>> t = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 2]]])  # one triangle (u, v, z)
+    >>> kernels("_sweep_kernels").boxes(t).tolist()  # (u_lo, v_lo, u_hi, v_hi, z_lo, z_hi)
+    [[0.0, 0.0, 1.0, 1.0, 0.0, 2.0]]
     """
     if os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0"):
         got = _compiled(module)
