@@ -29,8 +29,6 @@ from ._cube_faces import FACES
 # comparison exactly at its threshold could see).
 
 
-
-
 @intrinsic
 def _fma(typingctx, a, b, c):
     """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``)."""
