@@ -59,4 +59,4 @@ invariance: bytecode
 	$(BIN)/python benchmarks/invariance.py $(INVARIANCE_ARGS)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache ndbg_cli/ndbg/infinite/_*_aot.*

@@ -13,10 +13,13 @@ import pytest
 from ndbg_cli.ndbg.infinite import _compiled
 from ndbg_cli.ndbg.infinite import _sweep_kernels as jit
 
-compiled = _compiled._compiled("_sweep_kernels")
+built = _compiled._compiled("_sweep_kernels") is not None
+#: CI sets NDBG_REQUIRE_AOT (.ci/run): there a missing or stale build fails these tests
 needs_build = pytest.mark.skipif(
-    compiled is None, reason="kernels not compiled ahead of time here (make bytecode builds "
-    "them; without a C compiler they run just in time)")
+    not built and not os.environ.get("NDBG_REQUIRE_AOT"),
+    reason="kernels not compiled ahead of time here (make bytecode builds them; without a C "
+    "compiler they run just in time)")
+compiled = _compiled.kernels("_sweep_kernels")
 
 
 def _same(a, b) -> None:
@@ -85,21 +88,46 @@ def test_first_blocking_finds_a_blocking_pair_in_the_random_sets():
 def test_the_sweep_test_runs_the_compiled_kernels():
     from ndbg_cli.ndbg.infinite import sweep
 
-    assert sweep.first_blocking is compiled.first_blocking and sweep.kernels_loaded()
+    assert built and compiled.compiled and sweep._kernels.compiled and sweep.kernels_loaded()
 
 
+@needs_build
 def test_a_stale_build_is_not_used(monkeypatch):
     """A build from another source (its recorded digest differs) is left for numba's."""
     monkeypatch.setattr(_compiled, "_digest", lambda module: 12345)
-    assert _compiled.kernels("_sweep_kernels") is jit
+    got = _compiled.kernels("_sweep_kernels")
+    assert not got.compiled and got.boxes is jit.boxes
+
+
+@needs_build
+def test_arrays_of_another_type_or_layout_are_converted_and_other_dimensions_refused():
+    """The compiled functions read memory as declared: float32, Fortran order or int input
+    must give what numba's dispatcher gives (it compiles a version for them)."""
+    t = np.random.default_rng(1).normal(size=(5, 3, 3))
+    want = jit.boxes(t)
+    for other in (t.astype(np.float32), np.asfortranarray(t), t[:, :, ::-1][:, :, ::-1]):
+        _same(compiled.boxes(other), jit.boxes(np.ascontiguousarray(other, np.float64)))
+    _same(compiled.boxes(np.asfortranarray(t)), want)
+    with pytest.raises(TypeError, match="dimensions"):
+        compiled.boxes(t[0])
+    assert _compiled._arguments(jit.EXPORTS["first_blocking"]) == [
+        (np.dtype(np.float64), 3), (np.dtype(np.float64), 3), (np.dtype(np.float64), 2),
+        (np.dtype(np.float64), 2), None, None, None]
+
+
+def test_every_kernel_the_sweep_test_uses_is_exported():
+    """So that a machine with the build and one without take the same kernels."""
+    assert set(_compiled._exports("_sweep_kernels")) == set(jit.EXPORTS) == {
+        "boxes", "wide_triangles", "first_blocking", "front_polygons", "clipped_areas",
+        "overlap_centroid", "plane"}
 
 
 def test_numba_disable_jit_runs_the_python_source():
     code = ("from ndbg_cli.ndbg.infinite._compiled import kernels; "
-            "print(kernels('_sweep_kernels').__name__)")
+            "k = kernels('_sweep_kernels'); print(k.compiled, type(k.boxes).__name__)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**os.environ, "NUMBA_DISABLE_JIT": "1"}, check=True)
-    assert out.stdout.strip() == "ndbg_cli.ndbg.infinite._sweep_kernels"
+    assert out.stdout.split() == ["False", "function"]  # the plain Python source
 
 
 @needs_build

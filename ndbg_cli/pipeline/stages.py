@@ -413,7 +413,8 @@ def load_kernels() -> None:
 
 def _kernels_cold() -> bool:
     """Whether :func:`load_kernels` is still to be done in this process (asked without
-    importing the kernels' module, which starts numba)."""
+    importing the sweep test, whose import starts numba when its kernels are not built
+    ahead of time)."""
     sweep = sys.modules.get("ndbg_cli.ndbg.infinite.sweep")
     return sweep is None or not sweep.kernels_loaded()
 

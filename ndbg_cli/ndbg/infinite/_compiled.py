@@ -12,24 +12,30 @@ only when the kernels' source changes).
 One implementation: the compiled module is built from the numba source, by the same compiler
 (LLVM, no fast-math, no fused multiply-add that the source does not ask for), so its results
 are the just-in-time kernels' to the bit (``tests/test_compiled_kernels.py`` compares them).
-It records the SHA-256 of the source it was built from, and :func:`kernels` takes it only when
-that is the source beside it: a stale build is never run. Without a build (no C compiler, a
-plain ``pip install``), or with ``NUMBA_DISABLE_JIT`` set, the kernels run through numba's
-just-in-time compiler as before.
+It records the SHA-256 of the source it was built from (with numpy's, numba's and llvmlite's
+versions), and :func:`kernels` takes it only when that is the source and stack beside it: a
+stale build is never run. Its functions read their arrays' memory as declared, unchecked, so
+:func:`kernels` puts each behind a conversion to the declared type and layout. Without a
+build (no C compiler, a plain ``pip install``), or with ``NUMBA_DISABLE_JIT`` set, the
+kernels run through numba's just-in-time compiler as before.
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.util
 import os
+import subprocess
 import sys
 import tempfile
 import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from types import ModuleType
+from types import ModuleType, SimpleNamespace
+
+import numpy as np
 
 __all__ = ["BUILT", "build", "kernels"]
 
@@ -42,10 +48,18 @@ _HERE = Path(__file__).resolve().parent
 
 
 def _digest(module: str) -> int:
-    """The first 8 bytes of the SHA-256 of ``module``'s source file, as a signed int64 (what
-    a compiled function returns)."""
-    source = (_HERE / f"{module}.py").read_bytes()
-    return int.from_bytes(hashlib.sha256(source).digest()[:8], "little", signed=True)
+    """The first 8 bytes of the SHA-256 of ``module``'s source file, numpy's version and
+    numba's and llvmlite's version files, as a signed int64 (what a compiled function
+    returns): a build is stale when any of them changed (found without importing numba)."""
+    h = hashlib.sha256((_HERE / f"{module}.py").read_bytes())
+    h.update(np.__version__.encode())
+    for package in ("numba", "llvmlite"):
+        spec = importlib.util.find_spec(package)
+        where = None if spec is None else spec.submodule_search_locations
+        if not where:
+            raise ImportError(f"{package} is not installed")
+        h.update(Path(where[0], "_version.py").read_bytes())
+    return int.from_bytes(h.digest()[:8], "little", signed=True)
 
 
 def _compiled(module: str) -> ModuleType | None:
@@ -57,9 +71,60 @@ def _compiled(module: str) -> ModuleType | None:
         return None
 
 
-def kernels(module: str) -> ModuleType:
-    """The kernels of ``module`` (a name of :data:`BUILT`): its compiled module when built
-    from the current source, else the numba module itself (compiled just in time).
+def _split(text: str) -> list[str]:
+    """``text`` split at its commas outside brackets and parentheses."""
+    out, depth, start = [], 0, 0
+    for k, ch in enumerate(text):
+        depth += (ch in "[(") - (ch in "])")
+        if ch == "," and depth == 0:
+            out.append(text[start:k])
+            start = k + 1
+    return out + [text[start:]]
+
+
+def _arguments(signature: str) -> list[tuple[np.dtype, int] | None]:
+    """The arguments of a numba signature string such as ``"f8[::1](f8[:,:,::1],f8)"``:
+    ``(dtype, ndim)`` per array, ``None`` per scalar."""
+    depth = 0
+    for k in range(len(signature) - 1, -1, -1):  # the opening of the last group
+        depth += (signature[k] == ")") - (signature[k] == "(")
+        if depth == 0:
+            break
+    dtypes = {"f8": np.float64, "i8": np.int64, "b1": np.bool_}
+    return [(np.dtype(dtypes[a[:2]]), a.count(",") + 1) if "[" in a else None
+            for a in _split(signature[k + 1:-1])]
+
+
+def _checked(fn: Callable, signature: str) -> Callable:
+    """``fn`` (compiled ahead of time for ``signature`` only, which reads its arrays' memory
+    as the declared type, layout and dimensions, unchecked) taking what numba's dispatcher
+    takes: each array argument converted to a C-contiguous array of the declared type (no
+    copy when it is one already; another type or layout is copied, as the just-in-time
+    kernel would compile another version), and one of another dimension refused."""
+    specs = _arguments(signature)
+
+    def call(*args: object) -> object:
+        got = list(args)
+        for k, spec in enumerate(specs):
+            if spec is not None:
+                a = np.ascontiguousarray(got[k], dtype=spec[0])
+                if a.ndim != spec[1]:
+                    raise TypeError(f"{fn.__name__}: argument {k} has {a.ndim} dimensions, "
+                                    f"not {spec[1]}")
+                got[k] = a
+        return fn(*got)
+
+    call.__name__ = call.__qualname__ = getattr(fn, "__name__", "kernel")
+    call.__doc__ = fn.__doc__
+    return call
+
+
+def kernels(module: str) -> SimpleNamespace:
+    """The kernels of ``module`` (a name of :data:`BUILT`) that its ``EXPORTS`` lists: the
+    compiled module's when built from the current source and stack (each behind
+    :func:`_checked`), else the numba module's own (compiled just in time). Either way
+    only the ``EXPORTS``, so that a kernel a caller uses but the build lacks fails on every
+    machine alike.
 
     Examples
     --------
@@ -69,11 +134,28 @@ def kernels(module: str) -> ModuleType:
     >>> kernels("_sweep_kernels").boxes(t).tolist()  # (u_lo, v_lo, u_hi, v_hi, z_lo, z_hi)
     [[0.0, 0.0, 1.0, 1.0, 0.0, 2.0]]
     """
-    if os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0"):
-        got = _compiled(module)
-        if got is not None:
-            return got
-    return importlib.import_module(f"{__package__}.{module}")
+    exports = _exports(module)
+    got = None if _jit_disabled() else _compiled(module)
+    if got is not None:
+        return SimpleNamespace(**{n: _checked(getattr(got, n), sig)
+                                  for n, sig in exports.items()}, compiled=True)
+    source = importlib.import_module(f"{__package__}.{module}")
+    return SimpleNamespace(**{n: getattr(source, n) for n in exports}, compiled=False)
+
+
+def _jit_disabled() -> bool:
+    return os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
+
+
+def _exports(module: str) -> dict[str, str]:
+    """``module``'s ``EXPORTS``, read from its source without importing it (which imports
+    numba): its one assignment, a dict of string literals."""
+    import ast
+
+    tree = ast.parse((_HERE / f"{module}.py").read_text())
+    (value,) = [n.value for n in tree.body if isinstance(n, ast.Assign)
+                and [getattr(t, "id", None) for t in n.targets] == ["EXPORTS"]]
+    return ast.literal_eval(value)
 
 
 def _returning(value: int) -> Callable[[], int]:
@@ -87,29 +169,59 @@ def _returning(value: int) -> Callable[[], int]:
 
 def build(force: bool = False) -> list[str]:
     """Build the compiled module of each kernel module of :data:`BUILT` whose build is
-    missing or stale (all with ``force``), beside its source; returns the names built. The
-    module is written to a temporary folder first and moved into place whole, so that a
-    process importing it meanwhile sees the old file or the new one."""
+    missing or stale (all with ``force``), beside its source; returns the names built.
+
+    The module is compiled in a temporary folder, imported there by a new interpreter (its
+    digest read back), and only then moved into place whole: a process
+    importing it meanwhile sees the old file or the new one, never a part (a truncated
+    extension module crashes the interpreter that loads it, past any ``except``). A build
+    that failed is not tried again for the same digest (``NAME.failed`` beside it) unless
+    ``force``."""
     done = []
     for module, name in BUILT.items():
-        if not force and _compiled(module) is not None:
+        digest = _digest(module)
+        failed = _HERE / f"{name}.failed"
+        if not force and (_compiled(module) is not None or (
+                failed.exists() and failed.read_text().strip() == str(digest))):
             continue
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # pycc is "pending deprecation" in numba 0.6x
-            from numba.pycc import CC
-        source = importlib.import_module(f"{__package__}.{module}")
-        cc = CC(name)
-        for fn, signature in source.EXPORTS.items():
-            cc.export(fn, signature)(getattr(source, fn).py_func)
-        cc.export("source_digest", "i8()")(_returning(_digest(module)))
-        with tempfile.TemporaryDirectory(dir=_HERE) as tmp:
-            cc.output_dir = tmp
-            cc.compile()
-            (out,) = Path(tmp).glob(f"{name}.*")
-            os.replace(out, _HERE / out.name)
-        importlib.invalidate_caches()
+        try:
+            _build_one(module, name, digest)
+        except Exception:
+            failed.write_text(f"{digest}\n")
+            raise
+        failed.unlink(missing_ok=True)
         done.append(name)
     return done
+
+
+def _build_one(module: str, name: str, digest: int) -> None:
+    """Compile ``module``'s ``EXPORTS`` into ``name`` beside it, recording ``digest``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pycc is "pending deprecation" in numba 0.6x
+        from numba.pycc import CC
+    source = importlib.import_module(f"{__package__}.{module}")
+    cc = CC(name)
+    for fn, signature in _exports(module).items():
+        cc.export(fn, signature)(getattr(source, fn).py_func)
+    cc.export("source_digest", "i8()")(_returning(digest))
+    with tempfile.TemporaryDirectory(dir=_HERE, prefix=".build-") as tmp:
+        cc.output_dir = tmp
+        cc.compile()
+        (out,) = Path(tmp).glob(f"{name}.*")
+        if _digest(module) != digest:
+            raise RuntimeError(f"{module}.py changed during the build")
+        with open(out, "rb") as f:
+            os.fsync(f.fileno())
+        probe = ("import importlib.util as u, sys; "
+                 f"s = u.spec_from_file_location({name!r}, sys.argv[1]); "
+                 "m = u.module_from_spec(s); s.loader.exec_module(m); print(m.source_digest())")
+        got = subprocess.run([sys.executable, "-c", probe, str(out)], capture_output=True,
+                             text=True, timeout=120)
+        if got.returncode != 0 or got.stdout.strip() != str(digest):
+            raise RuntimeError(f"the built {out.name} does not load ({got.returncode}): "
+                               f"{got.stderr.strip()[-300:]}")
+        os.replace(out, _HERE / out.name)
+    importlib.invalidate_caches()
 
 
 def main() -> int:

@@ -12,7 +12,9 @@ import numpy as np
 
 #: The six cube faces of the gnomonic cube map, (axis e, chart u, chart v) as rows of a
 #: (6, 3, 3) array; frozen into the kernels when they compile. Defined here, the lowest
-#: layer, so that the kernels import no wrapper (:mod:`.cubemap` uses it).
+#: layer, so that the kernels import no wrapper (:mod:`.cubemap` uses it). Numba's cache of
+#: :mod:`._kernels` does not see a change made here (it watches its own file): clear its
+#: ``__pycache__`` after one (``tests/test_cubemap.py`` pins the values).
 FACES = np.array([
     [[1, 0, 0], [0, 1, 0], [0, 0, 1]],
     [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],

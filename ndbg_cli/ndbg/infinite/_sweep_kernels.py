@@ -18,17 +18,18 @@ from numba import njit
 #: Vertices a clipped polygon can reach: a triangle cut by four lines.
 MAX_VERTICES = 8
 
-_T, _P, _I1, _I2 = "f8[:,:,::1]", "f8[:,::1]", "i8[::1]", "i8[:,::1]"
 #: The kernels :mod:`..sweep` calls, and their numba signatures (C-contiguous float64 and
-#: int64 arrays, as the wrappers pass them): :mod:`._compiled` builds these ahead of time.
+#: int64 arrays, as the wrappers pass them): :mod:`._compiled` builds these ahead of time and
+#: reads them from this file's text (string literals only).
 EXPORTS = {
-    "boxes": f"{_P}({_T})",
-    "wide_triangles": f"b1[::1]({_T},f8)",
-    "first_blocking": f"Tuple((i8,i8,{_I2},i8))({_T},{_T},{_P},{_P},f8,f8,f8)",
-    "front_polygons": f"Tuple(({_P},{_I1}))({_T},{_T},{_I2},f8,f8)",
-    "clipped_areas": f"f8[::1]({_P},{_I1},{_I1},{_I1},f8,f8,f8,f8)",
-    "overlap_centroid": f"UniTuple(f8,2)({_P},{_P})",
-    "plane": f"UniTuple(f8,3)({_P})",
+    "boxes": "f8[:,::1](f8[:,:,::1])",
+    "wide_triangles": "b1[::1](f8[:,:,::1],f8)",
+    "first_blocking": "Tuple((i8,i8,i8[:,::1],i8))(f8[:,:,::1],f8[:,:,::1],f8[:,::1],"
+                      "f8[:,::1],f8,f8,f8)",
+    "front_polygons": "Tuple((f8[:,::1],i8[::1]))(f8[:,:,::1],f8[:,:,::1],i8[:,::1],f8,f8)",
+    "clipped_areas": "f8[::1](f8[:,::1],i8[::1],i8[::1],i8[::1],f8,f8,f8,f8)",
+    "overlap_centroid": "UniTuple(f8,2)(f8[:,::1],f8[:,::1])",
+    "plane": "UniTuple(f8,3)(f8[:,::1])",
 }
 
 

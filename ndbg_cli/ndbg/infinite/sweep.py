@@ -325,7 +325,7 @@ def warm_up() -> None:
 def kernels_loaded() -> bool:
     """Whether :func:`warm_up` (or a first test) has loaded this test's kernels here (always
     when built ahead of time, or with numba's compilation off: ``NUMBA_DISABLE_JIT``)."""
-    return bool(getattr(first_blocking, "signatures", True))
+    return _kernels.compiled or bool(getattr(first_blocking, "signatures", True))
 
 
 def blocked(asm: Assembly, i: int, j: int, d: np.ndarray) -> bool:
