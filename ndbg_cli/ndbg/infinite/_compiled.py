@@ -22,6 +22,7 @@ kernels run through numba's just-in-time compiler as before.
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import importlib
 import importlib.util
@@ -33,7 +34,7 @@ import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from types import ModuleType, SimpleNamespace
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -47,11 +48,11 @@ BUILT = {"_sweep_kernels": "_sweep_kernels_aot"}
 _HERE = Path(__file__).resolve().parent
 
 
-def _digest(module: str) -> int:
-    """The first 8 bytes of the SHA-256 of ``module``'s source file, numpy's version and
+def _digest(source: bytes) -> int:
+    """The first 8 bytes of the SHA-256 of a kernel module's ``source``, numpy's version and
     numba's and llvmlite's version files, as a signed int64 (what a compiled function
     returns): a build is stale when any of them changed (found without importing numba)."""
-    h = hashlib.sha256((_HERE / f"{module}.py").read_bytes())
+    h = hashlib.sha256(source)
     h.update(np.__version__.encode())
     for package in ("numba", "llvmlite"):
         spec = importlib.util.find_spec(package)
@@ -62,11 +63,22 @@ def _digest(module: str) -> int:
     return int.from_bytes(h.digest()[:8], "little", signed=True)
 
 
-def _compiled(module: str) -> ModuleType | None:
-    """``module``'s compiled module when it is built from the source beside it, else None."""
+def _source(module: str) -> bytes:
+    return (_HERE / f"{module}.py").read_bytes()
+
+
+def _compiled(module: str) -> SimpleNamespace | None:
+    """The ``EXPORTS`` of ``module``'s compiled module, each behind :func:`_checked`, when it
+    is built from the source beside it (read once: its digest and its ``EXPORTS``), else
+    None."""
     try:
         compiled = importlib.import_module(f"{__package__}.{BUILT[module]}")
-        return compiled if compiled.source_digest() == _digest(module) else None
+        source = _source(module)
+        if compiled.source_digest() != _digest(source):
+            return None
+        return SimpleNamespace(**{n: _checked(getattr(compiled, n), sig)
+                                  for n, sig in _exports(source.decode()).items()},
+                               compiled=True)
     except Exception:  # noqa: BLE001 - not built, built for another numpy: numba's then
         return None
 
@@ -134,28 +146,23 @@ def kernels(module: str) -> SimpleNamespace:
     >>> kernels("_sweep_kernels").boxes(t).tolist()  # (u_lo, v_lo, u_hi, v_hi, z_lo, z_hi)
     [[0.0, 0.0, 1.0, 1.0, 0.0, 2.0]]
     """
-    exports = _exports(module)
     got = None if _jit_disabled() else _compiled(module)
     if got is not None:
-        return SimpleNamespace(**{n: _checked(getattr(got, n), sig)
-                                  for n, sig in exports.items()}, compiled=True)
+        return got
     source = importlib.import_module(f"{__package__}.{module}")
-    return SimpleNamespace(**{n: getattr(source, n) for n in exports}, compiled=False)
+    return SimpleNamespace(**{n: getattr(source, n) for n in source.EXPORTS}, compiled=False)
 
 
 def _jit_disabled() -> bool:
     return os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0")
 
 
-def _exports(module: str) -> dict[str, str]:
-    """``module``'s ``EXPORTS``, read from its source without importing it (which imports
-    numba): its one assignment, a dict of string literals."""
-    import ast
-
-    tree = ast.parse((_HERE / f"{module}.py").read_text())
-    (value,) = [n.value for n in tree.body if isinstance(n, ast.Assign)
-                and [getattr(t, "id", None) for t in n.targets] == ["EXPORTS"]]
-    return ast.literal_eval(value)
+def _exports(text: str) -> dict[str, str]:
+    """The ``EXPORTS`` of a kernel module's source ``text``, read without importing it (which
+    imports numba) or parsing all of it: the dict literal from the line ``EXPORTS = {`` to
+    the first line ``}``."""
+    start = text.index("\nEXPORTS = {") + len("\nEXPORTS = ")
+    return ast.literal_eval(text[start:text.index("\n}\n", start) + 2])
 
 
 def _returning(value: int) -> Callable[[], int]:
@@ -179,7 +186,7 @@ def build(force: bool = False) -> list[str]:
     ``force``."""
     done = []
     for module, name in BUILT.items():
-        digest = _digest(module)
+        digest = _digest(_source(module))
         failed = _HERE / f"{name}.failed"
         if not force and (_compiled(module) is not None or (
                 failed.exists() and failed.read_text().strip() == str(digest))):
@@ -201,14 +208,14 @@ def _build_one(module: str, name: str, digest: int) -> None:
         from numba.pycc import CC
     source = importlib.import_module(f"{__package__}.{module}")
     cc = CC(name)
-    for fn, signature in _exports(module).items():
+    for fn, signature in source.EXPORTS.items():
         cc.export(fn, signature)(getattr(source, fn).py_func)
     cc.export("source_digest", "i8()")(_returning(digest))
     with tempfile.TemporaryDirectory(dir=_HERE, prefix=".build-") as tmp:
         cc.output_dir = tmp
         cc.compile()
         (out,) = Path(tmp).glob(f"{name}.*")
-        if _digest(module) != digest:
+        if _digest(_source(module)) != digest:
             raise RuntimeError(f"{module}.py changed during the build")
         with open(out, "rb") as f:
             os.fsync(f.fileno())
