@@ -99,18 +99,22 @@ def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
     False
     """
     # the smaller part is the likelier peg: tried first
-    roles = sorted([(ga, gb), (gb, ga)], key=lambda r: _box_volume(r[0]))
-    axes = patch_axes(ga, gb) + patch_axes(gb, ga)
-    for center, u in axes:
+    a_first = _box_volume(ga) <= _box_volume(gb)
+    for center, u in patch_axes(ga, gb) + patch_axes(gb, ga):
+        if not _finite_axis(center, u):
+            continue
         for s in (1.0, -1.0):
-            if not (np.isfinite(center).all() and np.isfinite(u).all()) or not np.any(u):
-                continue
             # each part seen once about this axis, as peg and as hole
-            views = {id(g): _View(g, center, s * u) for g in (ga, gb)}
-            if any(_bound(views[id(peg)], views[id(hole)], width) <= width
-                   for peg, hole in roles):
+            va, vb = _View(ga, center, s * u), _View(gb, center, s * u)
+            roles = [(va, vb), (vb, va)] if a_first else [(vb, va), (va, vb)]
+            if any(_bound(peg, hole, width) <= width for peg, hole in roles):
                 return True
     return False
+
+
+def _finite_axis(center: np.ndarray, u: np.ndarray) -> bool:
+    """Whether the line through ``center`` along ``u`` is one (finite, ``u`` not zero)."""
+    return bool(np.isfinite(center).all() and np.isfinite(u).all() and np.any(u))
 
 
 def shell_bound(peg: PartGeometry, hole: PartGeometry, center: np.ndarray, u: np.ndarray,
@@ -145,7 +149,7 @@ def shell_bound(peg: PartGeometry, hole: PartGeometry, center: np.ndarray, u: np
     is returned, plus ``1e-9`` of the parts' extent for rounding (``inf`` for an axis that is
     not finite).
     """
-    if not (np.isfinite(center).all() and np.isfinite(u).all()) or not np.any(u):
+    if not _finite_axis(center, u):
         return np.inf
     return _bound(_View(peg, center, u), _View(hole, center, u), width)
 
