@@ -266,7 +266,8 @@ def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: floa
         drop.update(y for y, j in enumerate(todo) if results[j] is None
                     and (pairs[j][0] in clashing or pairs[j][1] in clashing))
     # few triangles are not worth the workers' start, unless this process has work of its
-    # own meanwhile (numba's start, 0.5 s or more), which their time then hides
+    # own meanwhile (the stages' imports; numba's start, 0.4 s, when the kernels are not
+    # built ahead of time), which their time then hides
     # (``drop`` only with the clashes to follow: a caller's own Mapper may predate it)
     more = {} if clashing is None else {"drop": drop}
     for x, res in mapper.imap(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo],

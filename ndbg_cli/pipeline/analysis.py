@@ -130,7 +130,8 @@ def analyze_path(path: str | Path, options: Options = Options(),
                    mesh_tolerance=options.mesh_tolerance, load_timeout=options.load_timeout,
                    load_memory=options.load_memory, progress=options.progress,
                    max_triangles=options.max_triangles,
-                   # with a second core, numba's start while a native reader's child reads
+                   # with a second core, the kernels' load (numba's start, when not built
+                   # ahead of time) and the stages' imports while a native reader reads
                    meanwhile=load_kernels if options.workers > 1 else None)
     except NdbgError as exc:
         return error_record(path, exc, options.root)
