@@ -168,3 +168,20 @@ def test_a_proven_pair_builds_no_solid():
     allowance = TOL + (1 - np.cos(HALF))
     assert interference(0, 1, pa, pb, peg, hole, allowance, TOL) == (None, False)
     assert pa.hash not in facets._MANIFOLD_CACHE and pb.hash not in facets._MANIFOLD_CACHE
+
+
+def test_each_parts_largest_patch_comes_before_the_others():
+    """A plate whose largest curved patch near the pin is a cross bore (along x, radius
+    0.5, 8 long: area 8 pi, against the pin's hole's 4 pi), not the pin's hole: the plate's
+    first axis (x) bounds nothing, the pin's own shank (z, the pin's first) proves the band.
+    So two axes, one per part, are enough where the plate's alone are not; and the
+    interference test, which tries those two before the boolean and the others only
+    without one, finds no interference either way."""
+    bore = m3.Manifold.cylinder(9, 0.5, -1.0, N).rotate((0, 90, 0)).translate((-4.5, 1.7, -1))
+    (pp, peg), (ph, hole) = part(pin(), "pin"), part(plate() - bore, "plate")
+    (center, axis), *_ = patch_axes(hole, peg)
+    assert abs(axis[0]) == pytest.approx(1.0)  # the cross bore's axis comes first
+    allowance = TOL + (1 - np.cos(HALF))
+    assert not thin_shell(hole, peg, allowance, axes=1)
+    assert thin_shell(hole, peg, allowance, axes=2) and thin_shell(hole, peg, allowance)
+    assert interference(0, 1, ph, pp, hole, peg, allowance, TOL) == (None, False)

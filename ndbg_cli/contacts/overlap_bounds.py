@@ -21,6 +21,9 @@ overlap ``O`` and ``|F| <= m`` there gives ``V <= integral of F . n over the bou
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterator
+
 import numpy as np
 
 from ..geometry.vectors import plane_basis
@@ -64,11 +67,13 @@ def thin_slab(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
     return bool(gap.min() <= width)
 
 
-def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
+def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float, axes: int | None = None
+               ) -> bool:
     """Whether :func:`shell_bound` proves the overlap of the two parts at most ``width``
     thick, with either part as the peg, about the axis of one of the :data:`SHELL_AXES`
     largest curved patches of either part near the other (:func:`patch_axes`), its head
-    toward either end of the axis.
+    toward either end of the axis: the largest patch of each part first (a peg's shank or
+    a bore), then the others; only the first ``axes`` of them when given.
 
     Examples
     --------
@@ -100,7 +105,7 @@ def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
     """
     # the smaller part is the likelier peg: tried first
     a_first = _box_volume(ga) <= _box_volume(gb)
-    for center, u in patch_axes(ga, gb) + patch_axes(gb, ga):
+    for center, u in itertools.islice(_largest_first(ga, gb), axes):
         if not _finite_axis(center, u):
             continue
         for s in (1.0, -1.0):
@@ -110,6 +115,17 @@ def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
             if any(_bound(peg, hole, width) <= width for peg, hole in roles):
                 return True
     return False
+
+
+def _largest_first(ga: PartGeometry, gb: PartGeometry) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """:func:`patch_axes` of ``ga`` near ``gb`` and of ``gb`` near ``ga``: the first of each,
+    then the others (``gb``'s computed only when asked for)."""
+    a = patch_axes(ga, gb)
+    yield from a[:1]
+    b = patch_axes(gb, ga)
+    yield from b[:1]
+    yield from a[1:]
+    yield from b[1:]
 
 
 def _finite_axis(center: np.ndarray, u: np.ndarray) -> bool:

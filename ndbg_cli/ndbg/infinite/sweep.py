@@ -72,7 +72,9 @@ class _View:
         if key not in self._facing:
             sd = self.checker.normals[i] @ self.frame[2]
             sel = sd > FACING_TOL if sense > 0 else sd < -FACING_TOL
-            t = np.ascontiguousarray(self.checker.tris[i][sel] @ self.frame.T)
+            # one (3a, 3) @ (3, 3) product: numpy's stacked (a, 3, 3) one loops per triangle
+            picked = self.checker.tris[i][sel]
+            t = (picked.reshape(-1, 3) @ self.frame.T).reshape(picked.shape)
             b = boxes(t)
             wide = wide_triangles(t, self.checker.eps)
             self._facing[key] = (t, b, np.ascontiguousarray(t[wide]),
