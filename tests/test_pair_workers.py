@@ -131,3 +131,27 @@ def test_one_assembly_shows_its_part_pairs_on_a_terminal():
     assert code == 0 and "part pairs [" in drawn and "/10" in drawn
     code, drawn = _cli_on_a_terminal(*args, "--quiet")
     assert code == 0 and "part pairs" not in drawn
+
+
+def _frozen_count(context, item):
+    import gc
+
+    return gc.get_freeze_count()
+
+
+def test_forked_workers_do_not_walk_the_parents_heap():
+    """The objects a worker inherits through fork are out of its garbage collector's reach
+    (``gc.freeze`` around the fork: a collection there would otherwise touch, and copy, every
+    page of the parent's heap), while the parent's own collector has them back at once."""
+    import gc
+
+    from ndbg_cli.core.pools import Forked, Helper
+
+    assert gc.get_freeze_count() == 0
+    held = [object() for _ in range(1000)]
+    got = dict(ForkMapper(2).imap(_frozen_count, None, [0, 1]))
+    assert min(got.values()) > len(held)
+    assert Forked(_frozen_count, None, 0).result() > len(held)
+    with Helper(_frozen_count, None) as helper:  # the second item is the child's
+        here, there = helper.share([0, 1])
+    assert there > len(held) and here == 0 == gc.get_freeze_count()
