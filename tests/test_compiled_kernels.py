@@ -72,6 +72,52 @@ def test_compiled_kernels_equal_the_just_in_time_ones_to_the_bit(seed):
     for a, b in pairs[:50]:
         _same(compiled.overlap_centroid(pi[a], pj[b]), jit.overlap_centroid(pi[a], pj[b]))
         _same(compiled.plane(pj[b]), jit.plane(pj[b]))
+    n = rng.normal(size=(60, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n[:10] = [0.0, 0.0, 1.0]  # facing the frame's d exactly, or (its first half) sliding
+    frame = np.eye(3)[[1, 2, 0]] if seed % 2 else np.eye(3)
+    for sense in (1, -1):
+        _same(compiled.facing(pi, n, frame, sense, 1e-9, eps),
+              jit.facing(pi, n, frame, sense, 1e-9, eps))
+
+
+def test_facing_selects_projects_and_picks_the_wide_triangles():
+    """:func:`facing` against numpy: the triangles facing the frame's third row (sliding ones,
+    ``n . d`` within the tolerance, left out on both sides), projected on its rows, their
+    boxes, and the wide ones among them."""
+    rng = np.random.default_rng(7)
+    tris = _triangles(rng, 200, 0.3)
+    c, s = np.cos(0.3), np.sin(0.3)
+    frame = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
+    n = rng.normal(size=(200, 3))
+    n[::7] = np.cross(frame[2], n[::7])  # sliding along d
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    sliding = np.arange(200) % 7 == 0
+    for sense in (1, -1):
+        t, b, wt, wb = compiled.facing(tris, n, frame, sense, 1e-9, 1e-2)
+        sd = n @ frame[2]
+        keep = sd > 1e-9 if sense > 0 else sd < -1e-9
+        assert keep.sum() > 50 and not (keep & sliding).any()
+        np.testing.assert_allclose(t, tris[keep] @ frame.T, rtol=0, atol=1e-15)
+        _same(b, jit.boxes(t))
+        wide = jit.wide_triangles(t, 1e-2)
+        assert 0 < wide.sum() < len(t)  # both kinds are met
+        _same((wt, wb), (np.ascontiguousarray(t[wide]), np.ascontiguousarray(b[wide])))
+
+
+def test_wide_triangles_is_the_inradius_test():
+    """Its shortcut (a triangle narrower than its longest side says is not measured further)
+    gives the test as written, ``2 A > (eps / 2) P``, on slivers, fat triangles and ones at
+    the threshold."""
+    rng = np.random.default_rng(3)
+    t = _triangles(rng, 3000, 0.0)
+    side = 0.01  # equilateral triangles of side 0.01: inradius side / (2 sqrt 3)
+    eq = np.array([[0.0, 0.0, 0.0], [side, 0.0, 0.0], [side / 2, side * np.sqrt(3) / 2, 0.0]])
+    t = np.concatenate([t, np.broadcast_to(eq, (3, 3, 3))])
+    for eps in (1e-4, 1e-3, side / np.sqrt(3), 1e-2):
+        want = [2 * jit.polygon_area.py_func(x[:, 0], x[:, 1], 3)
+                > 0.5 * eps * jit.polygon_perimeter.py_func(x[:, 0], x[:, 1], 3) for x in t]
+        assert compiled.wide_triangles(t, eps).tolist() == want
 
 
 @needs_build
@@ -119,8 +165,8 @@ def test_every_kernel_the_sweep_test_uses_is_exported():
     """So that a machine with the build and one without take the same kernels."""
     assert _compiled._exports(_compiled._source("_sweep_kernels").decode()) == jit.EXPORTS
     assert set(jit.EXPORTS) == {
-        "boxes", "wide_triangles", "first_blocking", "front_polygons", "clipped_areas",
-        "overlap_centroid", "plane"}
+        "facing", "boxes", "wide_triangles", "first_blocking", "front_polygons",
+        "clipped_areas", "overlap_centroid", "plane"}
 
 
 def test_numba_disable_jit_runs_the_python_source():

@@ -22,6 +22,8 @@ MAX_VERTICES = 8
 #: int64 arrays, as the wrappers pass them): :mod:`._compiled` builds these ahead of time and
 #: reads them from this file's text (string literals only).
 EXPORTS = {
+    "facing": "Tuple((f8[:,:,::1],f8[:,::1],f8[:,:,::1],f8[:,::1]))(f8[:,:,::1],f8[:,::1],"
+              "f8[:,::1],i8,f8,f8)",
     "boxes": "f8[:,::1](f8[:,:,::1])",
     "wide_triangles": "b1[::1](f8[:,:,::1],f8)",
     "first_blocking": "Tuple((i8,i8,i8[:,::1],i8))(f8[:,:,::1],f8[:,:,::1],f8[:,::1],"
@@ -168,6 +170,42 @@ def boxes(t: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
+def facing(tris: np.ndarray, normals: np.ndarray, frame: np.ndarray, sense: int, tol: float,
+           eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles ``tris`` ``(n, 3, 3)`` whose unit ``normals`` ``(n, 3)`` face along the
+    frame's third row ``d`` (``n . d > tol``; against it with ``sense`` -1: ``< -tol``), in
+    their order, projected on the orthonormal rows ``(u, v, d)`` of ``frame``: ``(a, 3, 3)``
+    (u, v, z), their :func:`boxes`, and the same two of the :func:`wide_triangles` only.
+    Each coordinate is ``x f0 + y f1 + z f2`` in that order, without a fused multiply-add,
+    so that every machine projects alike (a BLAS product's rounding depends on its kernel)."""
+    n = tris.shape[0]
+    keep = np.empty(n, np.int64)
+    m = 0
+    for k in range(n):
+        s = normals[k, 0] * frame[2, 0] + normals[k, 1] * frame[2, 1] \
+            + normals[k, 2] * frame[2, 2]
+        if s > tol if sense > 0 else s < -tol:
+            keep[m] = k
+            m += 1
+    t = np.empty((m, 3, 3))
+    for a in range(m):
+        k = keep[a]
+        for c in range(3):
+            x, y, z = tris[k, c, 0], tris[k, c, 1], tris[k, c, 2]
+            for r in range(3):
+                t[a, c, r] = x * frame[r, 0] + y * frame[r, 1] + z * frame[r, 2]
+    b = boxes(t)
+    wide = wide_triangles(t, eps)
+    w = np.flatnonzero(wide)
+    wt = np.empty((len(w), 3, 3))
+    wb = np.empty((len(w), 6))
+    for a in range(len(w)):
+        wt[a] = t[w[a]]
+        wb[a] = b[w[a]]
+    return t, b, wt, wb
+
+
+@njit(cache=True)
 def _grid(bj: np.ndarray, sel: np.ndarray, lo_u: float, lo_v: float, hi_u: float,
           hi_v: float) -> tuple[int, int]:
     """Cells along u and v of :func:`first_blocking`'s grid over ``[lo_u, hi_u] x [lo_v,
@@ -197,7 +235,17 @@ def wide_triangles(t: np.ndarray, eps: float) -> np.ndarray:
     out = np.zeros(t.shape[0], np.bool_)
     for k in range(t.shape[0]):
         u, v = t[k, :, 0], t[k, :, 1]
-        out[k] = 2.0 * polygon_area(u, v, 3) > 0.5 * eps * polygon_perimeter(u, v, 3)
+        twice = 2.0 * polygon_area(u, v, 3)
+        # the perimeter is at least twice the longest side: below that bound (with a margin
+        # far above rounding) a triangle is narrow without its three square roots, as most
+        # of a fine tessellation's slivers are; else the exact test as written
+        longest = 0.0
+        for c in range(3):
+            c2 = (c + 1) % 3
+            longest = max(longest, (u[c2] - u[c]) ** 2 + (v[c2] - v[c]) ** 2)
+        if twice < 0.5 * eps * 2.0 * np.sqrt(longest) * (1.0 - 1e-9):
+            continue
+        out[k] = twice > 0.5 * eps * polygon_perimeter(u, v, 3)
     return out
 
 

@@ -28,6 +28,7 @@ from ._compiled import kernels
 # compiled ahead of time when built (no numba start), else numba's just-in-time kernels
 _kernels = kernels("_sweep_kernels")
 boxes = _kernels.boxes
+facing = _kernels.facing
 clipped_areas = _kernels.clipped_areas
 first_blocking = _kernels.first_blocking
 front_polygons = _kernels.front_polygons
@@ -67,18 +68,11 @@ class _View:
         same two of the *wide* ones only: those whose shadow's inradius ``2 A / P`` exceeds
         ``eps / 2``. A convex overlap's area over perimeter is at most its inradius, which is
         at most either triangle's, so only two wide triangles can make a pair that blocks
-        alone."""
+        alone. One pass of the kernel :func:`_sweep_kernels.facing`."""
         key = (i, sense)
         if key not in self._facing:
-            sd = self.checker.normals[i] @ self.frame[2]
-            sel = sd > FACING_TOL if sense > 0 else sd < -FACING_TOL
-            # one (3a, 3) @ (3, 3) product: numpy's stacked (a, 3, 3) one loops per triangle
-            picked = self.checker.tris[i][sel]
-            t = (picked.reshape(-1, 3) @ self.frame.T).reshape(picked.shape)
-            b = boxes(t)
-            wide = wide_triangles(t, self.checker.eps)
-            self._facing[key] = (t, b, np.ascontiguousarray(t[wide]),
-                                 np.ascontiguousarray(b[wide]))
+            self._facing[key] = facing(self.checker.tris[i], self.checker.normals[i],
+                                       self.frame, sense, FACING_TOL, self.checker.eps)
         return self._facing[key]
 
 
@@ -315,6 +309,7 @@ def warm_up() -> None:
     caller with time to spare takes off the first test; built ahead of time, nothing."""
     t = np.zeros((1, 3, 3))
     t[0, 1, 0] = t[0, 2, 1] = 1.0
+    facing(t, np.array([[0.0, 0.0, 1.0]]), np.eye(3), 1, FACING_TOL, 1e-9)
     b = boxes(t)
     first_blocking(t, t, b, b, 1e-9, 1e-18, 1e-9)
     wide_triangles(t, 1e-9)
