@@ -6,6 +6,7 @@ unit^2; the default tolerance is 1e-4 x the assembly's bounding-box diagonal.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -31,7 +32,7 @@ from ndbg_cli.geometry.vectors import unique_rows
 from ndbg_cli.io.validate import make_part
 from ndbg_cli.report.contacts import contacts_section, contacts_text
 
-from conftest import shared
+from conftest import ROOT, shared
 
 SCHEMA = Path(__file__).resolve().parents[1] / "ndbg_cli/schemas/fragments/contacts.json"
 
@@ -832,3 +833,27 @@ def test_a_curved_contact_does_not_appear_when_the_model_turns(euler):
                             np.asarray(p.mesh.faces))[0] for p in (unit, other))
     pair = Assembly("crankcase-and-52", parts, tolerance=asm.length_tolerance)
     assert analyze_contacts(pair).contacts == ()
+
+
+def test_the_units_analysis_asks_python_fcl_only_about_the_units(monkeypatch):
+    """The second contact analysis (clashing parts merged into a unit) meets the pairs of the
+    other parts again: their broad phase is what the first one found, not asked again."""
+    from ndbg_cli.pipeline.units import merge_units
+
+    asm = ndbg_cli.load(str(ROOT / "assemblies" / "clash.yaml"))
+    first = analyze_contacts(asm)
+    clashes = [(x.a, x.b) for x in first.interferences if x.kind == "clash"]
+    assert clashes
+    merged = merge_units(asm, [sorted(clashes[0])])
+    asked = []
+    real = contacts_module._confirmed
+    monkeypatch.setattr(contacts_module, "_confirmed",
+                        lambda a, g, i, j, *r: asked.append((a.ids[i], a.ids[j])) or real(
+                            a, g, i, j, *r))
+    again = analyze_contacts(merged)
+    unit = merged.ids[min(clashes[0])]
+    assert asked and all(unit in pair for pair in asked)
+    fresh = analyze_contacts(merged.replace(parts=tuple(
+        dataclasses.replace(p, hash=p.hash + "-new") for p in merged.parts)))
+    assert [(c.a, c.b, c.kind) for c in again.contacts] == [
+        (c.a, c.b, c.kind) for c in fresh.contacts]
