@@ -81,6 +81,20 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
     below = 0  # what the parts before r drag along
     for i in bits(excluded):
         below |= up[i]
+    # the neighbours of each part's closure, made when first needed: a node's neighbours
+    # are those of the closures it took in (an OR of ORs), carried along the search
+    near_down: dict[int, int] = {}
+    comps: dict[tuple[int, int], int] = {}
+
+    def near(p: int) -> int:
+        got = near_down.get(p)
+        if got is None:
+            got = 0
+            for i in bits(down[p]):
+                got |= nb[i]
+            near_down[p] = got
+        return got
+
     for r in bits(m):
         out = below
         below |= up[r]
@@ -89,32 +103,34 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
         inside = down[r]
         if inside & ((m & ((1 << r) - 1)) | excluded) or out & inside:
             continue
-        stack = [(inside, out)]
+        stack = [(inside, out, near(r))]
         while stack:
             if budget[0] <= 0:
                 budget[0] = -1  # out of budget with work left (0 alone: all done)
                 return
             budget[0] -= 1
-            inside, out = stack.pop()
-            if out & ~reach(out & -out, nb, m & ~inside):
+            inside, out, around = stack.pop()
+            # the part of the rest holding out's first part, once per (rest, part): the
+            # siblings that only add to out share it
+            rest, low = m & ~inside, out & -out
+            part = comps.get((rest, low))
+            if part is None:
+                part = comps[(rest, low)] = reach(low, nb, rest)
+            if out & ~part:
                 continue  # the rest would fall apart
-            around = 0
-            for i in bits(inside):
-                around |= nb[i]
-            frontier = around & m & ~inside & ~out
+            frontier = around & rest & ~out
             if not frontier:
-                rest = m & ~inside
-                if (reach(inside & -inside, nb, inside) == inside
-                        and reach(rest & -rest, nb, rest) == rest):
+                if reach(inside & -inside, nb, inside) == inside and (
+                        part == rest if out else reach(rest & -rest, nb, rest) == rest):
                     yield inside
                 continue
             f = (frontier & -frontier).bit_length() - 1
             out2 = out | up[f]
             if not out2 & inside:
-                stack.append((inside, out2))
+                stack.append((inside, out2, around))
             in2 = inside | down[f]
             if not in2 & out:
-                stack.append((in2, out))
+                stack.append((in2, out, around | near(f)))
 
 
 def connected_partitionings(ndbg: NDBG, neighbours: Sequence[int], mask: int | None = None, *,
