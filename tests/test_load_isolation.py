@@ -11,6 +11,7 @@ a report or a one-line input error, with nothing else on stderr.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import subprocess
@@ -455,3 +456,22 @@ def test_loading_leaves_the_callers_warning_filters_numpy_and_logging_alone(tmp_
         load(path)
     assert warnings.filters == filters and np.geterr() == errs
     assert logging.getLogger("trimesh").handlers == handlers
+
+
+def test_the_program_reads_step_in_its_child_only(tmp_path):
+    """``ndbg`` keeps OpenCASCADE out of its own process (trimesh would import it for a STEP
+    loader of its own): a STEP file is still read, by the reader's child, and its report
+    comes out whole."""
+    step = shared("as1", "as1-oc-214.stp")
+    out = tmp_path / "r.json"
+    code = ("import atexit, sys; atexit.register(lambda: print("
+            "sys.modules.get('cascadio', 'absent'))); "
+            f"sys.argv = ['ndbg', '-q', 'analyze', {str(step)!r}, '--format', 'json', "
+            f"'--no-cache', '--out', {str(out)!r}]; "
+            "from ndbg_cli.cli.main import run; run()")
+    got = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert got.returncode == 0, got.stderr
+    assert got.stdout.strip() == "None"  # blocked here: never imported
+    report = json.loads(out.read_text())
+    assert len(report["assembly"]["parts"]) == 18 and report["plan"]["verified"]["value"]
