@@ -458,20 +458,66 @@ def test_loading_leaves_the_callers_warning_filters_numpy_and_logging_alone(tmp_
     assert logging.getLogger("trimesh").handlers == handlers
 
 
-def test_the_program_reads_step_in_its_child_only(tmp_path):
-    """``ndbg`` keeps OpenCASCADE out of its own process (trimesh would import it for a STEP
-    loader of its own): a STEP file is still read, by the reader's child, and its report
-    comes out whole."""
+#: A STEP file with no shape in it (OpenCASCADE reads it and finds none).
+EMPTY_STEP = """ISO-10303-21;
+HEADER;
+FILE_DESCRIPTION((''),'2;1');
+FILE_NAME('empty.step','2026-01-01T00:00:00',(''),(''),'','','');
+FILE_SCHEMA(('AUTOMOTIVE_DESIGN'));
+ENDSEC;
+DATA;
+ENDSEC;
+END-ISO-10303-21;
+"""
+
+
+def _program(*args: str, tmp_path: Path) -> subprocess.CompletedProcess:
+    """``ndbg ARGS`` run by its entry point :func:`~ndbg_cli.cli.main.run` in a new
+    interpreter; prints, as the process ends, whether cascadio was imported there and the
+    garbage collector's thresholds."""
+    code = ("import atexit, gc, sys; atexit.register(lambda: print("
+            "sys.modules.get('cascadio', 'absent'), gc.get_threshold())); "
+            f"sys.argv = ['ndbg', *{list(args)!r}]; "
+            "from ndbg_cli.cli.main import run; run()")
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          cwd=tmp_path, timeout=300)
+
+
+def test_the_program_reads_step_in_its_reader_child(tmp_path):
+    """``ndbg`` keeps OpenCASCADE out of its own process (``import trimesh`` would import it
+    for trimesh's STEP loader), and its reader's child, a new interpreter, still reads STEP:
+    here it finds no shape in the file, an input error (exit 2)."""
+    step = tmp_path / "empty.step"
+    step.write_text(EMPTY_STEP)
+    got = _program("-q", "analyze", str(step), "--format", "json", "--out",
+                   str(tmp_path / "r.json"), tmp_path=tmp_path)
+    assert got.returncode == 2
+    assert "OpenCASCADE found no shape in it" in got.stderr
+    assert got.stdout.split()[0] == "None"  # blocked here: never imported
+    assert got.stdout.split(maxsplit=1)[1].strip() == "(10000, 10, 10)"
+
+
+def test_the_library_leaves_the_process_alone():
+    """Neither ``import ndbg_cli`` nor the CLI's :func:`~ndbg_cli.cli.main.main` (what a
+    library caller runs) blocks cascadio or changes the garbage collector's thresholds:
+    only the program's entry point does (:func:`~ndbg_cli.cli.main.run`)."""
+    code = ("import gc, sys; t = gc.get_threshold(); import ndbg_cli, trimesh; "
+            "from ndbg_cli.cli.main import main\n"
+            "try:\n    main(['--version'])\nexcept SystemExit:\n    pass\n"
+            "print(sys.modules.get('cascadio') is not None, gc.get_threshold() == t)")
+    got = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=ROOT, timeout=120)
+    assert got.stdout.split()[-2:] == ["True", "True"], got.stderr
+
+
+def test_a_real_step_product_through_the_program(tmp_path):
+    """AS1 (a STEP file of 18 parts) through the program, OpenCASCADE out of its process:
+    read by the reader's child, its report whole and its plan proven."""
     step = shared("as1", "as1-oc-214.stp")
     out = tmp_path / "r.json"
-    code = ("import atexit, sys; atexit.register(lambda: print("
-            "sys.modules.get('cascadio', 'absent'))); "
-            f"sys.argv = ['ndbg', '-q', 'analyze', {str(step)!r}, '--format', 'json', "
-            f"'--no-cache', '--out', {str(out)!r}]; "
-            "from ndbg_cli.cli.main import run; run()")
-    got = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         cwd=ROOT, timeout=300)
+    got = _program("-q", "analyze", str(step), "--format", "json", "--no-cache", "--out",
+                   str(out), tmp_path=tmp_path)
     assert got.returncode == 0, got.stderr
-    assert got.stdout.strip() == "None"  # blocked here: never imported
+    assert got.stdout.split()[0] == "None"  # blocked here: never imported
     report = json.loads(out.read_text())
     assert len(report["assembly"]["parts"]) == 18 and report["plan"]["verified"]["value"]

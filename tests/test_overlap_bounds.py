@@ -182,6 +182,7 @@ def test_each_parts_largest_patch_comes_before_the_others():
     (center, axis), *_ = patch_axes(hole, peg)
     assert abs(axis[0]) == pytest.approx(1.0)  # the cross bore's axis comes first
     allowance = TOL + (1 - np.cos(HALF))
-    assert not thin_shell(hole, peg, allowance, axes=1)
-    assert thin_shell(hole, peg, allowance, axes=2) and thin_shell(hole, peg, allowance)
+    assert not thin_shell(hole, peg, allowance, stop=1)
+    assert thin_shell(hole, peg, allowance, stop=2) and thin_shell(hole, peg, allowance)
+    assert thin_shell(hole, peg, allowance, start=1)  # the pin's shank, second
     assert interference(0, 1, ph, pp, hole, peg, allowance, TOL) == (None, False)

@@ -155,3 +155,10 @@ def test_forked_workers_do_not_walk_the_parents_heap():
     with Helper(_frozen_count, None) as helper:  # the second item is the child's
         here, there = helper.share([0, 1])
     assert there > len(held) and here == 0 == gc.get_freeze_count()
+    gc.freeze()  # a caller's own freeze (a preforking server) is kept
+    try:
+        frozen = gc.get_freeze_count()
+        assert Forked(_frozen_count, None, 0).result() > len(held)
+        assert gc.get_freeze_count() >= frozen - 100  # not given back (a few freed since)
+    finally:
+        gc.unfreeze()

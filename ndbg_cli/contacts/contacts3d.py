@@ -395,7 +395,9 @@ def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
     ia, ib = np.nonzero(np.triu(overlap, 1))
     out, nested = [], []
     for a, c in zip(ia.tolist(), ib.tolist()):
-        memo = _BROAD.setdefault(geos[a], weakref.WeakKeyDictionary())
+        memo = _BROAD.get(geos[a])
+        if memo is None:
+            memo = _BROAD[geos[a]] = weakref.WeakKeyDictionary()
         got = memo.get(geos[c])
         if got is None:
             got = memo[geos[c]] = _confirmed(asm, geos, a, c, reach[a] + reach[c] - tol,

@@ -27,6 +27,13 @@ FCL_MAX_CONTACTS = 2000
 
 POLICIES = ("error", "warn", "ignore")
 
+#: Triangles of a pair (both parts) below which its overlap boolean costs milliseconds even
+#: where coincident faces cut it into slivers (gearbox-48's pairs of 2-4 thousand: 1-4 ms);
+#: above, tenths of a second to seconds (gearbox-1024's of 30-40 thousand: 0.03-0.5 s).
+CHEAP_BOOLEAN_TRIANGLES = 20_000
+#: Shell-bound axes tried before a cheap boolean (:func:`interference`).
+FIRST_SHELL_AXES = 2
+
 
 @dataclass(frozen=True)
 class Interference:
@@ -67,17 +74,22 @@ def interference(ia: int, ib: int, pa: Part, pb: Part, ga: PartGeometry, gb: Par
     consistently wound mesh, including the few manifold3d rejects (four faces at an edge),
     which would otherwise take the open-mesh fallback.
 
-    Before the boolean the shell bound tries the axes of each part's largest curved patch
-    only, and the others only for those rejects: a bound that holds holds about the peg's
-    own shank or its bore (so on every pair of the shipped real products), while one that
-    fails costs the most when it tries every axis (two to five on them), more than the
-    boolean of parts of a few thousand triangles whose overlap is not a thin shell. Either
-    order gives the same answer: the bounds are upper bounds on the boolean's ``2 V / S``."""
+    On a pair of fewer than :data:`CHEAP_BOOLEAN_TRIANGLES` triangles the shell bound
+    tries the first :data:`FIRST_SHELL_AXES` axes before the boolean (each part's largest
+    curved patch: a bound that holds holds about the peg's own shank or its bore, as on every
+    pair of the shipped real products) and the others only for those rejects: a bound that
+    fails costs the most when it tries every axis (two to five on them), more than such a
+    boolean. A larger pair tries every axis first, since its boolean may cost seconds.
+    Either order gives the same answer: the bounds are upper bounds on the boolean's
+    ``2 V / S``."""
     solids = closed(pa) and closed(pb)
-    if solids and (thin_slab(ga, gb, allowance) or thin_shell(ga, gb, allowance, axes=2)):
+    light = len(ga.triangles) + len(gb.triangles) < CHEAP_BOOLEAN_TRIANGLES
+    first = FIRST_SHELL_AXES if light else None
+    if solids and (thin_slab(ga, gb, allowance) or thin_shell(ga, gb, allowance, stop=first)):
         return None, False
     ma, mb = manifold_model(pa), manifold_model(pb)
-    if (ma is None or mb is None) and solids and thin_shell(ga, gb, allowance):
+    if (ma is None or mb is None) and solids and light and thin_shell(ga, gb, allowance,
+                                                                      start=first):
         return None, False
     if ma is not None and mb is not None:
         overlap = ma ^ mb

@@ -67,13 +67,14 @@ def thin_slab(ga: PartGeometry, gb: PartGeometry, width: float) -> bool:
     return bool(gap.min() <= width)
 
 
-def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float, axes: int | None = None
-               ) -> bool:
+def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float, start: int = 0,
+               stop: int | None = None) -> bool:
     """Whether :func:`shell_bound` proves the overlap of the two parts at most ``width``
     thick, with either part as the peg, about the axis of one of the :data:`SHELL_AXES`
     largest curved patches of either part near the other (:func:`patch_axes`), its head
     toward either end of the axis: the largest patch of each part first (a peg's shank or
-    a bore), then the others; only the first ``axes`` of them when given.
+    a bore), then the others (:func:`_largest_first`); only those from ``start`` to
+    ``stop`` in that order (counting the axes skipped as not finite) when given.
 
     Examples
     --------
@@ -105,7 +106,7 @@ def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float, axes: int | Non
     """
     # the smaller part is the likelier peg: tried first
     a_first = _box_volume(ga) <= _box_volume(gb)
-    for center, u in itertools.islice(_largest_first(ga, gb), axes):
+    for center, u in itertools.islice(_largest_first(ga, gb), start, stop):
         if not _finite_axis(center, u):
             continue
         for s in (1.0, -1.0):
@@ -118,8 +119,9 @@ def thin_shell(ga: PartGeometry, gb: PartGeometry, width: float, axes: int | Non
 
 
 def _largest_first(ga: PartGeometry, gb: PartGeometry) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """:func:`patch_axes` of ``ga`` near ``gb`` and of ``gb`` near ``ga``: the first of each,
-    then the others (``gb``'s computed only when asked for)."""
+    """:func:`patch_axes` of ``ga`` near ``gb`` and of ``gb`` near ``ga``: the first of each
+    (two of one part when the other has none), then the others (``gb``'s computed only when
+    asked for)."""
     a = patch_axes(ga, gb)
     yield from a[:1]
     b = patch_axes(gb, ga)

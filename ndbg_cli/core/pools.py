@@ -39,9 +39,14 @@ def frozen_heap() -> Iterator[None]:
     trimesh, scipy: hundreds of thousands), writing to each one's header, so the child
     copies most of the parent's heap, and spends the walk's time, on work that frees
     nothing of the parent's. Frozen, they are never walked in the child (Python's advice
-    for ``fork`` without ``exec``); the parent's collector sees them again at once. About
-    0.05-0.1 s of a two-core run of the bell, the beam or AS1, in system time and in the
-    workers' start."""
+    for ``fork`` without ``exec``). The parent's collector has them back at once, all in its
+    oldest generation (a young reference cycle of the parent's is then freed by its next full
+    collection, not by a young one). About 0.05-0.1 s of a two-core run of the bell, the beam
+    or AS1, in system time and in the workers' start. A process that froze objects of its
+    own (a preforking server) keeps its freeze: nothing is frozen or given back then."""
+    if gc.get_freeze_count():
+        yield
+        return
     gc.freeze()
     try:
         yield

@@ -81,20 +81,10 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
     below = 0  # what the parts before r drag along
     for i in bits(excluded):
         below |= up[i]
-    # the neighbours of each part's closure, made when first needed: a node's neighbours
-    # are those of the closures it took in (an OR of ORs), carried along the search
-    near_down: dict[int, int] = {}
+    # a node's neighbours are those of the closures it took in (an OR of ORs), carried
+    # along the search
+    near: dict[int, int] = {}
     comps: dict[tuple[int, int], int] = {}
-
-    def near(p: int) -> int:
-        got = near_down.get(p)
-        if got is None:
-            got = 0
-            for i in bits(down[p]):
-                got |= nb[i]
-            near_down[p] = got
-        return got
-
     for r in bits(m):
         out = below
         below |= up[r]
@@ -103,7 +93,7 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
         inside = down[r]
         if inside & ((m & ((1 << r) - 1)) | excluded) or out & inside:
             continue
-        stack = [(inside, out, near(r))]
+        stack = [(inside, out, _neighbours(r, down, nb, near))]
         while stack:
             if budget[0] <= 0:
                 budget[0] = -1  # out of budget with work left (0 alone: all done)
@@ -130,7 +120,19 @@ def _closed_sets(down: dict[int, int], up: dict[int, int], nb: Sequence[int], m:
                 stack.append((inside, out2, around))
             in2 = inside | down[f]
             if not in2 & out:
-                stack.append((in2, out, around | near(f)))
+                stack.append((in2, out, around | _neighbours(f, down, nb, near)))
+
+
+def _neighbours(p: int, down: dict[int, int], nb: Sequence[int], memo: dict[int, int]
+                ) -> int:
+    """The neighbours in ``nb`` of the parts of ``down[p]`` (kept in ``memo``)."""
+    got = memo.get(p)
+    if got is None:
+        got = 0
+        for i in bits(down[p]):
+            got |= nb[i]
+        memo[p] = got
+    return got
 
 
 def connected_partitionings(ndbg: NDBG, neighbours: Sequence[int], mask: int | None = None, *,

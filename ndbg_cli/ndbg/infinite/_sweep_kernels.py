@@ -173,7 +173,8 @@ def boxes(t: np.ndarray) -> np.ndarray:
 def facing(tris: np.ndarray, normals: np.ndarray, frame: np.ndarray, sense: int, tol: float,
            eps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The triangles ``tris`` ``(n, 3, 3)`` whose unit ``normals`` ``(n, 3)`` face along the
-    frame's third row ``d`` (``n . d > tol``; against it with ``sense`` -1: ``< -tol``), in
+    frame's third row ``d`` (``n . d > tol``; with ``sense`` not positive, against it:
+    ``< -tol``), in
     their order, projected on the orthonormal rows ``(u, v, d)`` of ``frame``: ``(a, 3, 3)``
     (u, v, z), their :func:`boxes`, and the same two of the :func:`wide_triangles` only.
     Each coordinate is ``x f0 + y f1 + z f2`` in that order, without a fused multiply-add,
@@ -238,12 +239,13 @@ def wide_triangles(t: np.ndarray, eps: float) -> np.ndarray:
         twice = 2.0 * polygon_area(u, v, 3)
         # the perimeter is at least twice the longest side: below that bound (with a margin
         # far above rounding) a triangle is narrow without its three square roots, as most
-        # of a fine tessellation's slivers are; else the exact test as written
+        # of a fine tessellation's slivers are; else (or when a square overflows) the exact
+        # test as written
         longest = 0.0
         for c in range(3):
             c2 = (c + 1) % 3
             longest = max(longest, (u[c2] - u[c]) ** 2 + (v[c2] - v[c]) ** 2)
-        if twice < 0.5 * eps * 2.0 * np.sqrt(longest) * (1.0 - 1e-9):
+        if longest < np.inf and twice < 0.5 * eps * 2.0 * np.sqrt(longest) * (1.0 - 1e-9):
             continue
         out[k] = twice > 0.5 * eps * polygon_perimeter(u, v, 3)
     return out
