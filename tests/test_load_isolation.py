@@ -521,3 +521,18 @@ def test_a_real_step_product_through_the_program(tmp_path):
     assert got.stdout.split()[0] == "None"  # blocked here: never imported
     report = json.loads(out.read_text())
     assert len(report["assembly"]["parts"]) == 18 and report["plan"]["verified"]["value"]
+
+
+def test_a_cad_file_read_in_the_process_of_the_program(tmp_path):
+    """With OpenCASCADE kept out of the program's process, a caller that reads a STEP file
+    in process (``isolate=False``) still gets OpenCASCADE's answer."""
+    step = tmp_path / "empty.step"
+    step.write_text(EMPTY_STEP)
+    code = ("import sys; sys.modules['cascadio'] = None\n"
+            "from ndbg_cli.io.loaders import load\n"
+            "from ndbg_cli.core.errors import InputError\n"
+            f"try:\n    load({str(step)!r}, isolate=False)\n"
+            "except InputError as exc:\n    print(exc.message)")
+    got = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert "OpenCASCADE found no shape in it" in got.stdout, got.stderr

@@ -433,6 +433,10 @@ def _read_cad(path: Path, *, units: str | None = None, mesh_tolerance: float | N
     The linear deflection is ``mesh_tolerance`` (in ``units``, else the file's unit) when
     given, else :func:`default_deflection_mm`; it is recorded as ``ndbg_deflection_mm``.
     """
+    if sys.modules.get("cascadio", False) is None:
+        # kept out of the ndbg program's process (cli.main), which reads CAD files in the
+        # reader's child; read here all the same when a caller reads one in process
+        del sys.modules["cascadio"]
     import cascadio
 
     data = path.read_bytes()
