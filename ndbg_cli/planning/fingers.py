@@ -103,12 +103,15 @@ def orientations(normals: np.ndarray, areas: np.ndarray) -> np.ndarray:
         return label
     tree = cKDTree(normals)
     chord = 2.0 * np.sin(CONTACT_ANGLE_TOL_RAD / 2.0)
+    grouped = bytearray(n)  # read once per face: a numpy element read costs far more
     k = 0
     for i in np.lexsort((np.arange(n), -areas)).tolist():
-        if label[i] >= 0:
+        if grouped[i]:
             continue
-        near = np.asarray(tree.query_ball_point(normals[i], chord), dtype=np.intp)
-        label[near[label[near] < 0]] = k
+        near = [j for j in tree.query_ball_point(normals[i], chord) if not grouped[j]]
+        for j in near:
+            grouped[j] = 1
+        label[near] = k
         k += 1
     return label
 
