@@ -27,7 +27,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from ..geometry.vectors import plane_basis
-from .facets import PartGeometry, graph_components, origin_distance_2d
+from .facets import PartGeometry, graph_components, max3, min3, origin_distance_2d
 from .fits import fit_circle
 
 __all__ = ["thin_slab", "thin_shell", "shell_bound", "SLAB_FACETS", "SHELL_AXES"]
@@ -184,11 +184,9 @@ class _View:
         e1, e2 = plane_basis(u)
         self.faces = g.faces
         self.v = (g.vertices - center) @ np.stack([e1, e2, u]).T
-        corners = [self.v[g.faces[:, k]] for k in range(3)]
-        self.lo = np.minimum(np.minimum(corners[0], corners[1]), corners[2])
-        self.hi = np.maximum(np.maximum(corners[0], corners[1]), corners[2])
-        r = np.sqrt(self.v[:, 0] ** 2 + self.v[:, 1] ** 2)[g.faces]
-        self.rmax = np.maximum(np.maximum(r[:, 0], r[:, 1]), r[:, 2])
+        corners = self.v[g.faces].swapaxes(1, 2)  # (f, coordinate, corner)
+        self.lo, self.hi = min3(corners), max3(corners)
+        self.rmax = max3(np.sqrt(self.v[:, 0] ** 2 + self.v[:, 1] ** 2)[g.faces])
 
 
 def _bound(peg: _View, hole: _View, width: float) -> float:
