@@ -18,9 +18,11 @@ from numba import njit
 #: Vertices a clipped polygon can reach: a triangle cut by four lines.
 MAX_VERTICES = 8
 
-#: The kernels :mod:`..sweep` calls, and their numba signatures (C-contiguous float64 and
-#: int64 arrays, as the wrappers pass them): :mod:`._compiled` builds these ahead of time and
-#: reads them from this file's text (string literals only).
+#: The kernels :mod:`..sweep` calls, and :func:`boxes` and :func:`wide_triangles`, which
+#: :func:`facing` composes (exported too, so that the build is compared with the source piece
+#: by piece), with their numba signatures (C-contiguous float64 and int64 arrays, as the
+#: wrappers pass them): :mod:`._compiled` builds these ahead of time and reads them from this
+#: file's text (string literals only).
 EXPORTS = {
     "facing": "Tuple((f8[:,:,::1],f8[:,::1],f8[:,:,::1],f8[:,::1]))(f8[:,:,::1],f8[:,::1],"
               "f8[:,::1],i8,f8,f8)",

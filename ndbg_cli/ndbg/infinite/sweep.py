@@ -27,14 +27,12 @@ from ._compiled import kernels
 
 # compiled ahead of time when built (no numba start), else numba's just-in-time kernels
 _kernels = kernels("_sweep_kernels")
-boxes = _kernels.boxes
 facing = _kernels.facing
 clipped_areas = _kernels.clipped_areas
 first_blocking = _kernels.first_blocking
 front_polygons = _kernels.front_polygons
 overlap_centroid = _kernels.overlap_centroid
 plane = _kernels.plane
-wide_triangles = _kernels.wide_triangles
 
 #: ``|n . d|`` below this counts as parallel (a sliding direction), for unit ``n`` and ``d``.
 FACING_TOL = 1e-9
@@ -309,10 +307,8 @@ def warm_up() -> None:
     caller with time to spare takes off the first test; built ahead of time, nothing."""
     t = np.zeros((1, 3, 3))
     t[0, 1, 0] = t[0, 2, 1] = 1.0
-    facing(t, np.array([[0.0, 0.0, 1.0]]), np.eye(3), 1, FACING_TOL, 1e-9)
-    b = boxes(t)
+    t, b, _, _ = facing(t, np.array([[0.0, 0.0, 1.0]]), np.eye(3), 1, FACING_TOL, 1e-9)
     first_blocking(t, t, b, b, 1e-9, 1e-18, 1e-9)
-    wide_triangles(t, 1e-9)
     # the narrow overlaps' union
     coords, counts = front_polygons(t, t, np.zeros((1, 2), np.int64), 0.0, 0.0)
     clipped_areas(coords, np.zeros(1, np.int64), counts, np.zeros(1, np.int64), 0.0, 0.0,
