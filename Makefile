@@ -17,9 +17,9 @@ $(STAMP): pyproject.toml
 # ndbg's own bytecode, as a regular (non-editable) install would have it: with
 # PYTHONDONTWRITEBYTECODE set, every run would otherwise compile the package from source
 # (0.3-0.5 s of each command on a 2-core machine). Up-to-date files are skipped. Then the
-# sweep test's kernels compiled ahead of time with the machine's C compiler (about 12 s, once
-# and after each change of their source), which spares every run numba's start (0.4 s);
-# should that fail, the kernels run just in time and every command still works.
+# infinite-translation kernels compiled ahead of time with the machine's C compiler (about
+# 35 s, once and after each change of their source), which spares every run numba's start
+# (0.5 s); should that fail, the kernels run just in time and every command still works.
 bytecode: setup
 	@$(BIN)/python -m compileall -q ndbg_cli
 	@$(BIN)/python -m ndbg_cli.ndbg.infinite._compiled || true

@@ -180,3 +180,134 @@ def test_numba_disable_jit_runs_the_python_source():
 @needs_build
 def test_a_fresh_build_is_not_built_again():
     assert _compiled.build() == []
+
+
+#: The exact infinite family's kernel modules, built ahead of time too.
+EXACT = ("_kernels", "_cover_kernels", "_term_kernels", "_union_kernels")
+exact_built = all(_compiled._compiled(m) is not None for m in EXACT)
+needs_exact_build = pytest.mark.skipif(
+    not exact_built and not os.environ.get("NDBG_REQUIRE_AOT"),
+    reason="kernels not compiled ahead of time here (make bytecode builds them)")
+
+
+def _record(monkeypatch, calls: list) -> None:
+    """Every exported kernel of the exact family, as its callers get it
+    (:func:`~ndbg_cli.ndbg.infinite._compiled.loaded`), records its calls: the arguments
+    before and after it ran (kernels may write into them) and what it returned."""
+
+    for module in EXACT:
+        space = _compiled.loaded(module)
+        for name in _compiled._exports(_compiled._source(module).decode()):
+            monkeypatch.setattr(space, name, _recorder(getattr(space, name), (module, name),
+                                                       calls))
+
+
+def _recorder(fn, key: tuple, calls: list):
+    import copy
+
+    def call(*args):
+        before = copy.deepcopy(args)
+        out = fn(*args)
+        calls.append((key, before, copy.deepcopy(args), out))
+        return out
+    return call
+
+
+def _exact_family_work() -> None:
+    """The exact family's kernels at work: the whole-sphere NDBG of two examples, the
+    restricted one (a free-motion domain) of two more, and the cone and window helpers on
+    random cones (as tests/test_cover.py makes them)."""
+    import ndbg_cli
+    from ndbg_cli.contacts.contacts3d import analyze_contacts
+    from ndbg_cli.ndbg.infinite.blocking_cones import flat
+    from ndbg_cli.ndbg.infinite.build import build_infinite
+    from ndbg_cli.ndbg.infinite.cover import Cover
+    from ndbg_cli.ndbg.infinite.cubemap import compact, cone_normals
+    from ndbg_cli.ndbg.infinite.domain import free_domain
+    from ndbg_cli.ndbg.infinitesimal.build import contact_pairs
+
+    for name in ("hover", "stack"):
+        build_infinite(ndbg_cli.load(f"assemblies/{name}.yaml"))
+    for name in ("peg-37", "slot-37"):
+        asm = ndbg_cli.load(f"assemblies/{name}.yaml")
+        ca = analyze_contacts(asm)
+        build_infinite(asm, domain=free_domain(len(asm), contact_pairs(asm, ca),
+                                               ca.angle_tolerance))
+    rng = np.random.default_rng(0)
+    domain = np.zeros((6, 64, 64), dtype=bool)
+    domain[4, 28:36, 20:44] = domain[5, 20:44, 28:36] = True
+    cover = Cover(domain=domain)
+    gens = rng.normal(size=(300, 1, 3)) + 0.4 * rng.normal(size=(300, 9, 3))
+    facing = rng.normal(size=(300, 2, 3))
+    facing /= np.linalg.norm(facing, axis=2, keepdims=True)
+    cover.misses_spanned_open(gens, facing)
+    cones = compact(cone_normals(gens[:, :4]))
+    flat(cones)
+    cover.add(cones[:40])
+    cover.covers_spanned(gens[40:])
+    cover.misses_open(cones[40:])
+
+
+@needs_exact_build
+def test_the_exact_familys_compiled_kernels_equal_the_just_in_time_ones(monkeypatch):
+    """On the calls the exact family makes (the first 30 of each kernel): the same values,
+    and the same writes into the arguments, to the bit; every exported kernel is met."""
+    import importlib
+
+    calls: list = []
+    _record(monkeypatch, calls)
+    _exact_family_work()
+    met: dict = {}
+    for (module, name), before, after, out in calls:
+        met[module, name] = met.get((module, name), 0) + 1
+        if met[module, name] > 30:
+            continue
+        assert _compiled.loaded(module).compiled
+        jit_fn = getattr(importlib.import_module(f"ndbg_cli.ndbg.infinite.{module}"), name)
+        args = [np.array(a) if isinstance(a, np.ndarray) else a for a in before]
+        _same(jit_fn(*args), out)
+        for a, b in zip(args, after, strict=True):
+            if isinstance(a, np.ndarray):
+                _same(a, b)
+    assert set(met) == {(m, n) for m in EXACT
+                        for n in _compiled._exports(_compiled._source(m).decode())}
+
+
+@needs_exact_build
+def test_a_kernel_writing_into_a_view_writes_into_the_callers_array():
+    """``update_sat`` brings a window of a summed-area table up to date in place: given a
+    view that is not contiguous, the compiled kernel (which reads a contiguous copy) still
+    writes into the caller's table, as the just-in-time one does."""
+    from ndbg_cli.ndbg.infinite import _cover_kernels as jit_cover
+
+    covered = np.random.default_rng(2).random((6, 9)) < 0.5
+    tables = [np.zeros((3, 8, 12), dtype=np.int32) for _ in range(2)]
+    for fn, table in zip((_compiled.loaded("_cover_kernels").update_sat,
+                          jit_cover.update_sat), tables, strict=True):
+        window = table[1, :7, :10]
+        assert not window.flags.c_contiguous
+        fn(covered, window, 0)
+    _same(tables[0], tables[1])
+    want = np.zeros((7, 10), dtype=np.int64)
+    want[1:, 1:] = covered.cumsum(axis=0).cumsum(axis=1)
+    assert (tables[0][1, :7, :10] == want).all() and not tables[0][[0, 2]].any()
+
+
+def test_signatures_with_tuples_and_int32_arrays_are_read():
+    """A tuple argument is read element by element (``prune_pairs`` takes the cover's
+    windows as one), and ``i4`` arrays are int32."""
+    from ndbg_cli.ndbg.infinite import _term_kernels as jit_terms
+
+    got = _compiled._arguments(jit_terms.EXPORTS["prune_pairs"])
+    window = [(np.dtype(np.int64), 1), (np.dtype(np.float64), 3), (np.dtype(np.float64), 2),
+              (np.dtype(np.int32), 3), (np.dtype(np.int64), 2), None, None]
+    assert got[9] == window and got[11] == window and got[10] is None and len(got) == 13
+
+
+def test_a_build_holds_the_source_of_the_kernels_it_compiles_in():
+    """A module's build digest covers the kernel modules it imports (their kernels are
+    compiled into it): editing ``_kernels`` makes ``_term_kernels``' build stale."""
+    text = _compiled._built_from("_term_kernels")
+    for module in ("_term_kernels", "_cover_kernels", "_kernels", "_cube_faces"):
+        assert _compiled._source(module) in text
+    assert _compiled._built_from("_sweep_kernels") == _compiled._source("_sweep_kernels")

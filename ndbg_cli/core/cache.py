@@ -49,14 +49,28 @@ def _module_file(name: str) -> Path | None:
     return None
 
 
+#: Functions taking the name of a kernel module of their caller's package
+#: (:func:`ndbg_cli.ndbg.infinite._compiled.loaded`): ``loaded("_kernels")`` reads that
+#: module's kernels (compiled from it, ahead of time or not) as an import would.
+KERNEL_LOADERS = ("kernels", "loaded")
+
+
 def _relative_imports(source: str, name: str, path: Path) -> set[str]:
     """The package modules (dotted names) that module ``name`` (source file ``path``) imports
     with relative imports (``from ..x.y import ...``, ``from . import x``; anywhere in the
-    file, functions included)."""
+    file, functions included) or names to a :data:`KERNEL_LOADERS` function."""
     package = ".".join(["ndbg_cli", *name.split(".")[:None if path.name == "__init__.py"
                                                    else -1]])
     out: set[str] = set()
     for node in ast.walk(ast.parse(source)):
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                and node.func.id in KERNEL_LOADERS and len(node.args) == 1
+                and isinstance(node.args[0], ast.Constant)
+                and isinstance(node.args[0].value, str)):
+            target = resolve_name("." + node.args[0].value, package)
+            target = target.removeprefix("ndbg_cli").lstrip(".")
+            if _module_file(target) is not None:
+                out.add(target)
         if not isinstance(node, ast.ImportFrom) or not node.level:
             continue
         target = resolve_name("." * node.level + (node.module or ""), package)

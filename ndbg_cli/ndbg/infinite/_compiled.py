@@ -5,28 +5,32 @@ Numba's start costs about 0.4 s of CPU in each process that calls a kernel: 0.15
 numba, and 0.25 s at the first call to set up its compiler, even when the machine code comes
 from numba's cache. On a product of tens of parts that is most of what the analysis costs
 beyond reading the model. A module built ahead of time imports in a millisecond and needs
-neither numba nor LLVM to run. ``make bytecode`` builds it (``python -m
-ndbg_cli.ndbg.infinite._compiled``: about 11 s with the machine's C compiler, once, and again
-only when the kernels' source changes).
+neither numba nor LLVM to run. ``make bytecode`` builds one per kernel module of
+:data:`BUILT` (``python -m ndbg_cli.ndbg.infinite._compiled``: about 35 s for the five with
+the machine's C compiler, once, and again only when a module's source, or that of a kernel
+module it imports, changes).
 
 One implementation: the compiled module is built from the numba source, by the same compiler
 (LLVM, no fast-math, no fused multiply-add that the source does not ask for), so its results
 are the just-in-time kernels' to the bit (``tests/test_compiled_kernels.py`` compares them).
-It records the SHA-256 of the source it was built from (with numpy's, numba's and llvmlite's
-versions), and :func:`kernels` takes it only when that is the source and stack beside it: a
-stale build is never run. Its functions read their arrays' memory as declared, unchecked, so
-:func:`kernels` puts each behind a conversion to the declared type and layout. Without a
-build (no C compiler, a plain ``pip install``), or with ``NUMBA_DISABLE_JIT`` set, the
-kernels run through numba's just-in-time compiler as before.
+It records the SHA-256 of the source it was built from (its module's and those its module
+imports, with numpy's, numba's and llvmlite's versions), and :func:`kernels` takes it only
+when that is the source and stack beside it: a stale build is never run. Its functions read
+their arrays' memory as declared, unchecked, so :func:`kernels` puts each behind a
+conversion to the declared type and layout (written back into an argument it had to copy).
+Without a build (no C compiler, a plain ``pip install``), or with ``NUMBA_DISABLE_JIT`` set,
+the kernels run through numba's just-in-time compiler as before.
 """
 
 from __future__ import annotations
 
 import ast
+import functools
 import hashlib
 import importlib
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -38,12 +42,14 @@ from types import SimpleNamespace
 
 import numpy as np
 
-__all__ = ["BUILT", "build", "kernels"]
+__all__ = ["BUILT", "build", "kernels", "loaded"]
 
-#: Kernel modules built ahead of time -> the name of their compiled module. Only the sweep
-#: test's: every proof calls it, while the other kernels serve the exact infinite family,
-#: whose cost dwarfs numba's start.
-BUILT = {"_sweep_kernels": "_sweep_kernels_aot"}
+#: Kernel modules built ahead of time -> the name of their compiled module: the sweep test's
+#: (every proof calls it) and the exact infinite family's. That family serves the small
+#: products too (tens of parts), where numba's start was most of the analysis, and the
+#: proof that no plan exists on large ones.
+BUILT = {name: f"{name}_aot" for name in ("_sweep_kernels", "_kernels", "_cover_kernels",
+                                          "_term_kernels", "_union_kernels")}
 
 _HERE = Path(__file__).resolve().parent
 
@@ -67,6 +73,21 @@ def _source(module: str) -> bytes:
     return (_HERE / f"{module}.py").read_bytes()
 
 
+_LOCAL_IMPORT = re.compile(rb"^from \.(\w+) import", re.MULTILINE)
+
+
+def _built_from(module: str) -> bytes:
+    """The source a build of ``module`` compiles: its own, then that of each module of this
+    package it imports, directly or not (their kernels are compiled into it), by name."""
+    seen, todo = set(), [module]
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            todo += [m.decode() for m in _LOCAL_IMPORT.findall(_source(name))]
+    return b"".join(_source(name) for name in [module, *sorted(seen - {module})])
+
+
 def _compiled(module: str) -> SimpleNamespace | None:
     """The ``EXPORTS`` of ``module``'s compiled module, each behind :func:`_checked`, when it
     is built from the source beside it (read once: its digest and its ``EXPORTS``), else
@@ -74,7 +95,7 @@ def _compiled(module: str) -> SimpleNamespace | None:
     try:
         compiled = importlib.import_module(f"{__package__}.{BUILT[module]}")
         source = _source(module)
-        if compiled.source_digest() != _digest(source):
+        if compiled.source_digest() != _digest(_built_from(module)):
             return None
         return SimpleNamespace(**{n: _checked(getattr(compiled, n), sig)
                                   for n, sig in _exports(source.decode()).items()},
@@ -94,39 +115,70 @@ def _split(text: str) -> list[str]:
     return out + [text[start:]]
 
 
-def _arguments(signature: str) -> list[tuple[np.dtype, int] | None]:
-    """The arguments of a numba signature string such as ``"f8[::1](f8[:,:,::1],f8)"``:
-    ``(dtype, ndim)`` per array, ``None`` per scalar."""
+def _arguments(signature: str) -> list:
+    """The arguments of a numba signature string such as ``"f8[::1](f8[:,:,::1],f8)"``, each
+    ``(dtype, ndim)`` for an array, ``None`` for a scalar and a list of these for a tuple
+    (``Tuple((i8[::1],f8))``)."""
     depth = 0
     for k in range(len(signature) - 1, -1, -1):  # the opening of the last group
         depth += (signature[k] == ")") - (signature[k] == "(")
         if depth == 0:
             break
-    dtypes = {"f8": np.float64, "i8": np.int64, "b1": np.bool_}
-    return [(np.dtype(dtypes[a[:2]]), a.count(",") + 1) if "[" in a else None
-            for a in _split(signature[k + 1:-1])]
+    return _specs(signature[k + 1:-1])
+
+
+_DTYPES = {"f8": np.float64, "i8": np.int64, "i4": np.int32, "b1": np.bool_}
+
+
+def _specs(text: str) -> list:
+    out: list = []
+    for a in _split(text):
+        if a.startswith("Tuple((") and a.endswith("))"):
+            out.append(_specs(a[len("Tuple(("):-2]))
+        else:
+            out.append((np.dtype(_DTYPES[a[:2]]), a.count(",") + 1) if "[" in a else None)
+    return out
+
+
+def _convert(name: str, value: object, spec: object, copied: list) -> object:
+    """``value`` as the compiled function ``name`` reads an argument of ``spec``
+    (:func:`_arguments`); the arrays copied for it go to ``copied`` with their originals."""
+    if spec is None:
+        return value
+    if isinstance(spec, list):
+        if not isinstance(value, tuple) or len(value) != len(spec):
+            raise TypeError(f"{name}: a tuple of {len(spec)} expected")
+        return tuple(_convert(name, v, s, copied) for v, s in zip(value, spec))
+    a = np.ascontiguousarray(value, dtype=spec[0])
+    if a.ndim != spec[1]:
+        raise TypeError(f"{name}: an argument has {a.ndim} dimensions, not {spec[1]}")
+    if a is not value and isinstance(value, np.ndarray) and value.flags.writeable:
+        copied.append((value, a))
+    return a
 
 
 def _checked(fn: Callable, signature: str) -> Callable:
     """``fn`` (compiled ahead of time for ``signature`` only, which reads its arrays' memory
     as the declared type, layout and dimensions, unchecked) taking what numba's dispatcher
-    takes: each array argument converted to a C-contiguous array of the declared type (no
-    copy when it is one already; another type or layout is copied, as the just-in-time
-    kernel would compile another version), and one of another dimension refused."""
+    takes: each array argument (in a tuple too) converted to a C-contiguous array of the
+    declared type (no copy when it is one already; another type or layout is copied, as
+    the just-in-time kernel would compile another version), and one of another dimension
+    refused. A copy is written back into its original afterwards, so that a kernel writing
+    into an argument (``update_sat`` into a window of a table) writes into the caller's
+    array, as the just-in-time kernel does."""
     specs = _arguments(signature)
+    name = getattr(fn, "__name__", "kernel")
 
     def call(*args: object) -> object:
-        got = list(args)
-        for k, spec in enumerate(specs):
-            if spec is not None:
-                a = np.ascontiguousarray(got[k], dtype=spec[0])
-                if a.ndim != spec[1]:
-                    raise TypeError(f"{fn.__name__}: argument {k} has {a.ndim} dimensions, "
-                                    f"not {spec[1]}")
-                got[k] = a
-        return fn(*got)
+        copied: list = []
+        got = [_convert(name, a, s, copied) for a, s in zip(args, specs)] + list(
+            args[len(specs):])
+        out = fn(*got)
+        for original, a in copied:
+            np.copyto(original, a, casting="unsafe")
+        return out
 
-    call.__name__ = call.__qualname__ = getattr(fn, "__name__", "kernel")
+    call.__name__ = call.__qualname__ = name
     call.__doc__ = fn.__doc__
     return call
 
@@ -151,6 +203,13 @@ def kernels(module: str) -> SimpleNamespace:
         return got
     source = importlib.import_module(f"{__package__}.{module}")
     return SimpleNamespace(**{n: getattr(source, n) for n in source.EXPORTS}, compiled=False)
+
+
+@functools.cache
+def loaded(module: str) -> SimpleNamespace:
+    """:func:`kernels` of ``module``, found once per process: what the callers use (the
+    compiled module's digest is read once, not at each call)."""
+    return kernels(module)
 
 
 def _jit_disabled() -> bool:
@@ -184,20 +243,23 @@ def build(force: bool = False) -> list[str]:
     extension module crashes the interpreter that loads it, past any ``except``). A build
     that failed is not tried again for the same digest (``NAME.failed`` beside it) unless
     ``force``."""
-    done = []
+    done, error = [], None
     for module, name in BUILT.items():
-        digest = _digest(_source(module))
+        digest = _digest(_built_from(module))
         failed = _HERE / f"{name}.failed"
         if not force and (_compiled(module) is not None or (
                 failed.exists() and failed.read_text().strip() == str(digest))):
             continue
         try:
             _build_one(module, name, digest)
-        except Exception:
+        except Exception as exc:  # noqa: BLE001 - the others are still built; raised below
             failed.write_text(f"{digest}\n")
-            raise
+            error = error or exc
+            continue
         failed.unlink(missing_ok=True)
         done.append(name)
+    if error is not None:
+        raise error
     return done
 
 
@@ -215,7 +277,7 @@ def _build_one(module: str, name: str, digest: int) -> None:
         cc.output_dir = tmp
         cc.compile()
         (out,) = Path(tmp).glob(f"{name}.*")
-        if _digest(_source(module)) != digest:
+        if _digest(_built_from(module)) != digest:
             raise RuntimeError(f"{module}.py changed during the build")
         with open(out, "rb") as f:
             os.fsync(f.fileno())

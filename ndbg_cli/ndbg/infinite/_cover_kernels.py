@@ -13,6 +13,20 @@ from numba import njit
 
 from ._kernels import FACES, _clip, _compact, _cone_normals, dot_matmul, dot_matvec
 
+#: The entry points and their one signature, for the build ahead of time
+#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+EXPORTS = {
+    "misses_spanned_open": "b1[::1](f8[:,:,::1],f8[:,:,::1],f8[:,:,::1],f8[:,:,::1])",
+    "outside": "b1[::1](f8[:,:,::1],f8[:,::1])",
+    "update_sat": "void(b1[:,::1],i4[:,::1],i8)",
+    "covers": "b1[::1](f8[:,:,::1],i8[::1],f8[:,:,::1],f8[:,::1],i4[:,:,::1],i8[:,::1],f8,i8)",
+    "covers_spanned": "b1[::1](f8[:,:,::1],i8[::1],i8[::1],i8[::1],f8[:,:,::1],f8[:,::1],"
+                      "i4[:,:,::1],i8[:,::1],f8,i8)",
+    "mark_cells": "i8(f8[:,:,::1],i8[::1],f8,b1[:,::1])",
+    "open_window": "Tuple((b1,f8,f8,f8,f8))(b1[:,::1],i8,i8,i8,i8,f8)",
+    "window_pyramid": "UniTuple(f8[:,::1],2)(i8,f8,f8,f8,f8)",
+}
+
 
 @njit(cache=True, inline="always")
 def _separates(rows: np.ndarray, pts: np.ndarray, strict: bool) -> bool:

@@ -19,6 +19,20 @@ from numba.extending import intrinsic
 
 from ._cube_faces import FACES
 
+#: The entry points and their one signature, for the build ahead of time
+#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+EXPORTS = {
+    "clip_cones": "Tuple((f8[:,:,::1],i8[::1]))(f8[:,:,::1],i8,f8[:,::1],f8,i8)",
+    "cone_normals": "f8[:,:,::1](f8[:,:,::1],i8[::1],i8[::1],f8)",
+    "compact": "f8[:,:,::1](f8[:,:,::1])",
+    "flat": "b1[::1](f8[:,:,::1],f8)",
+    "circle_crossings": "Tuple((f8[:,::1],i8[::1]))(f8[:,::1],i8,i8,b1[::1],b1[::1],f8,"
+                        "f8[:,::1])",
+    "first_crossings": "Tuple((f8[:,::1],i8[::1]))(f8[:,::1],b1[:,::1],f8,f8[:,::1],"
+                       "f8[:,:,::1],i8[::1],f8,i8,i8[:,::1],i8[:,::1])",
+    "open_hits": "b1[::1](f8[:,:,::1],f8[:,::1],f8[::1],f8[::1],f8[:,::1],i8[::1],f8)",
+}
+
 # --------------------------------------------------------------------------------------------
 # Dot products of 3-vectors, rounded as numpy rounds them
 # --------------------------------------------------------------------------------------------

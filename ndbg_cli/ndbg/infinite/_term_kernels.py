@@ -16,6 +16,20 @@ from numba import njit
 from ._cover_kernels import covers_spanned, open_misses, spanned_misses
 from ._kernels import _compact, _cone_normals, dot_einsum
 
+#: The entry points and their one signature, for the build ahead of time
+#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+EXPORTS = {
+    "terms": "Tuple((f8[:,:,::1],i8))(f8[:,:,::1],f8[:,::1],f8[:,:,::1],f8[:,::1],i8[::1],"
+             "i8[::1],b1[::1],f8,i8[::1],i8[::1],f8,f8,b1,f8[:,:,::1],f8[:,:,::1],f8[:,:,::1],"
+             "b1[::1],f8[:,:,::1],b1[::1])",
+    "facing_pairs": "UniTuple(b1[::1],2)(f8[:,:,::1],f8[:,::1],f8[:,:,::1],f8[:,::1],i8[::1],"
+                    "i8[::1],f8,f8[:,::1],f8[:,::1],f8[:,::1],f8[:,::1])",
+    "prune_pairs": "Tuple((b1[::1],i8))(i8[::1],i8[::1],f8[:,::1],f8[:,::1],f8[:,::1],"
+                   "f8[:,::1],f8,i8[::1],i8[::1],Tuple((i8[::1],f8[:,:,::1],f8[:,::1],"
+                   "i4[:,:,::1],i8[:,::1],f8,i8)),b1,Tuple((i8[::1],f8[:,:,::1],f8[:,::1],"
+                   "i4[:,:,::1],i8[:,::1],f8,i8)),b1)",
+}
+
 
 @njit(cache=True)
 def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np.ndarray,

@@ -15,6 +15,16 @@ from numba import njit
 
 from ._kernels import cut_polygon
 
+#: The entry points and their one signature, for the build ahead of time
+#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+EXPORTS = {
+    "piece_boxes": "Tuple((f8[::1],f8[:,::1]))(f8[:,:,::1],i8[::1])",
+    "maximal_pieces": "b1[::1](f8[:,:,::1],i8[::1],f8[:,::1],i8[::1])",
+    "inside_kept": "b1[::1](f8[:,:,::1],i8[::1],f8[:,::1],b1[::1],f8[:,:,::1],i8[::1],"
+                   "f8[:,::1],i8)",
+    "inset_convex": "Tuple((f8[:,:,::1],i8[::1]))(f8[:,::1],i8[::1],i8[::1],f8[::1])",
+}
+
 
 @njit(cache=True)
 def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
+from ._compiled import loaded
 from ._cube_faces import FACES
 from .chart_union import GRID, antipodal
 from .cubemap import SQUARE_MARGIN, direction_of
@@ -329,7 +330,7 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     with ``domain`` (per face chart geometry or ``None``), inside it. Crossings closer than
     ``eta`` are merged (the first kept), as the nearly concurrent circles of a tessellated
     cylinder's facets all are near its axis. Only on ``faces`` (the others: none)."""
-    from . import _kernels as kernels
+    kernels = loaded("_kernels")
     n = np.ascontiguousarray(normals, dtype=float)
     npairs = len(n) * (len(n) - 1) // 2
     found: list[list[np.ndarray]] = [[] for _ in range(6)]

@@ -23,6 +23,7 @@ from ...core.memo import kept
 from ...core.pools import ForkMapper, Mapper
 from ...core.progress import progress as bar
 from ..dbg import DBG
+from ._compiled import loaded
 from .blocking_cones import closed_parts, part_triangles, unique_circles
 from .chart_union import antipodal, cut_to_domain, reverse_entries
 from .convex_cones import convex_entries, convex_pairs, far_convex
@@ -156,7 +157,7 @@ class BlockedSets:
         (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`; a compiled scan of the boxes, where an
         STR-tree query listed tens of millions of candidates). Only the directions in no open cone
         (seams, boundaries) scan every piece."""
-        from . import _kernels as kernels
+        kernels = loaded("_kernels")
         out = np.zeros(len(d), dtype=bool)
         f, st = face_of(d[sel])
         cones = self.cones[(i, j)]

@@ -20,6 +20,7 @@ import numpy as np
 import trimesh
 
 from ...core.assembly import Assembly
+from ._compiled import loaded
 from .chart_union import clipped_pieces
 from .cover import Cover, domain_cover, run_offsets
 from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS
@@ -118,7 +119,7 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     ``(ia, jb)`` giving the pairs to keep (after the contact normals are taken); ``raw_circles``:
     the contact normals as they are, not deduplicated (a walk deduplicates them once, at its
     end)."""
-    from . import _term_kernels as term_kernels
+    term_kernels = loaded("_term_kernels")
     if not len(ia):
         return _EMPTY
     # Facing prune: some vertex of t_j in front of t_i's plane and some vertex of t_i in front
@@ -202,7 +203,7 @@ def flat(cones: np.ndarray) -> np.ndarray:
     within :data:`FLAT`: an empty open set. Coplanar faces of two parts make such terms (the
     generators of ``t_j - t_i`` in one plane, or ``n_i = n_j``); they can be about half of
     all terms, and being lines across a whole face, the cover could never prune them."""
-    from . import _kernels as kernels
+    kernels = loaded("_kernels")
     if not len(cones):
         return np.zeros(0, dtype=bool)
     return kernels.flat(np.ascontiguousarray(cones, dtype=float), FLAT)
@@ -412,7 +413,7 @@ class _Walk:
         """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Boxes around the
         origin are kept, and so are near node pairs (gap <= 4 eps) unless the box cone lies wholly
         outside the domain (:func:`~ndbg_cli.ndbg.infinite._term_kernels.prune_pairs`)."""
-        from . import _term_kernels as term_kernels
+        term_kernels = loaded("_term_kernels")
         if not len(a) or self.cover.empty:
             return a, b
         ti, tj = self.tree_i, self.tree_j
@@ -497,7 +498,7 @@ def _window_pieces(walk: _Walk, cones: np.ndarray) -> tuple[np.ndarray, list]:
     cone's pieces all lie inside single pieces kept so far (or have area at most
     ``GRID**2``), and per face with some piece ``(face, poly, cnt, area, boxes, has)``
     (:func:`~ndbg_cli.ndbg.infinite.chart_union.clipped_pieces`)."""
-    from . import _union_kernels as kernels
+    kernels = loaded("_union_kernels")
     inside = np.ones(len(cones), dtype=bool)
     found = []
     for face, rect in enumerate(walk.windows):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
+from ._compiled import loaded
 from .cubemap import SQUARE_MARGIN, clip_halfplanes
 
 #: Snapping grid of the arrangement linework, chart units.
@@ -51,7 +52,7 @@ def clipped_pieces(cones: np.ndarray, face: int,
     when ``None``): vertices ``(p, w, 2)`` (counter-clockwise), counts ``(p,)``, areas ``(p,)`` and
     bounding boxes ``(p, 4)`` (:func:`~ndbg_cli.ndbg.infinite._union_kernels.piece_boxes`), and
     whether each has area above ``GRID**2`` ``(p,)``."""
-    from . import _union_kernels as kernels
+    kernels = loaded("_union_kernels")
     poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
     cnt = np.minimum(cnt, poly.shape[1])
     area, boxes = kernels.piece_boxes(poly, cnt)
@@ -84,7 +85,7 @@ def union_pieces(poly: np.ndarray, cnt: np.ndarray, area: np.ndarray, boxes: np.
     ``(q,)``, ascending: the polygons of those inside no other single piece
     (:func:`~ndbg_cli.ndbg.infinite._union_kernels.maximal_pieces`), largest first, and ``boxes``,
     ``index``."""
-    from . import _union_kernels as kernels
+    kernels = loaded("_union_kernels")
     if not len(index):
         return np.zeros(0, dtype=object), np.zeros((0, 4)), np.zeros(0, dtype=np.int64)
     order = np.argsort(-area, kind="stable")
@@ -241,7 +242,7 @@ def _inset_covered(out: object, polys: np.ndarray) -> np.ndarray:
     """``(p,)`` whether each of ``polys`` is a convex polygon whose inset by ``LOST_AREA / 2`` over
     its perimeter (:func:`~ndbg_cli.ndbg.infinite._union_kernels.inset_convex`) is covered by
     ``out`` (prepared)."""
-    from . import _union_kernels as kernels
+    kernels = loaded("_union_kernels")
     ok = np.zeros(len(polys), dtype=bool)
     simple = np.flatnonzero((shapely.get_type_id(polys) == 3)
                             & (shapely.get_num_interior_rings(polys) == 0))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._compiled import loaded
 from .cubemap import SQUARE_MARGIN, clip_halfplanes
 
 #: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
@@ -109,7 +110,7 @@ class Cover:
         ``None`` when every cell is covered. Cones are clipped to it only: outside it there
         is nothing to mark or to test."""
         if self.win[face] is False:
-            from . import _cover_kernels as kernels
+            kernels = loaded("_cover_kernels")
             b = self.block[face]
             got = None if b is None else kernels.open_window(self.covered[face], *b,
                                                              1.0 + SQUARE_MARGIN)
@@ -130,7 +131,7 @@ class Cover:
     def _mark(self, face: int, poly: np.ndarray, cnt: np.ndarray) -> None:
         """Mark the cells of ``face`` wholly inside the convex polygons ``poly`` ``(p, m, 2)``
         (``cnt`` vertices each; :func:`~ndbg_cli.ndbg.infinite._cover_kernels.mark_cells`)."""
-        from . import _cover_kernels as kernels
+        kernels = loaded("_cover_kernels")
         first = kernels.mark_cells(np.ascontiguousarray(poly, dtype=float),
                                    np.ascontiguousarray(cnt, dtype=np.int64), self.h,
                                    self.covered[face])
@@ -147,7 +148,7 @@ class Cover:
         covered when its part in the block is
         (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.box_covered`): with a domain of a few hundred
         cells the tables are that small, not 513 x 513 per face."""
-        from . import _cover_kernels as kernels
+        kernels = loaded("_cover_kernels")
         if self.sat is None:
             size = [(b[1] - b[0], b[3] - b[2]) for b in self.block if b is not None]
             self.sat = np.zeros((6, max([s[0] for s in size], default=0) + 1,
@@ -168,7 +169,7 @@ class Cover:
         cone with generators on both sides of some face's plane is clipped (:meth:`covers` of its
         H-representation; ``pairs``: the generator pairs that can span its facets, as
         :func:`~ndbg_cli.ndbg.infinite.cubemap.cone_normals` takes them)."""
-        from . import _cover_kernels as kernels
+        kernels = loaded("_cover_kernels")
         if self.empty:
             return np.zeros(len(gens), dtype=bool)
         a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
@@ -200,7 +201,7 @@ class Cover:
         (:meth:`window`): one of its half-spaces has the window's four corner directions
         strictly outside (a quick test, no clipping); ``None`` when the face has no
         window."""
-        from . import _cover_kernels as kernels
+        kernels = loaded("_cover_kernels")
         pyr = self._window_pyramid(face)
         if pyr is None:
             return None
@@ -215,7 +216,7 @@ class Cover:
             return None
         got = self._pyramids.get(face)
         if got is None or got[0] != win:
-            from . import _cover_kernels as kernels
+            kernels = loaded("_cover_kernels")
             got = self._pyramids[face] = (win, *kernels.window_pyramid(face, *win))
         return got[1], got[2]
 
@@ -225,7 +226,7 @@ class Cover:
         (so every cell not yet covered), by two quick tests per window, no facet computed:
         every generator strictly outside one side of the window's cone, or the four corners
         outside one of the half-spaces."""
-        from . import _cover_kernels as kernels
+        kernels = loaded("_cover_kernels")
         return kernels.misses_spanned_open(np.ascontiguousarray(gens, dtype=float),
                                            np.ascontiguousarray(facing, dtype=float),
                                            *self.pyramids())
@@ -254,7 +255,7 @@ class Cover:
     def covers(self, cones: np.ndarray) -> np.ndarray:
         """``(p,)`` whether each closed cone ``(p, k, 3)`` lies in covered cells on every
         face it meets."""
-        from . import _cover_kernels as kernels
+        kernels = loaded("_cover_kernels")
         if self.empty:
             return np.zeros(len(cones), dtype=bool)
         return kernels.covers(np.ascontiguousarray(cones, dtype=float), *self._windows())

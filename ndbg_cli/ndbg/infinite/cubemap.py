@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._compiled import loaded
 from ._cube_faces import FACES
 
 #: Slight enlargement of the chart square so that directions on a cube edge are covered on
@@ -54,7 +55,7 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
     Pointed or not, the hull comes out right (a half-space, a wedge, a line-containing cone);
     a set whose hull contains the origin in its interior gives no facet, i.e. every direction.
     """
-    from . import _kernels as kernels
+    kernels = loaded("_kernels")
     gens = np.ascontiguousarray(gens, dtype=float)
     a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
     return kernels.cone_normals(gens, np.asarray(a, dtype=np.int64),
@@ -100,7 +101,7 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
     ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face): see
     :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`.
     """
-    from . import _kernels as kernels
+    kernels = loaded("_kernels")
     r = 1.0 + SQUARE_MARGIN
     x0, y0, x1, y1 = (-r, -r, r, r) if rect is None else rect
     sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
@@ -123,7 +124,7 @@ def compact(normals: np.ndarray) -> np.ndarray:
     padding ``(p, k, 3)``: :func:`ndbg_cli.ndbg.infinite._kernels.compact`. Two different facets can
     share the sort number (a circle of unit normals does): only equal rows are duplicates (dropping
     a different facet would enlarge the cone)."""
-    from . import _kernels as kernels
+    kernels = loaded("_kernels")
     if not len(normals):
         return normals
     return kernels.compact(np.ascontiguousarray(normals, dtype=float))
