@@ -183,3 +183,35 @@ def test_units_reuse_the_contacts_of_the_pairs_they_leave_unchanged(tmp_path):
     again = find_contacts(asm, cache=memo)
     assert memo.stats() == {"contacts": {"hits": pairs, "misses": pairs}}
     assert again.sections["contacts"] == first.sections["contacts"]
+
+
+def test_the_finger_placements_start_before_the_units_contacts(monkeypatch):
+    """With clash units, the interlock LP and grasps' job (its finger placements need the
+    parts alone) is started on the units' assembly before their contacts are found, and
+    given them later: the same classes as computed in one process."""
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.pipeline import stages
+
+    asm = ndbg_cli.load(ASSEMBLIES / "clash.yaml")
+    order = []
+    find, job = stages.find_contacts, stages.interlock_job
+
+    def finding(a, *args, **kw):
+        order.append(("contacts", tuple(a.ids)))
+        return find(a, *args, **kw)
+
+    def starting(a, *args, **kw):
+        order.append(("job", tuple(a.ids)))
+        return job(a, *args, **kw)
+
+    monkeypatch.setattr(stages, "find_contacts", finding)
+    monkeypatch.setattr(stages, "interlock_job", starting)
+    two = ndbg_cli.analyze(asm, Options(workers=2))
+    units = order[1][1]
+    assert order == [("contacts", tuple(asm.ids)), ("job", units), ("contacts", units)]
+    assert "bracket+plate" in units
+    monkeypatch.undo()
+    one = ndbg_cli.analyze(asm, Options(workers=1))
+    assert json.dumps(two["classes"], sort_keys=True) == json.dumps(one["classes"],
+                                                                    sort_keys=True)
+    assert any("grasp" in json.dumps(c) for c in two["classes"].values())

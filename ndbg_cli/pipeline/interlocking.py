@@ -94,15 +94,17 @@ def interlock_and_grasp(asm: Assembly, ca: Any, ndbgs: dict[str, NDBG],
     return lock, grasps
 
 
-def interlock_and_grasp_later(asm: Assembly, ca: Any, get: Callable[[], dict[str, NDBG]]
+def interlock_and_grasp_later(asm: Assembly, get: Callable[[], tuple[Any, dict[str, NDBG]]]
                               ) -> tuple[dict | None, dict]:
-    """:func:`interlock_and_grasp` with the NDBGs given later (``get()``): the finger
-    placements, which need the parts alone, are found first (a
-    :class:`~ndbg_cli.core.pools.Forked` job started before the NDBGs are built)."""
+    """:func:`interlock_and_grasp` with the contacts and the NDBGs given later (``get()``
+    returns ``(analysis, ndbgs)``): the finger placements, which need the parts alone, are
+    found first (a :class:`~ndbg_cli.core.pools.Forked` job started before the contacts of
+    clash units and the NDBGs are found)."""
     from ..planning.fingers import exterior_faces
 
     faces = exterior_faces(asm)
-    return interlock_and_grasp(asm, ca, get(), faces)
+    ca, ndbgs = get()
+    return interlock_and_grasp(asm, ca, ndbgs, faces)
 
 
 def _threads_of(asm: Assembly, ndbgs: dict[str, NDBG]) -> list[tuple[int, int]]:

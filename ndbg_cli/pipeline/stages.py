@@ -322,8 +322,8 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
         forked process (:class:`~ndbg_cli.core.pools.Forked`) while the caller goes on (the
         planner needs neither): :meth:`Measures.finish` adds them. Same classes.
     side : Forked, optional
-        That computation already started (:func:`interlock_job`) and given the translational
-        NDBGs of ``ndbgs``.
+        That computation already started (:func:`interlock_job`) and given the contact
+        analysis and the translational NDBGs of ``ndbgs``.
 
     Returns
     -------
@@ -347,8 +347,8 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     budget = _budget(options)
     base = asm.index(asm.base) if asm.base is not None else None
     if side is None:
-        side = interlock_job(asm, contacts, options, defer=defer)
-        side.send(_translational(ndbgs))
+        side = interlock_job(asm, options, defer=defer)
+        side.send((contacts.analysis, _translational(ndbgs)))
     graphs: dict = {}
     classes = clock("classes_s", lambda: classes_section(
         ndbgs, base=base, budget=budget, graphs=graphs))
@@ -367,18 +367,18 @@ def measure(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
     return got if defer else got.finish(timings)
 
 
-def interlock_job(asm: Assembly, contacts: Contacts, options: Options = Options(), *,
-                  defer: bool = True) -> Any:
+def interlock_job(asm: Assembly, options: Options = Options(), *, defer: bool = True) -> Any:
     """The interlocking LP and the grasps of :func:`measure`
     (:func:`~ndbg_cli.pipeline.interlocking.interlock_and_grasp_later`), to be given the
-    usable translational NDBGs by ``send`` when built: a forked process with ``defer`` and
-    ``options.workers`` above 1 (:class:`~ndbg_cli.core.pools.Forked`; it finds the finger
-    placements meanwhile), else computed when its result is asked for."""
+    contact analysis and the usable translational NDBGs by ``send((analysis, ndbgs))`` when
+    found: a forked process with ``defer`` and ``options.workers`` above 1
+    (:class:`~ndbg_cli.core.pools.Forked`; it finds the finger placements meanwhile, which
+    need the parts alone), else computed when its result is asked for."""
     from ..core.pools import Forked
     from .interlocking import interlock_and_grasp_later
 
-    return Forked(interlock_and_grasp_later, asm, contacts.analysis,
-                  enabled=defer and options.workers > 1, later=True)
+    return Forked(interlock_and_grasp_later, asm, enabled=defer and options.workers > 1,
+                  later=True)
 
 
 def _translational(ndbgs: dict[str, NDBG]) -> dict[str, NDBG]:
@@ -613,16 +613,18 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     pairs = cache if cache is not None else MemoryCache()
     contacts = find_contacts(asm, options, cache=pairs, timings=timings, units_later=True)
     warnings = list(contacts.warnings)
-    asm, contacts, interferences = _keep_clashes_together(asm, contacts, options, pairs,
-                                                           timings)
-    out: dict = dict(contacts.sections)
-    if interferences is not None:
-        out["interferences"] = interferences
+    asm, interferences = _clash_units(asm, contacts)
     # the interlock LP and the grasps, beside: the finger placements (the parts alone) while
-    # the NDBGs are built here, then, given the translational NDBGs, the LP and the grasps
-    # while the generalized NDBG, the classes and the plan are computed here
-    side = interlock_job(asm, contacts, options)
+    # the units' contacts (when clashes made units) and the NDBGs are found here, then,
+    # given the contacts and the translational NDBGs, the LP and the grasps while the
+    # generalized NDBG, the classes and the plan are computed here
+    side = interlock_job(asm, options)
     try:
+        if interferences is not None:  # the units' contacts (``pairs`` serves the others')
+            contacts = find_contacts(asm, options, cache=pairs, timings=timings)
+        out: dict = dict(contacts.sections)
+        if interferences is not None:
+            out["interferences"] = interferences
         ndbgs, proposer = _build_families(asm, contacts, options, cache, timings, side, out,
                                           warnings)
         measures = measure(asm, contacts, ndbgs, options, timings=timings, defer=True,
@@ -653,16 +655,18 @@ def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: 
                     ) -> tuple[dict[str, NDBG], NDBG | None]:
     """The NDBG of each family of ``options.motion`` (:func:`build_ndbg`), their report
     sections and partitionings put in ``out`` and their warnings in ``warnings``; ``side``
-    (:func:`interlock_job`) is sent the usable translational NDBGs as soon as they are
-    built. Returns the usable NDBGs and the infinitesimal NDBG proposing the splits of an
-    infinite-translation plan when the exact family is restricted or skipped (or None)."""
+    (:func:`interlock_job`) is sent the contact analysis and the usable translational NDBGs
+    as soon as they are built. Returns the usable NDBGs and the infinitesimal NDBG proposing
+    the splits of an infinite-translation plan when the exact family is restricted or skipped
+    (or None)."""
     from ..core.cache import CACHE_FAULTS
 
     families: dict[str, Family] = {}
     inf = None
     for name in FAMILIES_OF[options.motion]:
         if name == GENERALIZED:
-            side.send(_translational({k: f.ndbg for k, f in families.items() if f.usable}))
+            side.send((contacts.analysis,
+                       _translational({k: f.ndbg for k, f in families.items() if f.usable})))
         fam = build_ndbg(asm, name, contacts, options, cache=cache, infinitesimal=inf,
                          timings=timings)
         if name == INFINITESIMAL:
@@ -680,7 +684,7 @@ def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: 
     out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
     ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
     if GENERALIZED not in families:
-        side.send(_translational(ndbgs))
+        side.send((contacts.analysis, _translational(ndbgs)))
     proposer = None
     if INFINITE in families and not families[INFINITE].usable and INFINITESIMAL not in ndbgs:
         # the exact family restricted or skipped: the plan's splits are proposed by the
@@ -690,20 +694,18 @@ def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: 
     return ndbgs, proposer
 
 
-def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, cache: Any,
-                           timings: dict[str, float]
-                           ) -> tuple[Assembly, Contacts, list[dict] | None]:
-    """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`)
-    and its contacts found again (``cache`` serves the other pairs), with the report's
-    interferences: the first analysis's, each clash naming its unit. Unchanged without
-    clashes (and the interferences None: its own contact sections hold them)."""
+def _clash_units(asm: Assembly, contacts: Contacts) -> tuple[Assembly, list[dict] | None]:
+    """``asm`` with each group of clashing parts made one unit (:mod:`ndbg_cli.pipeline.units`;
+    the caller finds the units' contacts), with the report's interferences: those of
+    ``contacts`` (``asm``'s), each clash naming its unit. Unchanged without clashes (and the
+    interferences None: the contacts' own sections hold them)."""
     from ..report.contacts import interference_record
     from .units import clash_units, member_order, merge_units
 
     found = getattr(contacts.analysis, "interferences", ())
     units = clash_units(len(asm), [(x.a, x.b) for x in found if x.kind == "clash"])
     if not units:
-        return asm, contacts, None
+        return asm, None
     unit_of = {i: [asm.ids[k] for k in member_order(asm, g)] for g in units for i in g}
     records = []
     for x in found:
@@ -711,5 +713,4 @@ def _keep_clashes_together(asm: Assembly, contacts: Contacts, options: Options, 
         if x.kind == "clash":
             rec["unit"] = unit_of[x.a]
         records.append(rec)
-    merged = merge_units(asm, units)
-    return merged, find_contacts(merged, options, cache=cache, timings=timings), records
+    return merge_units(asm, units), records
