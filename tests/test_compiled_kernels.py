@@ -311,3 +311,54 @@ def test_a_build_holds_the_source_of_the_kernels_it_compiles_in():
     for module in ("_term_kernels", "_cover_kernels", "_kernels", "_cube_faces"):
         assert _compiled._source(module) in text
     assert _compiled._built_from("_sweep_kernels") == _compiled._source("_sweep_kernels")
+
+
+@needs_exact_build
+def test_only_the_arguments_a_kernel_writes_are_written():
+    """``WRITES`` names what each kernel writes into: an argument only read and copied for
+    its type (float counts where int64 are declared) is left as the caller gave it, and a
+    kernel refuses to write into a read-only array or one of another type, as numba's
+    dispatcher does (it compiles no such version)."""
+    from ndbg_cli.ndbg.infinite import _cover_kernels as jit_cover
+
+    assert _compiled._writes(_compiled._source("_cover_kernels").decode()) == jit_cover.WRITES
+    assert _compiled._writes(_compiled._source("_union_kernels").decode()) == {}
+    poly = np.zeros((2, 4, 2))
+    poly[:, :, 0] = [0.0, 1.0, 1.0, 0.0]
+    poly[:, :, 1] = [0.0, 0.0, 1.0, 1.0]
+    cnt = np.array([4.0, 3.0])
+    from ndbg_cli.ndbg.infinite import _union_kernels as jit_union
+
+    _same(_compiled.loaded("_union_kernels").piece_boxes(poly, cnt),
+          jit_union.piece_boxes(poly, cnt.astype(np.int64)))
+    assert cnt.dtype == np.float64 and cnt.tolist() == [4.0, 3.0]
+    mark = _compiled.loaded("_cover_kernels").mark_cells
+    covered = np.zeros((8, 8), dtype=bool)
+    covered.flags.writeable = False
+    with pytest.raises(TypeError, match="writeable"):
+        mark(poly, np.array([4, 4]), 0.25, covered)
+    with pytest.raises(TypeError, match="writeable"):
+        mark(poly, np.array([4, 4]), 0.25, np.zeros((8, 8), dtype=np.int64))
+    mine = np.zeros((8, 8), dtype=bool)
+    assert mark(poly, np.array([4, 4]), 0.25, mine) < 8 and mine.any()
+
+
+def test_a_module_that_fails_to_build_leaves_the_others_built(monkeypatch, tmp_path):
+    """Each kernel module is built on its own: one failing is marked (not tried again for
+    the same source) and named, the others are built."""
+    built = []
+
+    def build_one(module, name, digest):
+        if module == "_cover_kernels":
+            raise RuntimeError("no compiler today")
+        built.append(name)
+
+    monkeypatch.setattr(_compiled, "_HERE", tmp_path)
+    monkeypatch.setattr(_compiled, "_built_from", lambda module: module.encode())
+    monkeypatch.setattr(_compiled, "_build_one", build_one)
+    with pytest.raises(_compiled.BuildError) as err:
+        _compiled.build(force=True)
+    assert err.value.failed == ["_cover_kernels_aot: no compiler today"]
+    assert err.value.done == built == [n for m, n in _compiled.BUILT.items()
+                                       if m != "_cover_kernels"]
+    assert [p.name for p in tmp_path.iterdir()] == ["_cover_kernels_aot.failed"]

@@ -204,14 +204,25 @@ def test_the_finger_placements_start_before_the_units_contacts(monkeypatch):
         order.append(("job", tuple(a.ids)))
         return job(a, *args, **kw)
 
+    from ndbg_cli.pipeline import interlocking
+
+    here = []  # the job's runs in this process (a forked child's are not seen here)
+    later = interlocking.interlock_and_grasp_later
+
+    def computing(*args):
+        here.append(1)
+        return later(*args)
+
     monkeypatch.setattr(stages, "find_contacts", finding)
     monkeypatch.setattr(stages, "interlock_job", starting)
+    monkeypatch.setattr(interlocking, "interlock_and_grasp_later", computing)
     two = ndbg_cli.analyze(asm, Options(workers=2))
     units = order[1][1]
     assert order == [("contacts", tuple(asm.ids)), ("job", units), ("contacts", units)]
     assert "bracket+plate" in units
-    monkeypatch.undo()
+    assert not here  # the child computed it (had it failed, this process would have)
     one = ndbg_cli.analyze(asm, Options(workers=1))
+    assert here == [1]
     assert json.dumps(two["classes"], sort_keys=True) == json.dumps(one["classes"],
                                                                     sort_keys=True)
     assert any("grasp" in json.dumps(c) for c in two["classes"].values())

@@ -49,10 +49,11 @@ def _module_file(name: str) -> Path | None:
     return None
 
 
-#: Functions taking the name of a kernel module of their caller's package
-#: (:func:`ndbg_cli.ndbg.infinite._compiled.loaded`): ``loaded("_kernels")`` reads that
-#: module's kernels (compiled from it, ahead of time or not) as an import would.
+#: Functions of :mod:`ndbg_cli.ndbg.infinite._compiled` taking the name of a kernel module of
+#: that package (:data:`KERNEL_PACKAGE`): ``loaded("_kernels")`` reads that module's kernels
+#: (compiled from it, ahead of time or not) as an import would.
 KERNEL_LOADERS = ("kernels", "loaded")
+KERNEL_PACKAGE = "ndbg.infinite"
 
 
 def _relative_imports(source: str, name: str, path: Path) -> set[str]:
@@ -63,12 +64,12 @@ def _relative_imports(source: str, name: str, path: Path) -> set[str]:
                                                    else -1]])
     out: set[str] = set()
     for node in ast.walk(ast.parse(source)):
-        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-                and node.func.id in KERNEL_LOADERS and len(node.args) == 1
+        if (isinstance(node, ast.Call) and len(node.args) == 1
+                and (node.func.id if isinstance(node.func, ast.Name) else
+                     getattr(node.func, "attr", None)) in KERNEL_LOADERS
                 and isinstance(node.args[0], ast.Constant)
                 and isinstance(node.args[0].value, str)):
-            target = resolve_name("." + node.args[0].value, package)
-            target = target.removeprefix("ndbg_cli").lstrip(".")
+            target = f"{KERNEL_PACKAGE}.{node.args[0].value}"
             if _module_file(target) is not None:
                 out.add(target)
         if not isinstance(node, ast.ImportFrom) or not node.level:

@@ -1,9 +1,9 @@
 """Kernels compiled ahead of time: the entry points of a numba kernel module (its ``EXPORTS``)
 built by numba's ``pycc`` into a plain extension module beside it.
 
-Numba's start costs about 0.4 s of CPU in each process that calls a kernel: 0.15 s to import
-numba, and 0.25 s at the first call to set up its compiler, even when the machine code comes
-from numba's cache. On a product of tens of parts that is most of what the analysis costs
+Numba's start costs about 0.5 s of CPU in each process that calls a kernel: 0.15-0.3 s to
+import numba, and 0.25 s at the first call to set up its compiler, even when the machine code
+comes from numba's cache. On a product of tens of parts that is most of what the analysis costs
 beyond reading the model. A module built ahead of time imports in a millisecond and needs
 neither numba nor LLVM to run. ``make bytecode`` builds one per kernel module of
 :data:`BUILT` (``python -m ndbg_cli.ndbg.infinite._compiled``: about 35 s for the five with
@@ -30,7 +30,6 @@ import hashlib
 import importlib
 import importlib.util
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -42,7 +41,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-__all__ = ["BUILT", "build", "kernels", "loaded"]
+__all__ = ["BUILT", "BuildError", "build", "kernels", "loaded"]
 
 #: Kernel modules built ahead of time -> the name of their compiled module: the sweep test's
 #: (every proof calls it) and the exact infinite family's. That family serves the small
@@ -73,7 +72,15 @@ def _source(module: str) -> bytes:
     return (_HERE / f"{module}.py").read_bytes()
 
 
-_LOCAL_IMPORT = re.compile(rb"^from \.(\w+) import", re.MULTILINE)
+def _local_imports(module: str) -> set[str]:
+    """The modules of this package that ``module`` imports (``from .x import ...``,
+    ``from . import x``; anywhere in the file), read from its source."""
+    out = set()
+    for node in ast.walk(ast.parse(_source(module))):
+        if isinstance(node, ast.ImportFrom) and node.level == 1:
+            names = [node.module] if node.module else [a.name for a in node.names]
+            out |= {n for n in names if (_HERE / f"{n}.py").is_file()}
+    return out
 
 
 def _built_from(module: str) -> bytes:
@@ -84,7 +91,7 @@ def _built_from(module: str) -> bytes:
         name = todo.pop()
         if name not in seen:
             seen.add(name)
-            todo += [m.decode() for m in _LOCAL_IMPORT.findall(_source(name))]
+            todo += sorted(_local_imports(name))
     return b"".join(_source(name) for name in [module, *sorted(seen - {module})])
 
 
@@ -97,7 +104,8 @@ def _compiled(module: str) -> SimpleNamespace | None:
         source = _source(module)
         if compiled.source_digest() != _digest(_built_from(module)):
             return None
-        return SimpleNamespace(**{n: _checked(getattr(compiled, n), sig)
+        writes = _writes(source.decode())
+        return SimpleNamespace(**{n: _checked(getattr(compiled, n), sig, writes.get(n, ()))
                                   for n, sig in _exports(source.decode()).items()},
                                compiled=True)
     except Exception:  # noqa: BLE001 - not built, built for another numpy: numba's then
@@ -140,42 +148,52 @@ def _specs(text: str) -> list:
     return out
 
 
-def _convert(name: str, value: object, spec: object, copied: list) -> object:
+def _convert(name: str, value: object, spec: object) -> object:
     """``value`` as the compiled function ``name`` reads an argument of ``spec``
-    (:func:`_arguments`); the arrays copied for it go to ``copied`` with their originals."""
+    (:func:`_arguments`)."""
     if spec is None:
         return value
     if isinstance(spec, list):
         if not isinstance(value, tuple) or len(value) != len(spec):
             raise TypeError(f"{name}: a tuple of {len(spec)} expected")
-        return tuple(_convert(name, v, s, copied) for v, s in zip(value, spec))
+        return tuple(_convert(name, v, s) for v, s in zip(value, spec))
     a = np.ascontiguousarray(value, dtype=spec[0])
     if a.ndim != spec[1]:
         raise TypeError(f"{name}: an argument has {a.ndim} dimensions, not {spec[1]}")
-    if a is not value and isinstance(value, np.ndarray) and value.flags.writeable:
-        copied.append((value, a))
     return a
 
 
-def _checked(fn: Callable, signature: str) -> Callable:
+def _written(name: str, value: object, spec: tuple) -> np.ndarray:
+    """The array the compiled function ``name`` writes into for the argument ``value`` (of
+    ``spec``): ``value`` itself when C-contiguous, else a copy to write back. What the
+    just-in-time kernel refuses to write into (a read-only array) or would write as another
+    type is refused."""
+    if not (isinstance(value, np.ndarray) and value.flags.writeable
+            and value.dtype == spec[0] and value.ndim == spec[1]):
+        raise TypeError(f"{name} writes into an argument: a writeable {spec[0]} array of "
+                        f"{spec[1]} dimensions is needed")
+    return value if value.flags.c_contiguous else np.ascontiguousarray(value)
+
+
+def _checked(fn: Callable, signature: str, writes: tuple[int, ...] = ()) -> Callable:
     """``fn`` (compiled ahead of time for ``signature`` only, which reads its arrays' memory
     as the declared type, layout and dimensions, unchecked) taking what numba's dispatcher
     takes: each array argument (in a tuple too) converted to a C-contiguous array of the
-    declared type (no copy when it is one already; another type or layout is copied, as
+    declared type (not copied when it is one already; another type or layout is copied, as
     the just-in-time kernel would compile another version), and one of another dimension
-    refused. A copy is written back into its original afterwards, so that a kernel writing
-    into an argument (``update_sat`` into a window of a table) writes into the caller's
-    array, as the just-in-time kernel does."""
+    refused. The arguments ``writes`` (positions: the kernel writes into them, its module's
+    ``WRITES``) are written into the caller's array, as the just-in-time kernel does: a
+    copy made for their layout (``update_sat`` into a window of a table) is written back."""
     specs = _arguments(signature)
     name = getattr(fn, "__name__", "kernel")
 
     def call(*args: object) -> object:
-        copied: list = []
-        got = [_convert(name, a, s, copied) for a, s in zip(args, specs)] + list(
-            args[len(specs):])
+        got = [_written(name, a, s) if k in writes else _convert(name, a, s)
+               for k, (a, s) in enumerate(zip(args, specs))] + list(args[len(specs):])
         out = fn(*got)
-        for original, a in copied:
-            np.copyto(original, a, casting="unsafe")
+        for k in writes:
+            if got[k] is not args[k]:
+                args[k][...] = got[k]
         return out
 
     call.__name__ = call.__qualname__ = name
@@ -224,6 +242,16 @@ def _exports(text: str) -> dict[str, str]:
     return ast.literal_eval(text[start:text.index("\n}\n", start) + 2])
 
 
+def _writes(text: str) -> dict[str, tuple[int, ...]]:
+    """The ``WRITES`` of a kernel module's source ``text`` (entry point -> the positions of
+    the arguments it writes into; read as :func:`_exports` reads ``EXPORTS``), else none."""
+    start = text.find("\nWRITES = {")
+    if start < 0:
+        return {}
+    start += len("\nWRITES = ")
+    return ast.literal_eval(text[start:text.index("}", start) + 1])
+
+
 def _returning(value: int) -> Callable[[], int]:
     """A function returning ``value`` (numba freezes it into the compiled code)."""
 
@@ -242,25 +270,36 @@ def build(force: bool = False) -> list[str]:
     importing it meanwhile sees the old file or the new one, never a part (a truncated
     extension module crashes the interpreter that loads it, past any ``except``). A build
     that failed is not tried again for the same digest (``NAME.failed`` beside it) unless
-    ``force``."""
-    done, error = [], None
+    ``force``. A module that fails leaves the others to be built: :class:`BuildError` then
+    says which failed and which were built."""
+    done, errors = [], []
     for module, name in BUILT.items():
-        digest = _digest(_built_from(module))
-        failed = _HERE / f"{name}.failed"
-        if not force and (_compiled(module) is not None or (
-                failed.exists() and failed.read_text().strip() == str(digest))):
-            continue
+        failed, digest = _HERE / f"{name}.failed", None
         try:
+            digest = _digest(_built_from(module))
+            if not force and (_compiled(module) is not None or (
+                    failed.exists() and failed.read_text().strip() == str(digest))):
+                continue
             _build_one(module, name, digest)
         except Exception as exc:  # noqa: BLE001 - the others are still built; raised below
-            failed.write_text(f"{digest}\n")
-            error = error or exc
+            if digest is not None:  # not tried again for this source (unless forced)
+                failed.write_text(f"{digest}\n")
+            errors.append(f"{name}: {exc}")
             continue
         failed.unlink(missing_ok=True)
         done.append(name)
-    if error is not None:
-        raise error
+    if errors:
+        raise BuildError(done, errors)
     return done
+
+
+class BuildError(RuntimeError):
+    """Some kernel modules could not be built (``failed``: ``"name: why"`` each); ``done``
+    names those that were."""
+
+    def __init__(self, done: list[str], failed: list[str]) -> None:
+        super().__init__("; ".join(failed))
+        self.done, self.failed = done, failed
 
 
 def _build_one(module: str, name: str, digest: int) -> None:
@@ -297,16 +336,20 @@ def main() -> int:
     """``python -m ndbg_cli.ndbg.infinite._compiled [--force]``: build what is stale, say
     what was done on stderr; exit 1 when a build fails (the kernels then run just in time)."""
     t0 = time.perf_counter()
+    failed = []
     try:
         done = build(force="--force" in sys.argv[1:])
+    except BuildError as exc:
+        done, failed = exc.done, exc.failed
     except Exception as exc:  # noqa: BLE001 - reported, with what it means
-        print(f"ndbg: the kernels could not be compiled ahead of time ({exc}); numba will "
-              "compile them at run time (about 0.4 s more per run)", file=sys.stderr)
-        return 1
+        done, failed = [], [str(exc)]
+    for why in failed:
+        print(f"ndbg: kernels could not be compiled ahead of time ({why}); numba will compile "
+              "them at run time (about 0.5 s more per run that needs them)", file=sys.stderr)
     if done:
         print(f"ndbg: compiled {', '.join(done)} ahead of time in "
               f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":

@@ -26,6 +26,9 @@ EXPORTS = {
     "open_window": "Tuple((b1,f8,f8,f8,f8))(b1[:,::1],i8,i8,i8,i8,f8)",
     "window_pyramid": "UniTuple(f8[:,::1],2)(i8,f8,f8,f8,f8)",
 }
+#: The arguments (positions) an entry point writes into, in place (the build ahead of time
+#: writes into the caller's array, as here: :func:`~ndbg_cli.ndbg.infinite._compiled._checked`).
+WRITES = {"update_sat": (1,), "mark_cells": (3,)}
 
 
 @njit(cache=True, inline="always")

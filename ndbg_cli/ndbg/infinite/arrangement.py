@@ -72,8 +72,10 @@ def arrangement_cells(bs: BlockedSets, workers: int = 1) -> list[Cell]:
     made = [f for f in faces if f not in mirrored]
     if workers > 1 and len(made) > 1:
         with ThreadPoolExecutor(max_workers=min(workers, len(made)) + 1) as pool:
-            # the crossings (a compiled kernel, without the GIL) are made while the faces'
-            # linework is noded; a face waits for them only when it needs them
+            # the crossings are made while the faces' linework is noded; a face waits for
+            # them only when it needs them. Just in time the kernel runs without the GIL;
+            # built ahead of time it holds it (numba's pycc cannot release it) and the faces
+            # wait for it: 0.1 s on AS1's crossings, where numba's start costs 0.5 s
             crossings = pool.submit(circle_crossings, bs.circles, bs.eta, bs.domain, made)
             done = list(pool.map(lambda f: _face_cells(bs, f, crossings), made))
     else:
