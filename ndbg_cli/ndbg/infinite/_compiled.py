@@ -17,7 +17,8 @@ It records the SHA-256 of the source it was built from (its module's and those i
 imports, with numpy's, numba's and llvmlite's versions), and :func:`kernels` takes it only
 when that is the source and stack beside it: a stale build is never run. Its functions read
 their arrays' memory as declared, unchecked, so :func:`kernels` puts each behind a
-conversion to the declared type and layout (written back into an argument it had to copy).
+conversion to the declared type and layout (and writes back into the caller's array an
+argument its module's ``WRITES`` says it writes, when it had to be copied).
 Without a build (no C compiler, a plain ``pip install``), or with ``NUMBA_DISABLE_JIT`` set,
 the kernels run through numba's just-in-time compiler as before.
 """
