@@ -18,7 +18,7 @@ $(STAMP): pyproject.toml
 # PYTHONDONTWRITEBYTECODE set, every run would otherwise compile the package from source
 # (0.3-0.5 s of each command on a 2-core machine). Up-to-date files are skipped. Then the
 # infinite-translation kernels compiled ahead of time with the machine's C compiler (about
-# 35 s, once and after each change of their source), which spares every run numba's start
+# 40 s, once and after each change of their source), which spares every run numba's start
 # (0.5 s); should that fail, the kernels run just in time and every command still works.
 bytecode: setup
 	@$(BIN)/python -m compileall -q ndbg_cli

@@ -6,7 +6,7 @@ import numba, and 0.25 s at the first call to set up its compiler, even when the
 comes from numba's cache. On a product of tens of parts that is most of what the analysis costs
 beyond reading the model. A module built ahead of time imports in a millisecond and needs
 neither numba nor LLVM to run. ``make bytecode`` builds one per kernel module of
-:data:`BUILT` (``python -m ndbg_cli.ndbg.infinite._compiled``: about 35 s for the five with
+:data:`BUILT` (``python -m ndbg_cli.ndbg.infinite._compiled``: about 40 s for the five with
 the machine's C compiler, once, and again only when a module's source, or that of a kernel
 module it imports, changes).
 
