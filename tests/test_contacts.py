@@ -857,3 +857,36 @@ def test_the_units_analysis_asks_python_fcl_only_about_the_units(monkeypatch):
         dataclasses.replace(p, hash=p.hash + "-new") for p in merged.parts)))
     assert [(c.a, c.b, c.kind) for c in again.contacts] == [
         (c.a, c.b, c.kind) for c in fresh.contacts]
+
+
+def test_part_geometries_found_in_a_forked_child_are_the_same(monkeypatch):
+    """The parts' facets, sags and adjacency computed in a forked child while this process
+    builds the BVHs (``fork_above``) are the arrays computed here, to the bit; the child, not
+    this process, computed them; parts already cached are not computed again."""
+    import ndbg_cli.contacts.facets as facets
+
+    asm = ndbg_cli.load(Path(__file__).parent.parent / "assemblies" / "peg-37.yaml")
+    tol = asm.length_tolerance
+    facets.clear_caches()
+    here = [facets.part_geometry(p, tol, CONTACT_ANGLE_TOL_RAD) for p in asm.parts]
+    facets.clear_caches()
+    calls, derived = [], facets._derived
+
+    def counting(*args):
+        calls.append(1)
+        return derived(*args)
+
+    monkeypatch.setattr(facets, "_derived", counting)
+    built = []
+    got = facets.part_geometries(asm.parts, tol, CONTACT_ANGLE_TOL_RAD, fork_above=0,
+                                 meanwhile=lambda: built.append(1))
+    assert not calls and built == [1]  # the child computed them, this process the BVHs
+    for a, b in zip(here, got, strict=True):
+        for field in dataclasses.fields(a):
+            x, y = getattr(a, field.name), getattr(b, field.name)
+            if isinstance(x, np.ndarray):
+                assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), field.name
+    assert facets.part_geometries(asm.parts, tol, CONTACT_ANGLE_TOL_RAD, fork_above=0) == got
+    facets.clear_caches()
+    facets.part_geometries(asm.parts, tol, CONTACT_ANGLE_TOL_RAD, fork_above=10 ** 9)
+    assert len(calls) == len(asm.parts)  # under the threshold: here

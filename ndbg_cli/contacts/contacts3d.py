@@ -35,6 +35,7 @@ from .facets import (
     manifold_model,
     max3,
     min3,
+    part_geometries,
     part_geometry,
     sat_gap,
     triangle_gap,
@@ -179,9 +180,11 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                          file=asm.source or None)
     stats: dict = {"parts": len(asm), "triangles": int(sum(p.check.triangles for p in asm))}
     t0 = time.perf_counter()
-    geos = [part_geometry(p, tol, ang) for p in asm.parts]
-    for p in asm.parts:
-        fcl_model(p)
+    # with a second core, the parts' facets and sags are found there while python-fcl
+    # builds their BVHs here
+    geos = part_geometries(asm.parts, tol, ang,
+                           meanwhile=lambda: [fcl_model(p) for p in asm.parts],
+                           fork_above=MIN_PARALLEL_TRIANGLES if workers > 1 else None)
     t1 = time.perf_counter()
     pairs, nested = _broad_phase(asm, geos, tol)
     t2 = time.perf_counter()
