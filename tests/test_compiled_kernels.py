@@ -362,3 +362,23 @@ def test_a_module_that_fails_to_build_leaves_the_others_built(monkeypatch, tmp_p
     assert err.value.done == built == [n for m, n in _compiled.BUILT.items()
                                        if m != "_cover_kernels"]
     assert [p.name for p in tmp_path.iterdir()] == ["_cover_kernels_aot.failed"]
+
+
+def test_the_package_imports_a_build_holds_are_read_in_every_form(monkeypatch, tmp_path):
+    """``from .x import ...``, ``from . import x as y``, indented or parenthesized over
+    lines: each module of the package named is in the build's source; names of no module
+    (a package's function, a module elsewhere) are not."""
+    (tmp_path / "_a.py").write_text(
+        "from . import _b as b, _c\n"
+        "def f():\n"
+        "    from ._d import g\n"
+        "from . import (\n    _e,\n    nothing_here,\n)\n"
+        "from .._elsewhere import h\n")
+    for name in ("_b", "_c", "_d", "_e", "_f"):
+        (tmp_path / f"{name}.py").write_text(f"# {name}\n" + (
+            "from ._f import x\n" if name == "_e" else ""))
+    monkeypatch.setattr(_compiled, "_HERE", tmp_path)
+    assert _compiled._local_imports("_a") == {"_b", "_c", "_d", "_e"}
+    text = _compiled._built_from("_a")
+    assert text.startswith(b"from . import _b") and all(
+        f"# {n}\n".encode() in text for n in ("_b", "_c", "_d", "_e", "_f"))

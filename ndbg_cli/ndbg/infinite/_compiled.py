@@ -31,6 +31,7 @@ import hashlib
 import importlib
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -73,14 +74,24 @@ def _source(module: str) -> bytes:
     return (_HERE / f"{module}.py").read_bytes()
 
 
+#: ``from .x import ...`` or ``from . import x, y`` (parenthesized over lines too), at any
+#: indentation: read with a pattern, not parsed (parsing the kernel modules costs 5 ms each,
+#: at every run's first kernel); a match in a docstring could only add a module to the digest.
+_LOCAL_IMPORT = re.compile(rb"^[ \t]*from[ \t]+\.(\w*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)",
+                           re.MULTILINE)
+
+
 def _local_imports(module: str) -> set[str]:
     """The modules of this package that ``module`` imports (``from .x import ...``,
     ``from . import x``; anywhere in the file), read from its source."""
     out = set()
-    for node in ast.walk(ast.parse(_source(module))):
-        if isinstance(node, ast.ImportFrom) and node.level == 1:
-            names = [node.module] if node.module else [a.name for a in node.names]
-            out |= {n for n in names if (_HERE / f"{n}.py").is_file()}
+    for package, names in _LOCAL_IMPORT.findall(_source(module)):
+        if package:
+            found = [package.decode()]
+        else:
+            found = [n.split()[0] for n in names.decode().strip("()\\ \t\n").split(",")
+                     if n.split()]
+        out |= {n for n in found if (_HERE / f"{n}.py").is_file()}
     return out
 
 
