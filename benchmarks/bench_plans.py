@@ -8,8 +8,7 @@ step proven; 0: a proof that no plan exists; -1: neither), ``depth`` and ``depth
 the time target where the issue sets one (``target_s``), and for the models of
 :data:`FLOOR_TARGETS` the floor with the BVH and the ratio to it (``floor_bvh_s``,
 ``over_floor``), each run in turn with the others of its model. Models: the four with
-targets, the
-engine, every shipped example (one run each), and the heavy products: the gearbox of
+targets, the engine, every shipped example (one run each), and the heavy products: the gearbox of
 ``assemblies/build.py`` tessellated at :data:`HEAVY` facets per turn (``gearbox-3328``: 11 parts,
 438,700 triangles, the issue's heavy 11-part product), built in a temporary folder and run once
 with a :data:`HEAVY_TIMEOUT`.

@@ -379,6 +379,14 @@ def test_the_package_imports_a_build_holds_are_read_in_every_form(monkeypatch, t
             "from ._f import x\n" if name == "_e" else ""))
     monkeypatch.setattr(_compiled, "_HERE", tmp_path)
     assert _compiled._local_imports("_a") == {"_b", "_c", "_d", "_e"}
+    # layouts the pattern does not read plainly: the module is parsed instead
+    for text, want in (("from . import (\n    _b,  # a comment, _c\n    _d,\n)\n", {"_b", "_d"}),
+                       ("from . import _b, \\\n    _c\n", {"_b", "_c"}),
+                       ("from ._b \\\n    import x\n", {"_b"}),
+                       ("from ._b import(x)\nfrom ._c import*\n", {"_b", "_c"}),
+                       ("x = 1; from . import _d\nif x: from ._e import y\n", {"_d", "_e"})):
+        (tmp_path / "_g.py").write_text(text)
+        assert _compiled._local_imports("_g") == want, text
     text = _compiled._built_from("_a")
     assert text.startswith(b"from . import _b") and all(
         f"# {n}\n".encode() in text for n in ("_b", "_c", "_d", "_e", "_f"))

@@ -24,7 +24,7 @@ from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
-from ..core.pools import ForkMapper, Mapper
+from ..core.pools import ForkMapper, Mapper, spare_workers
 from ..geometry.vectors import plane_basis
 from .facets import (
     PartGeometry,
@@ -180,11 +180,12 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                          file=asm.source or None)
     stats: dict = {"parts": len(asm), "triangles": int(sum(p.check.triangles for p in asm))}
     t0 = time.perf_counter()
-    # with a second core, the parts' facets and sags are found there while python-fcl
-    # builds their BVHs here
+    # with a second core free (not taken by the interlock job already), the parts' facets
+    # and sags are found there while python-fcl builds their BVHs here
     geos = part_geometries(asm.parts, tol, ang,
                            meanwhile=lambda: [fcl_model(p) for p in asm.parts],
-                           fork_above=MIN_PARALLEL_TRIANGLES if workers > 1 else None)
+                           fork_above=MIN_PARALLEL_TRIANGLES if spare_workers(workers) > 0
+                           else None)
     t1 = time.perf_counter()
     pairs, nested = _broad_phase(asm, geos, tol)
     t2 = time.perf_counter()

@@ -169,19 +169,27 @@ def part_geometries(parts: Sequence[Part], tolerance: float, angle_tolerance: fl
     from ..core.pools import Forked
 
     tol, ang = float(tolerance), float(angle_tolerance)
-    todo = list({p.hash: p for p in parts
-                 if (p.hash, tol, ang) not in _GEOMETRY_CACHE}.values())
+    first: dict[str, Part] = {}  # one part per hash, the first (as the caches keep it)
+    for p in parts:
+        if (p.hash, tol, ang) not in _GEOMETRY_CACHE:
+            first.setdefault(p.hash, p)
+    todo = list(first.values())
     job = None
     if fork_above is not None and todo and sum(len(p.mesh.faces) for p in todo) >= fork_above:
         job = Forked(_derived_of, todo, tol, ang)
-    if meanwhile is not None:
-        meanwhile()
-    if job is not None:
-        for p in todo:
-            triangle_index(p)
-        for p, derived in zip(todo, job.result(), strict=True):
-            _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, *triangle_index(p),
-                                                            derived)
+    try:
+        if meanwhile is not None:
+            meanwhile()
+        if job is not None:
+            for p in todo:
+                triangle_index(p)
+            for p, derived in zip(todo, job.result(), strict=True):
+                _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, *triangle_index(p),
+                                                                derived)
+    except BaseException:
+        if job is not None:
+            job.cancel()  # its value is not waited for: the child ends now
+        raise
     return [part_geometry(p, tol, ang) for p in parts]
 
 

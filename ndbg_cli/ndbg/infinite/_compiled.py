@@ -75,24 +75,32 @@ def _source(module: str) -> bytes:
 
 
 #: ``from .x import ...`` or ``from . import x, y`` (parenthesized over lines too), at any
-#: indentation: read with a pattern, not parsed (parsing the kernel modules costs 5 ms each,
-#: at every run's first kernel); a match in a docstring could only add a module to the digest.
+#: indentation: read with a pattern first, as parsing a kernel module costs 5-10 ms (12-30 ms
+#: with the modules it imports) at every run's first kernel. A match in a docstring can only
+#: add a module to the digest.
 _LOCAL_IMPORT = re.compile(rb"^[ \t]*from[ \t]+\.(\w*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)",
                            re.MULTILINE)
+#: Every ``from .``: where the pattern above does not account for each one plainly (a comment,
+#: a continuation or a ``;`` in it, another layout), the module is parsed instead.
+_FROM_DOT = re.compile(rb"\bfrom\s+\.")
 
 
 def _local_imports(module: str) -> set[str]:
     """The modules of this package that ``module`` imports (``from .x import ...``,
     ``from . import x``; anywhere in the file), read from its source."""
-    out = set()
-    for package, names in _LOCAL_IMPORT.findall(_source(module)):
-        if package:
-            found = [package.decode()]
-        else:
-            found = [n.split()[0] for n in names.decode().strip("()\\ \t\n").split(",")
-                     if n.split()]
-        out |= {n for n in found if (_HERE / f"{n}.py").is_file()}
-    return out
+    source = _source(module)
+    plain = _LOCAL_IMPORT.findall(source)
+    if len(plain) != len(_FROM_DOT.findall(source)) or any(
+            c in names for _, names in plain for c in (b"#", b"\\", b";")):
+        found = set()
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.ImportFrom) and node.level == 1:
+                found |= {node.module} if node.module else {a.name for a in node.names}
+    else:
+        found = {package.decode() for package, _ in plain if package} | {
+            n.split()[0] for package, names in plain if not package
+            for n in names.decode().strip("()").split(",") if n.split()}
+    return {n for n in found if (_HERE / f"{n}.py").is_file()}
 
 
 def _built_from(module: str) -> bytes:
