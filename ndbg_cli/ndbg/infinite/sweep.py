@@ -23,10 +23,10 @@ import numpy as np
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
 from ..dbg import DBG, bits
-from ._compiled import kernels
+from ._compiled import loaded
 
 # compiled ahead of time when built (no numba start), else numba's just-in-time kernels
-_kernels = kernels("_sweep_kernels")
+_kernels = loaded("_sweep_kernels")
 facing = _kernels.facing
 clipped_areas = _kernels.clipped_areas
 first_blocking = _kernels.first_blocking
