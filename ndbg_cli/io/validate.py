@@ -84,8 +84,9 @@ def make_part(part_id: str, vertices: np.ndarray, faces: np.ndarray, *,
     boundary, nonmanifold, closed = edge_stats(mesh)
     # A closed surface whose edges pair up with their reverses bounds a well-defined volume even
     # where four faces meet at an edge (voxel-like parts touching themselves along an edge).
-    watertight = bool(mesh.is_watertight) or closed
-    winding = bool(mesh.is_winding_consistent) or closed
+    # (trimesh's own tests, a graph of the faces, only when the edges do not already tell)
+    watertight = closed or bool(mesh.is_watertight)
+    winding = closed or bool(mesh.is_winding_consistent)
     volume = float(mesh.volume) if watertight and winding else 0.0
     if watertight and winding and volume < 0:
         mesh.invert()
@@ -125,15 +126,31 @@ def edge_stats(mesh: trimesh.Trimesh) -> tuple[int, int, bool]:
     A boundary edge has one face, a non-manifold edge more than two. The mesh is *closed* when
     every directed edge ``(u, v)`` occurs as often as its reverse ``(v, u)``: then the
     surface is a consistently oriented cycle and its signed volume is meaningful.
+
+    One sort of integer keys: each directed edge is keyed by its undirected edge
+    ``(min, max)`` and, in the lowest bit, its direction, so that a run of equal undirected
+    keys is one edge (its length: the faces on it) holding its two directions in turn.
+
+    >>> tetra = trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]],
+    ...                         [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], process=False)
+    >>> edge_stats(tetra), edge_stats(trimesh.Trimesh(tetra.vertices, tetra.faces[:3]))
+    ((0, 0, True), (3, 0, False))
     """
-    _, counts = np.unique(mesh.edges_sorted, axis=0, return_counts=True)
+    d = np.asarray(mesh.faces, dtype=np.int64)[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    if not len(d):
+        return 0, 0, False
+    lo, hi = np.minimum(d[:, 0], d[:, 1]), np.maximum(d[:, 0], d[:, 1])
+    size = int(hi.max()) + 1
+    keys = np.sort((lo * size + hi) * 2 + (d[:, 0] > d[:, 1]))
+    edge = keys >> 1
+    start = np.flatnonzero(np.r_[True, edge[1:] != edge[:-1]])
+    counts = np.diff(np.r_[start, len(keys)])
+    backward = np.add.reduceat(keys & 1, start)
+    # an edge from a vertex to itself (a face repeating a vertex) is its own reverse
+    balanced = (2 * backward == counts) | (edge[start] // size == edge[start] % size)
     boundary = int(np.count_nonzero(counts == 1))
     nonmanifold = int(np.count_nonzero(counts > 2))
-    d = np.asarray(mesh.edges, dtype=np.int64)
-    n = int(d.max()) + 1 if len(d) else 1
-    fwd = np.sort(d[:, 0] * n + d[:, 1])
-    rev = np.sort(d[:, 1] * n + d[:, 0])
-    return boundary, nonmanifold, bool(len(d)) and bool(np.array_equal(fwd, rev))
+    return boundary, nonmanifold, bool(balanced.all())
 
 
 def make_polygon_part(part_id: str, exterior, holes=(), *, transform: np.ndarray | None = None,
