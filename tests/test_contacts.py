@@ -267,6 +267,38 @@ def test_units_later_leaves_out_the_contacts_of_clashing_parts_only(monkeypatch,
     assert brief(later.contacts) == brief(c for c in full.contacts if (c.a, c.b) == (3, 4))
 
 
+def test_units_later_never_seeks_the_surface_contacts_of_a_clashing_part(monkeypatch):
+    """The crossing pairs' interference tests come first, their surface contacts later:
+    once the tests tell that p0 and p1 clash, the surface contacts of their pairs (with each
+    other: it interferes; with p2, resting on both: a clashing part's) are not sought at all,
+    only p3-p4's (its test finds no interference). Without units_later every crossing pair
+    not interfering gets them. In this process (one worker) the items run in their order."""
+    from ndbg_cli.contacts._pair_work import INTERFERENCE, SURFACE, WHOLE
+
+    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
+                   box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
+                   box((10, 10, 4), (40, 5, 12)))
+    sought, items = [], []
+    geo = {id(part_geometry(p, asm.length_tolerance, CONTACT_ANGLE_TOL_RAD)): k
+           for k, p in enumerate(asm.parts)}
+    real_facets, real_phase = contacts_module.coplanar_facets, contacts_module._narrow_phase
+    monkeypatch.setattr(contacts_module, "coplanar_facets", lambda ga, gb, *rest: sought.append(
+        (geo[id(ga)], geo[id(gb)])) or real_facets(ga, gb, *rest))
+    monkeypatch.setattr(contacts_module, "_narrow_phase", lambda context, item: items.append(
+        item) or real_phase(context, item))
+    later = analyze_contacts(asm, units_later=True)
+    assert [(x.a, x.b, x.kind) for x in later.interferences] == [(0, 1, "clash")]
+    assert sought == [(3, 4)]
+    # every crossing pair's test first, then its surface contacts where still wanted
+    assert [(a, b, part) for a, b, _, part in items] == [
+        (0, 1, INTERFERENCE), (0, 2, INTERFERENCE), (1, 2, INTERFERENCE),
+        (3, 4, INTERFERENCE), (3, 4, SURFACE)]
+    sought.clear(), items.clear()
+    analyze_contacts(asm)
+    assert sorted(sought) == [(0, 2), (1, 2), (3, 4)]
+    assert {part for *_, part in items} == {WHOLE}
+
+
 def test_units_later_with_a_clash_known_before_any_pair_is_tested():
     # p1 lies wholly inside p0 (no surfaces cross: a nested clash, found before the pairs);
     # p2 rests on p0's top: its pair is left out from the start, p3-p4 away are kept

@@ -10,10 +10,9 @@ vectorised clustering) reproduce the straightforward computation exactly, order 
 
 from __future__ import annotations
 
-import dataclasses
 import time
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,6 +25,7 @@ from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
 from ..core.pools import ForkMapper, Mapper, spare_workers
 from ..geometry.vectors import plane_basis
+from ._pair_work import INTERFERENCE, SURFACE, WHOLE, PairWork, clashing_parts, pair_results
 from .facets import (
     PartGeometry,
     box_pairs,
@@ -197,31 +197,19 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     # content hashes of the validated, placed meshes (what this stage really reads), once each
     gkeys = ([content_hash(np.asarray(p.mesh.vertices), np.asarray(p.mesh.faces))
               for p in asm.parts] if cache is not None else [])
-    keys: list = [None] * len(pairs)
-    results: list = [None] * len(pairs)
-    for k, (a, b, crossing) in enumerate(pairs):
-        if cache is not None:
-            keys[k] = cache.key("contacts", gkeys[a], gkeys[b], tol, ang, bool(crossing))
-            got = cache.get("contacts", keys[k], _check_entry)
-            if got is not None:
-                found, approximate, cs, count = got
-                results[k] = (None if found is None else dataclasses.replace(found, a=a, b=b),
-                              approximate, [dataclasses.replace(c, a=a, b=b) for c in cs],
-                              count, 0.0)
-    todo = [k for k in range(len(pairs)) if results[k] is None]
-    mapper = ForkMapper(workers) if mapper is None else mapper
+    size = [len(geos[a].triangles) + len(geos[b].triangles) for a, b, _ in pairs]
+    work = PairWork(_narrow_phase, (asm, tol, ang), pairs, size,
+                    lambda triangles: triangles < MIN_PARALLEL_TRIANGLES,
+                    ForkMapper(workers) if mapper is None else mapper, cache, gkeys,
+                    (tol, ang), _check_entry)
     ti = time.perf_counter()
     inside = _nested(asm, nested, tol)
     t_int += time.perf_counter() - ti
-    clashing = _clashing(inside, results) if units_later else None
-    _pair_results(asm, geos, tol, ang, pairs, results, todo, mapper, meanwhile, clashing)
-    for k in todo:
-        if results[k] is not None and keys[k] is not None:
-            cache.put("contacts", keys[k], results[k][:4])
+    results, clashing = pair_results(
+        work, clashing_parts(inside) if units_later else None, meanwhile)
     for k, (a, b, _) in enumerate(pairs):
         if clashing is not None and (a in clashing or b in clashing):
-            # left to the units' analysis (whether or not a worker computed it, or it was
-            # dropped: None)
+            # left to the units' analysis (its interference test kept, or None: left out)
             found, approximate, _, _, seconds = results[k] or (None, False, [], 0, 0.0)
             results[k] = (found, approximate, [], 0, seconds)
     for (a, b, _), (found, approximate, cs, count, seconds) in zip(pairs, results):
@@ -251,75 +239,29 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                            tol, ang, stats)
 
 
-def _pair_results(asm: Assembly, geos: list[PartGeometry], tol: float, ang: float,
-                  pairs: list[tuple[int, int, bool]], results: list, todo: list[int],
-                  mapper: Mapper, meanwhile: Callable[[], Any] | None,
-                  clashing: set[int] | None) -> None:
-    """Put :func:`_pair_result` of ``pairs[k]`` in ``results[k]`` for ``k`` in ``todo``, by
-    ``mapper`` (``meanwhile`` as in :func:`analyze_contacts`). With ``clashing`` (the parts
-    of the clashes known so far, grown here), once the crossing pairs' interference tests
-    are all in, the pairs of a clashing part not yet started are left out (their result
-    stays None)."""
-    size = {k: len(geos[pairs[k][0]].triangles) + len(geos[pairs[k][1]].triangles)
-            for k in todo}
-    # the costliest pairs first to the workers: the crossing ones (an overlap boolean), then
-    # by their triangles
-    todo = sorted(todo, key=lambda k: (-bool(pairs[k][2]), -size[k], k))
-    crossing_left = sum(1 for k in todo if pairs[k][2])
-    if clashing and not crossing_left:  # the clashes known already (cached, nested)
-        todo = [k for k in todo if pairs[k][0] not in clashing and pairs[k][1] not in clashing]
-    drop: set[int] = set()
-
-    def known() -> None:  # every clash known: the other pairs of its parts can go
-        drop.update(y for y, j in enumerate(todo) if results[j] is None
-                    and (pairs[j][0] in clashing or pairs[j][1] in clashing))
-    # few triangles are not worth the workers' start, unless this process has work of its
-    # own meanwhile (the stages' imports; numba's start, 0.4 s, when the kernels are not
-    # built ahead of time), which their time then hides
-    # (``drop`` only with the clashes to follow: a caller's own Mapper may predate it)
-    more = {} if clashing is None else {"drop": drop}
-    for x, res in mapper.imap(_narrow_phase, (asm, tol, ang), [pairs[k] for k in todo],
-                              small=sum(size[k] for k in todo) < MIN_PARALLEL_TRIANGLES
-                              and meanwhile is None, meanwhile=meanwhile, **more):
-        k = todo[x]
-        results[k] = res
-        crossing_left -= bool(pairs[k][2])
-        if clashing is not None and pairs[k][2]:
-            clashing |= _clashing([res[0]], [])
-            if not crossing_left:
-                known()
-
-
-def _clashing(found: Sequence[Interference | None], results: Sequence[tuple | None]
-              ) -> set[int]:
-    """The parts of the clashes among ``found`` and the pair results ``results``."""
-    out = set()
-    for x in (*found, *(r[0] for r in results if r is not None)):
-        if x is not None and x.kind == "clash":
-            out |= {x.a, x.b}
-    return out
-
-
-def _narrow_phase(context: tuple[Assembly, float, float], pair: tuple[int, int, bool]) -> tuple:
-    """:func:`_pair_result` of the candidate pair ``(a, b, crossing)``, as a
+def _narrow_phase(context: tuple[Assembly, float, float], pair: tuple) -> tuple:
+    """:func:`_pair_result` of the candidate pair ``(a, b, crossing, part)`` (``part``:
+    which of its narrow phase, :mod:`ndbg_cli.contacts._pair_work`), as a
     :class:`~ndbg_cli.core.pools.Mapper` computes it: ``context`` is ``(asm, tol, ang)``. The
     parts' geometry comes from :func:`~ndbg_cli.contacts.facets.part_geometry`'s per-process
     cache: the caller's in its forked workers, built once per part in a cluster's worker."""
     asm, tol, ang = context
-    a, b, crossing = pair
+    a, b, crossing, part = pair
     return _pair_result(asm, part_geometry(asm.parts[a], tol, ang),
-                        part_geometry(asm.parts[b], tol, ang), a, b, crossing, tol, ang)
+                        part_geometry(asm.parts[b], tol, ang), a, b, crossing, tol, ang, part)
 
 
 def _pair_result(asm: Assembly, ga: PartGeometry, gb: PartGeometry, a: int, b: int,
-                 crossing: bool, tol: float, ang: float
+                 crossing: bool, tol: float, ang: float, part: str = WHOLE
                  ) -> tuple[Interference | None, bool, list[Contact], int, float]:
     """One candidate pair's narrow phase (``ga``, ``gb``: the parts' geometry): ``(interference
     or None, approximate, contacts, triangle pairs, seconds of the interference test)``. A pair
     whose surfaces cross is tested for interference first; one that interferes gets its fit's
-    contacts only."""
+    contacts only. ``part``: :data:`~ndbg_cli.contacts._pair_work.INTERFERENCE`, the test alone;
+    :data:`~ndbg_cli.contacts._pair_work.SURFACE`, the surface contacts alone (the test found
+    no interference)."""
     found, approximate, contacts, count, seconds = None, False, [], 0, 0.0
-    if crossing:
+    if crossing and part != SURFACE:
         ti = time.perf_counter()
         allowance = tol + min(float(ga.sag.max()), float(gb.sag.max()))
         found, approximate = interference(a, b, asm.parts[a], asm.parts[b], ga, gb,
@@ -327,7 +269,7 @@ def _pair_result(asm: Assembly, ga: PartGeometry, gb: PartGeometry, a: int, b: i
         seconds = time.perf_counter() - ti
         if found is not None:
             contacts += fit_contacts(found)
-    if found is None:
+    if found is None and part != INTERFERENCE:
         faces, skip_a, skip_b = coplanar_facets(ga, gb, tol, ang)
         i, j, offsets = _plane_filter(ga, gb, *_triangle_candidates(ga, gb, tol, skip_a,
                                                                     skip_b), tol)

@@ -161,7 +161,9 @@ class _Counted:
         self.hits: dict[str, int] = {}
         self.misses: dict[str, int] = {}
 
-    def _count(self, stage: str, hit: bool) -> None:
+    def _count(self, stage: str, hit: bool, final: bool = True) -> None:
+        if not (hit or final):
+            return
         counts = self.hits if hit else self.misses
         counts[stage] = counts.get(stage, 0) + 1
 
@@ -199,20 +201,22 @@ class PairCache(_Counted):
     def _path(self, stage: str, key: str) -> Path:
         return self.root / stage / key[:2] / f"{key}.pkl"
 
-    def get(self, stage: str, key: str, check: Any = None) -> Any | None:
+    def get(self, stage: str, key: str, check: Any = None, *, final: bool = True
+            ) -> Any | None:
         """The stored value, or ``None`` (a miss). An unreadable entry, or one that
         ``check(value)`` (returning the value to use) rejects by raising, is a miss too: the
-        analysis never fails because of its cache."""
+        analysis never fails because of its cache. ``final`` False: a miss is not counted
+        (the caller then looks under another key: one result, one lookup counted)."""
         try:
             with open(self._path(stage, key), "rb") as f:
                 value = pickle.load(f)
             if check is not None:
                 value = check(value)
         except (FileNotFoundError, NotADirectoryError):  # not stored: a plain miss
-            self._count(stage, False)
+            self._count(stage, False, final)
             return None
         except Exception:  # torn, foreign or corrupt entry (any unpickling error)
-            self._count(stage, False)
+            self._count(stage, False, final)
             self.unreadable[stage] = self.unreadable.get(stage, 0) + 1
             return None
         self._count(stage, True)
@@ -273,11 +277,12 @@ class MemoryCache(_Counted):
         compared exactly)."""
         return (stage, *parts)
 
-    def get(self, stage: str, key: tuple, check: Any = None) -> Any | None:
+    def get(self, stage: str, key: tuple, check: Any = None, *, final: bool = True
+            ) -> Any | None:
         """The stored value, or ``None`` (a miss); ``check`` is not needed (the value was
-        made by this process)."""
+        made by this process); ``final`` as :meth:`PairCache.get`'s."""
         value = self._store.get(key)
-        self._count(stage, value is not None)
+        self._count(stage, value is not None, final)
         return value
 
     def put(self, stage: str, key: tuple, value: Any) -> None:
