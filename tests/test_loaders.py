@@ -184,6 +184,30 @@ def test_open_mesh_is_a_warning_not_an_error(tmp_path):
     assert [d.code for d in asm.diagnostics] == ["not-watertight"]
 
 
+def test_edge_stats_count_open_and_nonmanifold_edges_and_tell_closed_surfaces():
+    """``edge_stats``' counts by construction on a tetrahedron (4 faces, 6 edges, each on two
+    faces in opposite directions)."""
+    from ndbg_cli.io.validate import edge_stats
+
+    v = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 1, 1]]
+    tetra = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]
+
+    def stats(faces):
+        return edge_stats(trimesh.Trimesh(v, faces, process=False, validate=False))
+    assert stats(tetra) == (0, 0, True)
+    assert stats(tetra[:3]) == (3, 0, False)  # face 1-2-3 gone: its three edges are open
+    # one face wound the other way: no open edge, but each of its edges twice one way
+    assert stats(tetra[:3] + [[1, 3, 2]]) == (0, 0, False)
+    # a second tetrahedron 0-1-2-4 on face 0-1-2 (wound the other way): its three edges
+    # have four faces each, and both surfaces are closed
+    twin = [[1, 4, 2], [1, 2, 0], [4, 0, 2], [1, 0, 4]]
+    assert stats(twin) == (0, 0, True)
+    assert stats(tetra + twin) == (0, 3, True)
+    # a face repeating vertex 0: its edge from 0 to itself has one face but is its own
+    # reverse; edge 0-1 then has four faces
+    assert stats(tetra + [[0, 0, 1]]) == (1, 1, True)
+
+
 def test_inside_out_mesh_is_inverted_with_a_warning(tmp_path):
     cube = box((0, 0, 0), (1, 1, 1))
     cube.invert()
