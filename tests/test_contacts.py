@@ -299,6 +299,30 @@ def test_units_later_never_seeks_the_surface_contacts_of_a_clashing_part(monkeyp
     assert {part for *_, part in items} == {WHOLE}
 
 
+def test_a_units_later_run_leaves_no_partial_result_for_a_whole_analysis():
+    """The cache a units_later analysis fills holds, for the pairs of clashing parts, their
+    interference tests alone, apart from whole results: a whole analysis of the same parts
+    on that cache then finds the contacts of those pairs (p2 on p0 and p1) as one without a
+    cache does, and a second units_later analysis computes nothing and counts no miss."""
+    from ndbg_cli.core.cache import MemoryCache
+
+    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
+                   box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
+                   box((10, 10, 4), (40, 5, 12)))
+    memo = MemoryCache()
+    first = analyze_contacts(asm, units_later=True, cache=memo)
+    assert {(c.a, c.b) for c in first.contacts} == {(3, 4)}
+    assert memo.stats()["contacts"] == {"hits": 0, "misses": 4}  # the 4 candidate pairs
+    again = analyze_contacts(asm, units_later=True, cache=memo)
+    assert again.contacts == first.contacts and again.interferences == first.interferences
+    assert memo.stats()["contacts"] == {"hits": 4, "misses": 4}
+    whole, plain = analyze_contacts(asm, cache=memo), analyze_contacts(asm)
+    assert {(c.a, c.b) for c in plain.contacts} == {(0, 2), (1, 2), (3, 4)}
+    assert [(c.a, c.b, c.kind, c.normals.tolist(), c.points.tolist()) for c in whole.contacts] \
+        == [(c.a, c.b, c.kind, c.normals.tolist(), c.points.tolist()) for c in plain.contacts]
+    assert whole.stats["triangle_pairs"] == plain.stats["triangle_pairs"]
+
+
 def test_units_later_with_a_clash_known_before_any_pair_is_tested():
     # p1 lies wholly inside p0 (no surfaces cross: a nested clash, found before the pairs);
     # p2 rests on p0's top: its pair is left out from the start, p3-p4 away are kept
