@@ -125,6 +125,8 @@ def pair_results(work: PairWork, clashing: set[int] | None,
     interference test alone, or be None (the items dropped, in the module's description).
     ``meanwhile`` is called once while the mapper works."""
     n = len(work.pairs)
+    # the costliest first to the workers: the crossing pairs (an overlap boolean), then
+    # by their triangles
     by_cost = sorted(range(n), key=lambda k: (-bool(work.pairs[k][2]), -work.size[k], k))
     if clashing is None:
         results: list = [work.lookup(k) for k in range(n)]

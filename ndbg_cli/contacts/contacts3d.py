@@ -198,6 +198,9 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
     gkeys = ([content_hash(np.asarray(p.mesh.vertices), np.asarray(p.mesh.faces))
               for p in asm.parts] if cache is not None else [])
     size = [len(geos[a].triangles) + len(geos[b].triangles) for a, b, _ in pairs]
+    # few triangles are not worth the workers' start, unless this process has work of its
+    # own meanwhile (numba's start when the kernels are not built ahead of time), which
+    # their time then hides (``PairWork.run``)
     work = PairWork(_narrow_phase, (asm, tol, ang), pairs, size,
                     lambda triangles: triangles < MIN_PARALLEL_TRIANGLES,
                     ForkMapper(workers) if mapper is None else mapper, cache, gkeys,
