@@ -57,8 +57,9 @@ def natural_directions(analysis: Any, dimension: int) -> list[tuple[tuple[float,
     value): ``(vector, source)`` for :func:`ndbg_cli.planning.proven.directions`."""
     count: Counter = Counter()
     source: dict[tuple[float, ...], str] = {}
-    lines: dict[tuple[float, ...], tuple[float, ...]] = {}  # contacts share normals (the
-    # engine: 3,041 for 1,448 distinct); a zero's sign does not change a snapped line
+    # each distinct normal snapped once (the engine's 3,041 hold 1,448); a zero's sign does
+    # not change a snapped line, so -0.0 and 0.0 may share a key
+    lines: dict[tuple[float, ...], tuple[float, ...]] = {}
 
     def line(v: Any) -> tuple[float, ...]:
         v = tuple(float(x) for x in v)

@@ -255,21 +255,33 @@ def _jit_disabled() -> bool:
 
 
 def _exports(text: str) -> dict[str, str]:
-    """The ``EXPORTS`` of a kernel module's source ``text``, read without importing it (which
-    imports numba) or parsing all of it: the dict literal from the line ``EXPORTS = {`` to
-    the first line ``}``."""
-    start = text.index("\nEXPORTS = {") + len("\nEXPORTS = ")
-    return ast.literal_eval(text[start:text.index("\n}\n", start) + 2])
+    """The ``EXPORTS`` of a kernel module's source ``text`` (:func:`_literal`)."""
+    got = _literal(text, "EXPORTS")
+    if got is None:
+        raise ValueError("no EXPORTS")
+    return got
 
 
 def _writes(text: str) -> dict[str, tuple[int, ...]]:
     """The ``WRITES`` of a kernel module's source ``text`` (entry point -> the positions of
-    the arguments it writes into; read as :func:`_exports` reads ``EXPORTS``), else none."""
-    start = text.find("\nWRITES = {")
+    the arguments it writes into; :func:`_literal`), else none."""
+    return _literal(text, "WRITES") or {}
+
+
+def _literal(text: str, name: str) -> dict | None:
+    """The dict literal assigned to ``name`` at the start of a line of a kernel module's
+    source ``text``, read without importing the module (which imports numba) or parsing all
+    of it: from its ``{`` to the brace closing it; None without one."""
+    start = text.find(f"\n{name} = {{")
     if start < 0:
-        return {}
-    start += len("\nWRITES = ")
-    return ast.literal_eval(text[start:text.index("}", start) + 1])
+        return None
+    start = text.index("{", start)
+    depth = 0
+    for end in range(start, len(text)):
+        depth += (text[end] == "{") - (text[end] == "}")
+        if depth == 0:
+            return ast.literal_eval(text[start:end + 1])
+    raise ValueError(f"{name}: no closing brace")
 
 
 def _returning(value: int) -> Callable[[], int]:
