@@ -244,6 +244,14 @@ def test_a_deep_overlap_is_a_clash_and_an_error_under_the_error_policy():
     assert check_interference_policy(asm, res, "ignore") == []
 
 
+def _clash_and_stack() -> Assembly:
+    """p0 and p1 clash (a 5 mm deep overlap of 10 mm blocks); p2 rests on both tops, p4 on
+    p3's, far from them."""
+    return assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
+                    box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
+                    box((10, 10, 4), (40, 5, 12)))
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 def test_units_later_leaves_out_the_contacts_of_clashing_parts_only(monkeypatch, workers):
     # p0 and p1 clash (a 5 mm deep overlap of 10 mm blocks); p2 rests on both tops, p4 on
@@ -252,9 +260,7 @@ def test_units_later_leaves_out_the_contacts_of_clashing_parts_only(monkeypatch,
     # and the clash is listed as before. Two workers take the forked path, where those may
     # be dropped before they start.
     monkeypatch.setattr(contacts_module, "MIN_PARALLEL_TRIANGLES", 0)
-    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
-                   box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
-                   box((10, 10, 4), (40, 5, 12)))
+    asm = _clash_and_stack()
     full = analyze_contacts(asm, workers=workers)
     later = analyze_contacts(asm, workers=workers, units_later=True)
 
@@ -275,9 +281,7 @@ def test_units_later_never_seeks_the_surface_contacts_of_a_clashing_part(monkeyp
     not interfering gets them. In this process (one worker) the items run in their order."""
     from ndbg_cli.contacts._pair_work import INTERFERENCE, SURFACE, WHOLE
 
-    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
-                   box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
-                   box((10, 10, 4), (40, 5, 12)))
+    asm = _clash_and_stack()
     sought, items = [], []
     geo = {id(part_geometry(p, asm.length_tolerance, CONTACT_ANGLE_TOL_RAD)): k
            for k, p in enumerate(asm.parts)}
@@ -306,9 +310,7 @@ def test_a_units_later_run_leaves_no_partial_result_for_a_whole_analysis():
     cache does, and a second units_later analysis computes nothing and counts no miss."""
     from ndbg_cli.core.cache import MemoryCache
 
-    asm = assemble(box((10, 10, 10), (5, 5, 5)), box((10, 10, 10), (10, 5, 5)),
-                   box((10, 10, 4), (10, 5, 12)), box((10, 10, 10), (40, 5, 5)),
-                   box((10, 10, 4), (40, 5, 12)))
+    asm = _clash_and_stack()
     memo = MemoryCache()
     first = analyze_contacts(asm, units_later=True, cache=memo)
     assert {(c.a, c.b) for c in first.contacts} == {(3, 4)}
