@@ -231,16 +231,10 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
     >>> len(fam.partitionings)  # puck and bridge touch only the base: every split is free
     6
     """
-    from ..ndbg.generalized.build import block_threads
-
     clock = Clock(timings)
     threaded = declared_threads(asm, options)
     if family in (INFINITESIMAL, GENERALIZED) and infinitesimal is None:
-        from ..ndbg.infinitesimal.build import infinitesimal_ndbg
-
-        infinitesimal = clock("infinitesimal_s",
-                              lambda: infinitesimal_ndbg(asm, contacts.analysis))
-        infinitesimal = block_threads(infinitesimal, threaded)
+        infinitesimal = _infinitesimal_ndbg(asm, contacts, options, timings)
     if family == INFINITESIMAL:
         return _infinitesimal_family(asm, infinitesimal, contacts, options, clock)
     if family == INFINITE:
@@ -254,6 +248,19 @@ def build_ndbg(asm: Assembly, family: str, contacts: Contacts, options: Options 
                                           "why": "generalized motions are analysed for 3D "
                                                  "assemblies"}, usable=False)
     raise ValueError(f"unknown motion family {family!r}")
+
+
+def _infinitesimal_ndbg(asm: Assembly, contacts: Contacts, options: Options,
+                        timings: dict[str, float] | None) -> NDBG:
+    """The NDBG of infinitesimal translations (paper section 4.2) of the contacts, with the
+    declared threads blocking their pairs both ways
+    (:func:`~ndbg_cli.ndbg.generalized.build.block_threads`): what :func:`build_ndbg`
+    reports for that family, and extends for the generalized one."""
+    from ..ndbg.generalized.build import block_threads
+    from ..ndbg.infinitesimal.build import infinitesimal_ndbg as build
+
+    nd = Clock(timings)("infinitesimal_s", lambda: build(asm, contacts.analysis))
+    return block_threads(nd, declared_threads(asm, options))
 
 
 def _infinitesimal_family(asm: Assembly, inf: NDBG, contacts: Contacts, options: Options,
@@ -661,17 +668,26 @@ def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: 
     (or None)."""
     from ..core.cache import CACHE_FAULTS
 
-    families: dict[str, Family] = {}
+    names = FAMILIES_OF[options.motion]
+    # the translational NDBGs first, sent at once to the side job (its interlock LP and
+    # grasps read nothing else), then the infinitesimal family's report section and the
+    # generalized NDBG while it computes; the families keep their order in the report
     inf = None
-    for name in FAMILIES_OF[options.motion]:
-        if name == GENERALIZED:
-            side.send((contacts.analysis,
-                       _translational({k: f.ndbg for k, f in families.items() if f.usable})))
-        fam = build_ndbg(asm, name, contacts, options, cache=cache, infinitesimal=inf,
-                         timings=timings)
-        if name == INFINITESIMAL:
-            inf = fam.ndbg
-        families[name] = fam
+    if INFINITESIMAL in names or GENERALIZED in names:
+        inf = _infinitesimal_ndbg(asm, contacts, options, timings)
+    built: dict[str, Family] = {}
+    if INFINITE in names:
+        built[INFINITE] = build_ndbg(asm, INFINITE, contacts, options, cache=cache,
+                                     timings=timings)
+    usable = {name: fam.ndbg for name, fam in built.items() if fam.usable}
+    side.send((contacts.analysis, _translational(
+        {INFINITESIMAL: inf, **usable} if INFINITESIMAL in names else usable)))
+    for name in names:
+        if name not in built:
+            built[name] = build_ndbg(asm, name, contacts, options, cache=cache,
+                                     infinitesimal=inf, timings=timings)
+    families = {name: built[name] for name in names}
+    for fam in families.values():
         warnings += fam.warnings
     out["ndbg"] = {name: fam.section for name, fam in families.items()}
     if cache is not None:
@@ -683,8 +699,6 @@ def _build_families(asm: Assembly, contacts: Contacts, options: Options, cache: 
             out[CACHE_FAULTS] = cache.faults()
     out["partitionings"] = [p for fam in families.values() for p in fam.partitionings]
     ndbgs = {name: fam.ndbg for name, fam in families.items() if fam.usable}
-    if GENERALIZED not in families:
-        side.send((contacts.analysis, _translational(ndbgs)))
     proposer = None
     if INFINITE in families and not families[INFINITE].usable and INFINITESIMAL not in ndbgs:
         # the exact family restricted or skipped: the plan's splits are proposed by the

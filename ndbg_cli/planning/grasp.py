@@ -109,8 +109,10 @@ def _tests(gens: np.ndarray, seg: np.ndarray, normals: np.ndarray, tol: float
     if len(seg) == 0:
         return np.zeros((0, len(normals)), bool), np.zeros((0, len(normals)), bool)
     v = gens @ normals.T
-    blocks = np.maximum.reduceat(v, seg, axis=0) > tol
-    low = np.minimum.reduceat(v, seg, axis=0) < -tol
+    # a piece's largest product is over tol iff one of them is, and its least under -tol iff
+    # one is: an "or" of the comparisons per piece (cheaper than a max and a min per piece)
+    blocks = np.logical_or.reduceat(v > tol, seg, axis=0)
+    low = np.logical_or.reduceat(v < -tol, seg, axis=0)
     return blocks & ~low, blocks & low
 
 
