@@ -409,6 +409,34 @@ def test_a_contact_proof_of_none_is_cross_checked_by_the_exact_test():
         assert _moves_apart(asm, s["moved"], s["onto"], s["removal_direction"])
 
 
+def test_the_exact_check_of_a_proof_of_none_runs_beside_the_sweep(monkeypatch):
+    """The latch (paper Fig. 10) with infinitesimal translations only: no direction splits
+    it, and its own infinite-translation NDBG confirms that without the contacts. With a
+    core to spare that NDBG is built in a forked process while the sweep runs here: the
+    same proof."""
+    from ndbg_cli.core import pools
+    from ndbg_cli.core.constants import INFINITESIMAL
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.pipeline.stages import build_ndbg, find_contacts, measure, plan_assembly
+
+    asm = ndbg_cli.load(ROOT / "assemblies" / "fig10-latch.yaml")
+    contacts = find_contacts(asm)
+    ndbgs = {INFINITESIMAL: build_ndbg(asm, INFINITESIMAL, contacts).ndbg}
+    forked = []
+
+    class Spy(pools.Forked):
+        def __init__(self, fn, *args, **kwargs):
+            super().__init__(fn, *args, **kwargs)
+            forked.append((fn.__name__, self._proc is not None))
+
+    monkeypatch.setattr(pools, "Forked", Spy)
+    got = {w: plan_assembly(asm, contacts, ndbgs, measure(asm, contacts, ndbgs),
+                            Options(workers=w))["verified"] for w in (1, 2)}
+    assert got[1] == got[2]
+    assert got[1]["proof_of_none"] and "confirmed without the contacts" in got[1]["why"]
+    assert ("_exact_split", True) in forked and ("_exact_split", False) in forked
+
+
 def test_directions_within_the_angle_tolerance_are_one():
     # two cylinder axes fitted 3e-9 rad apart (two press fits on one shaft): one direction of
     # D, whatever the frame; kept apart, a plan along "both" counted two directions after a

@@ -212,7 +212,8 @@ def splits_somewhere(asm: Assembly, analysis: Any, nd: NDBG, mask: int
 
 
 def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, strategy: str,
-                base: int | None, connected: ConnectivityTest, budget: int) -> dict:
+                base: int | None, connected: ConnectivityTest, budget: int,
+                workers: int = 1) -> dict:
     """``proof``, the infinitesimal NDBG's proof that no plan exists (``chosen`` has no
     candidate tree; its subassembly ``stuck`` has no candidate split), checked: the plan
     section's fields to use. That proof rests on the contact analysis and its tolerances,
@@ -222,14 +223,24 @@ def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, stra
     tree it finds is presented, the contradiction noted. When the sweep agrees, the stuck
     subassembly's own infinite-translation NDBG over the whole sphere (which uses no contact),
     within :data:`EXACT_RESTRICTED` times ``budget``, makes the proof independent of the
-    contacts, or finds the split they hide."""
+    contacts, or finds the split they hide. With a core to spare of ``workers``, that NDBG
+    is built in a forked process while the sweep runs here (dropped if the sweep splits)."""
+    from ..core.pools import Forked, spare_workers
+
     stuck, notes = chosen.stuck, list(chosen.notes)
     names = ", ".join(chosen.ndbg.names(stuck))
-    d, blocked = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
+    exact = Forked(_exact_split, asm, chosen.ndbg, stuck, EXACT_RESTRICTED * budget, True,
+                   enabled=spare_workers(workers) > 0)
+    try:
+        d, blocked = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
+    except BaseException:
+        exact.cancel()
+        raise
     by = "the direct sweep test"
-    if d is None:  # the exact test agrees along every natural direction
-        verdict, more = _exact_split(asm, chosen.ndbg, stuck, EXACT_RESTRICTED * budget,
-                                     whole_sphere=True)
+    if d is not None:
+        exact.cancel()
+    else:  # the exact test agrees along every natural direction
+        verdict, more = exact.result()
         if verdict != "some":
             if verdict == "none":
                 v = proof["verified"]

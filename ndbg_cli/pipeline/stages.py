@@ -537,7 +537,7 @@ def plan_assembly(asm: Assembly, contacts: Contacts, ndbgs: dict[str, NDBG],
 
             proof = clock("verify_s", lambda: cross_check(
                 asm, contacts.analysis, chosen, proof, strategy=options.strategy, base=base,
-                connected=plan_conn, budget=options.infinite_budget))
+                connected=plan_conn, budget=options.infinite_budget, workers=options.workers))
     out = {"family": chosen.ndbg.family, **plan_section(chosen), **proof}
     if chosen.found and chosen.ndbg.family == GENERALIZED:
         from .motion_proofs import prove_generalized
