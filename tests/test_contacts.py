@@ -917,6 +917,37 @@ def test_the_units_analysis_asks_python_fcl_only_about_the_units(monkeypatch):
         (c.a, c.b, c.kind) for c in fresh.contacts]
 
 
+def test_the_broad_phase_shared_with_a_helper_finds_the_same_pairs(monkeypatch):
+    """With a core to spare, a forked helper confirms every other candidate pair (python-fcl
+    queries on BVHs it inherits): the pairs, their crossing flags and the nested pairs are
+    those found here alone, and this process confirmed only half of them."""
+    import os
+
+    import ndbg_cli.contacts.facets as facets
+
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork here: the pairs are confirmed in this process")
+    asm = ndbg_cli.load(Path(__file__).parent.parent / "assemblies" / "bell.yaml")
+    tol = asm.length_tolerance
+    calls, confirmed = [], contacts_module._confirmed
+
+    def counting(*args):
+        calls.append(1)
+        return confirmed(*args)
+
+    monkeypatch.setattr(contacts_module, "_confirmed", counting)
+    monkeypatch.setattr(contacts_module, "SHARED_CONFIRMATIONS", 2)
+    got = {}
+    for workers in (1, 2):
+        facets.clear_caches()  # new geometries: nothing memoized from the other run
+        calls.clear()
+        geos = facets.part_geometries(asm.parts, tol, CONTACT_ANGLE_TOL_RAD)
+        got[workers] = (contacts_module._broad_phase(asm, geos, tol, workers), len(calls))
+    (pairs, nested), alone = got[1]
+    assert len(pairs) > 20 and got[2][0] == (pairs, nested)
+    assert got[2][1] == (alone + 1) // 2  # the helper confirmed the other half
+
+
 def test_part_geometries_found_in_a_forked_child_are_the_same(monkeypatch):
     """The parts' facets, sags and adjacency computed in a forked child while this process
     builds the BVHs (``fork_above``) are the arrays computed here, to the bit; the child, not

@@ -23,7 +23,7 @@ from ..core.assembly import Assembly, content_hash
 from ..core.cache import PairCache
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
-from ..core.pools import ForkMapper, Mapper, spare_workers
+from ..core.pools import ForkMapper, Helper, Mapper, spare_workers
 from ..geometry.vectors import plane_basis
 from ._pair_work import INTERFERENCE, SURFACE, WHOLE, PairWork, clashing_parts, pair_results
 from .facets import (
@@ -187,7 +187,7 @@ def analyze_contacts(asm: Assembly, *, tolerance: float | None = None,
                            fork_above=MIN_PARALLEL_TRIANGLES if spare_workers(workers) > 0
                            else None)
     t1 = time.perf_counter()
-    pairs, nested = _broad_phase(asm, geos, tol)
+    pairs, nested = _broad_phase(asm, geos, tol, workers)
     t2 = time.perf_counter()
     contacts: list[Contact] = []
     interferences: list[Interference] = []
@@ -322,7 +322,7 @@ def _check_entry(value):
     return found, bool(approximate), list(cs), int(count)
 
 
-def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
+def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float, workers: int = 1
                  ) -> tuple[list[tuple[int, int, bool]], list[tuple[int, int]]]:
     """Part pairs ``(a, b, crossing)``, ``a < b``, whose distance is within the gap allowance
     ``tol + max sag_a + max sag_b``: their bounding boxes inflated by ``tol + max sag`` overlap
@@ -331,7 +331,10 @@ def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
     (one part may lie wholly inside the other).
 
     Before ``fcl.distance``, :func:`_apart` proves most distant pairs apart from the triangle
-    boxes alone (a lower bound of the distance, so the answer is the same)."""
+    boxes alone (a lower bound of the distance, so the answer is the same). With a core to
+    spare of ``workers`` and at least :data:`SHARED_CONFIRMATIONS` pairs to confirm, a forked
+    helper confirms every other pair (:class:`~ndbg_cli.core.pools.Helper`: the BVHs reach it
+    through fork)."""
     n = len(asm)
     if n < 2:
         return [], []
@@ -342,21 +345,45 @@ def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float
     overlap = np.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), axis=2)
     inside = np.all((b[:, None, 0] >= b[None, :, 0]) & (b[:, None, 1] <= b[None, :, 1]), axis=2)
     ia, ib = np.nonzero(np.triu(overlap, 1))
-    out, nested = [], []
-    for a, c in zip(ia.tolist(), ib.tolist()):
+    candidates = list(zip(ia.tolist(), ib.tolist()))
+    memos = []
+    for a, _ in candidates:
         memo = _BROAD.get(geos[a])
         if memo is None:
             memo = _BROAD[geos[a]] = weakref.WeakKeyDictionary()
-        got = memo.get(geos[c])
-        if got is None:
-            got = memo[geos[c]] = _confirmed(asm, geos, a, c, reach[a] + reach[c] - tol,
-                                             tri_box)
-        crossing, near = got
+        memos.append(memo)
+    todo = [(a, c, float(reach[a] + reach[c] - tol)) for (a, c), memo in zip(candidates, memos)
+            if geos[c] not in memo]
+    if todo:
+        context = (asm, geos, tri_box)
+        if len(todo) >= SHARED_CONFIRMATIONS and spare_workers(workers) > 0:
+            with Helper(_confirmed_pair, context) as helper:
+                got = helper.share(todo)
+        else:
+            got = [_confirmed_pair(context, x) for x in todo]
+        for (a, c, _), value in zip(todo, got):
+            _BROAD[geos[a]][geos[c]] = value
+    out, nested = [], []
+    for (a, c), memo in zip(candidates, memos):
+        crossing, near = memo[geos[c]]
         if crossing or near:
             out.append((a, c, crossing))
         elif inside[a, c] or inside[c, a]:
             nested.append((a, c))
     return out, nested
+
+
+#: Fewest part pairs to confirm for which :func:`_broad_phase` shares them with a helper
+#: process: below it the helper's start (a fork, about 0.02 s) costs more than it saves.
+SHARED_CONFIRMATIONS = 64
+
+
+def _confirmed_pair(context: tuple, item: tuple[int, int, float]) -> tuple[bool, bool]:
+    """:func:`_confirmed` of ``item`` ``(a, c, allowed)``, ``context`` ``(asm, geos,
+    tri_box)``: as :class:`~ndbg_cli.core.pools.Helper` calls it."""
+    asm, geos, tri_box = context
+    a, c, allowed = item
+    return _confirmed(asm, geos, a, c, allowed, tri_box)
 
 
 def _confirmed(asm: Assembly, geos: list[PartGeometry], a: int, c: int, allowed: float,
