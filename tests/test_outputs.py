@@ -190,3 +190,25 @@ def test_a_summary_report_keeps_every_answer_and_cuts_the_long_lists(tmp_path):
             listed[:SUMMARY_ITEMS]
     assert short["options"]["detail"]["level"] == "summary"
     assert len(json.dumps(short)) < len(json.dumps(full)) / 3
+
+
+def test_a_report_built_without_contact_points_summarizes_and_renders_the_same():
+    """``Options.contact_points`` off (the CLI's ``--detail summary`` without pictures): each
+    contact record holds its point count in place of its points, and the summary written
+    and the text report are the full report's, to the byte (the dowels' curved contacts
+    hold many points)."""
+    import ndbg_cli
+    from ndbg_cli.core.options import Options
+    from ndbg_cli.report.detail import summarize
+    from ndbg_cli.report.document import dumps
+    from ndbg_cli.report.text import render
+
+    asm = ndbg_cli.load(ROOT / "assemblies" / "dowels.yaml")
+    full = ndbg_cli.analyze(asm)
+    lean = ndbg_cli.analyze(asm, Options(contact_points=False))
+    assert full["contacts"] and all("points" not in c for c in lean["contacts"])
+    assert [c["point_count"] for c in lean["contacts"]] == [len(c["points"])
+                                                            for c in full["contacts"]]
+    assert sum(c["point_count"] for c in lean["contacts"]) > len(lean["contacts"])
+    assert dumps(summarize(lean)) == dumps(summarize(full))
+    assert render(lean) == render(full)

@@ -158,6 +158,8 @@ def analyze(ctx, paths, fmt, out, out_dir, jobs, scheduler, motion, interference
     batch = len(targets) > 1 or any(Path(p).is_dir() and discover(p) != [Path(p)] for p in paths)
     out_dir, out_file, where = _outputs(out, out_dir, batch)
     pictures = Pictures(html, glb, png, svg, batch=batch or out_dir is not None)
+    # a summary holds the contacts' point counts alone; the pictures draw the points
+    options = dataclasses.replace(options, contact_points=detail == "full" or pictures.wanted)
     pictures.check()
     if out_file is not None and ctx.get_parameter_source("fmt").name == "DEFAULT":
         # --out report.json means JSON (a text report under that name was a trap)

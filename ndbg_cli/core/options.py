@@ -48,6 +48,9 @@ class Options:
     # ``analyze --scheduler`` on one assembly. Results do not depend on it
     mapper: Mapper | None = None
     progress: bool = False  # a bar on stderr (a TTY) over the infinite NDBG's part pairs
+    # each contact record holds its points and their normals (``--detail summary`` writes
+    # their count alone: without pictures the CLI does not build them)
+    contact_points: bool = True
     # the folder the report's paths (sources, files) are written relative to (None: the
     # current working folder; ndbg_cli.core.paths.portable)
     root: str | None = None

@@ -18,9 +18,10 @@ def read_config(path: str | Path) -> dict:
     doc = read_located(path, "config", "a config must be a YAML mapping", empty_ok=True)
     data = doc.data
     # ``workers`` comes from --jobs only (one assembly; a batch spreads its assemblies),
-    # ``mapper`` from --scheduler, and ``progress`` from --quiet (one assembly; a batch shows
-    # its own bar)
-    fields = {f.name for f in dataclasses.fields(Options)} - {"workers", "mapper", "progress"}
+    # ``mapper`` from --scheduler, ``progress`` from --quiet (one assembly; a batch shows
+    # its own bar) and ``contact_points`` from --detail
+    fields = {f.name for f in dataclasses.fields(Options)} - {"workers", "mapper", "progress",
+                                                               "contact_points"}
     unknown = sorted(set(map(str, data)) - fields)
     if unknown:
         raise InputError(f"unknown setting '{unknown[0]}' (known: {', '.join(sorted(fields))})",

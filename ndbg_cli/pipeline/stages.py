@@ -166,7 +166,7 @@ def find_contacts(asm: Assembly, options: Options = Options(), *, cache: Any = N
             clock.timings[f"contacts_{k}"] = float(ca.stats.get(k, 0.0))
 
         def sections() -> dict:
-            sec = contacts_section(asm, ca)
+            sec = contacts_section(asm, ca, points=options.contact_points)
             sec["contact_stats"].pop("timings_s", None)
             return sec
         touching = ca.pairs()

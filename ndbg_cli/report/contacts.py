@@ -28,18 +28,15 @@ def _vecs(a: np.ndarray | None) -> list | None:
     return [vals[k * m:(k + 1) * m] for k in range(a.shape[0])]
 
 
-def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
+def contacts_section(asm: Assembly, result: ContactAnalysis, *, points: bool = True) -> dict:
     """JSON-ready report sections ``{"contacts": [...], "interferences": [...],
     "contact_stats": {...}}`` (schema: ``schemas/fragments/contacts.json``). Parts are named by
-    id; vectors are in the assembly frame and unit; order is deterministic."""
+    id; vectors are in the assembly frame and unit; order is deterministic. Without
+    ``points``, each contact record has ``point_count`` in place of its ``points`` and
+    ``point_normals``: the record :func:`ndbg_cli.report.detail.summarize` makes (most of
+    the section's numbers are points: 0.1 s of the engine's analysis)."""
     ids = asm.ids
-    contacts = [{
-        "a": ids[c.a], "b": ids[c.b], "kind": c.kind, "blocking": c.blocking,
-        "normals": _vecs(c.normals), "points": _vecs(c.points),
-        "point_normals": _vecs(c.point_normals), "area": _r(c.area),
-        "surface": c.surface, "axis": _vecs(c.axis), "center": _vecs(c.center),
-        "radius": None if c.radius is None else _r(c.radius),
-    } for c in result.contacts]
+    contacts = [_contact_record(ids, c, points) for c in result.contacts]
     interferences = [interference_record(ids, x) for x in result.interferences]
     s = result.stats
     stats = {
@@ -56,6 +53,19 @@ def contacts_section(asm: Assembly, result: ContactAnalysis) -> dict:
                       for k in ("bvh_s", "broad_s", "narrow_s", "interference_s")},
     }
     return {"contacts": contacts, "interferences": interferences, "contact_stats": stats}
+
+
+def _contact_record(ids: list[str], c, points: bool) -> dict:
+    """One contact of :func:`contacts_section` (with its points, or their count)."""
+    out = {"a": ids[c.a], "b": ids[c.b], "kind": c.kind, "blocking": c.blocking,
+           "normals": _vecs(c.normals)}
+    if points:
+        out.update(points=_vecs(c.points), point_normals=_vecs(c.point_normals))
+    out.update(area=_r(c.area), surface=c.surface, axis=_vecs(c.axis), center=_vecs(c.center),
+               radius=None if c.radius is None else _r(c.radius))
+    if not points:
+        out["point_count"] = 0 if c.points is None else len(np.asarray(c.points))
+    return out
 
 
 def interference_record(ids: list[str], x) -> dict:

@@ -50,7 +50,9 @@ def summarize(report: dict) -> dict:
     contacts = []
     for c in report.get("contacts") or []:
         short = {k: v for k, v in c.items() if k not in _CONTACT_ARRAYS}
-        short["point_count"] = len(c.get("points") or [])
+        # a record built without its points (``Options.contact_points``) has their count
+        short["point_count"] = (len(c.get("points") or []) if "point_count" not in c
+                                else c["point_count"])
         contacts.append(short)
     out["contacts"] = contacts
     kept, per_family = [], {}
