@@ -34,7 +34,7 @@ def contacts_section(asm: Assembly, result: ContactAnalysis, *, points: bool = T
     id; vectors are in the assembly frame and unit; order is deterministic. Without
     ``points``, each contact record has ``point_count`` in place of its ``points`` and
     ``point_normals``: the record :func:`ndbg_cli.report.detail.summarize` makes (most of
-    the section's numbers are points: 0.1 s of the engine's analysis)."""
+    the section's numbers are points, and a summary writes none of them)."""
     ids = asm.ids
     contacts = [_contact_record(ids, c, points) for c in result.contacts]
     interferences = [interference_record(ids, x) for x in result.interferences]
