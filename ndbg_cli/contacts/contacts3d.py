@@ -374,8 +374,9 @@ def _broad_phase(asm: Assembly, geos: list[PartGeometry], tol: float, workers: i
 
 
 #: Fewest part pairs to confirm for which :func:`_broad_phase` shares them with a helper
-#: process: below it the helper's start (a fork, about 0.02 s) costs more than it saves.
-SHARED_CONFIRMATIONS = 64
+#: process: a confirmation costs about 0.35 ms and the helper's start (a fork of this
+#: process) and exchange about 0.02 s, so half of fewer pairs saves less than it costs.
+SHARED_CONFIRMATIONS = 128
 
 
 def _confirmed_pair(context: tuple, item: tuple[int, int, float]) -> tuple[bool, bool]:
