@@ -350,6 +350,14 @@ def test_a_forked_job_given_its_input_later(tmp_path):
     child = job._proc
     job.cancel()
     assert not child.is_alive()
+    # a with block that raises drops it the same way; one that took the value leaves nothing
+    with pytest.raises(KeyError):
+        with Forked(_sum_after, flag, [], later=True) as job:
+            child = job._proc
+            raise KeyError
+    assert not child.is_alive()
+    with Forked(divmod, 17, 5) as job:
+        assert job.result() == (3, 2)
 
 
 def _big_after(path, get):

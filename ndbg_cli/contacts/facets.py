@@ -174,22 +174,17 @@ def part_geometries(parts: Sequence[Part], tolerance: float, angle_tolerance: fl
         if (p.hash, tol, ang) not in _GEOMETRY_CACHE:
             first.setdefault(p.hash, p)
     todo = list(first.values())
-    job = None
-    if fork_above is not None and todo and sum(len(p.mesh.faces) for p in todo) >= fork_above:
-        job = Forked(_derived_of, todo, tol, ang)
-    try:
+    fork = fork_above is not None and bool(todo) \
+        and sum(len(p.mesh.faces) for p in todo) >= fork_above
+    # without the fork (``enabled`` false), ``result()`` computes them here, after ``meanwhile``
+    with Forked(_derived_of, todo, tol, ang, enabled=fork) as job:
         if meanwhile is not None:
             meanwhile()
-        if job is not None:
-            for p in todo:
-                triangle_index(p)
-            for p, derived in zip(todo, job.result(), strict=True):
-                _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, *triangle_index(p),
-                                                                derived)
-    except BaseException:
-        if job is not None:
-            job.cancel()  # its value is not waited for: the child ends now
-        raise
+        for p in todo:
+            triangle_index(p)
+        for p, derived in zip(todo, job.result(), strict=True):
+            _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, *triangle_index(p),
+                                                            derived)
     return [part_geometry(p, tol, ang) for p in parts]
 
 

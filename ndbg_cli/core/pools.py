@@ -103,6 +103,10 @@ class Forked:
     :meth:`send` (pickled on its way; ``EOFError`` in the child when the caller dropped the
     job without sending, which ends the child).
 
+    As a context manager, the job is dropped (:meth:`cancel`) at the end of the ``with``
+    block unless its value was taken there: a block that raises, or no longer needs the
+    value, does not leave a child working or waiting.
+
     >>> job = Forked(lambda x, get: x + get(), 1, later=True)
     >>> job.send(2)
     >>> job.result()
@@ -186,6 +190,12 @@ class Forked:
             proc, self._proc = self._proc, None
             self._recv.close()
             _reap(proc, terminate=True)
+
+    def __enter__(self) -> Forked:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.cancel()  # nothing left to drop once the value was taken
 
     def _given(self) -> Any:
         if self._sent is self._UNSENT:

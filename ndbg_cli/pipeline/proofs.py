@@ -229,18 +229,13 @@ def cross_check(asm: Assembly, analysis: Any, chosen: Plan, proof: dict, *, stra
 
     stuck, notes = chosen.stuck, list(chosen.notes)
     names = ", ".join(chosen.ndbg.names(stuck))
-    exact = Forked(_exact_split, asm, chosen.ndbg, stuck, EXACT_RESTRICTED * budget, True,
-                   enabled=spare_workers(workers) > 0)
-    try:
+    with Forked(_exact_split, asm, chosen.ndbg, stuck, EXACT_RESTRICTED * budget, True,
+                enabled=spare_workers(workers) > 0) as exact:  # dropped when the sweep splits
         d, blocked = splits_somewhere(asm, analysis, chosen.ndbg, stuck)
-    except BaseException:
-        exact.cancel()
-        raise
+        exact_found = exact.result() if d is None else None
     by = "the direct sweep test"
-    if d is not None:
-        exact.cancel()
-    else:  # the exact test agrees along every natural direction
-        verdict, more = exact.result()
+    if exact_found is not None:  # the exact test agrees along every natural direction
+        verdict, more = exact_found
         if verdict != "some":
             if verdict == "none":
                 v = proof["verified"]

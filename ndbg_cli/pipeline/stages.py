@@ -624,9 +624,9 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
     # the interlock LP and the grasps, beside: the finger placements (the parts alone) while
     # the units' contacts (when clashes made units) and the NDBGs are found here, then,
     # given the contacts and the translational NDBGs, the LP and the grasps while the
-    # generalized NDBG, the classes and the plan are computed here
-    side = interlock_job(asm, options)
-    try:
+    # generalized NDBG, the classes and the plan are computed here; dropped if a stage raises
+    # (its child would wait for the NDBGs, or to hand its result over)
+    with interlock_job(asm, options) as side:
         if interferences is not None:  # the units' contacts (``pairs`` serves the others')
             contacts = find_contacts(asm, options, cache=pairs, timings=timings)
         out: dict = dict(contacts.sections)
@@ -639,9 +639,6 @@ def run_stages(asm: Assembly, options: Options, timings: dict[str, float]
         out["plan"] = plan_assembly(asm, contacts, ndbgs, measures, options, timings=timings,
                                     proposer=proposer)
         measures.finish(timings)
-    except BaseException:
-        side.cancel()  # its child would wait for the NDBGs, or to hand its result over
-        raise
     out["classes"], out["andor"] = measures.classes, measures.andor
     from .interlocking import apply_witnesses
 
