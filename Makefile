@@ -22,7 +22,7 @@ $(STAMP): pyproject.toml
 # (0.5 s); should that fail, the kernels run just in time and every command still works.
 bytecode: setup
 	@$(BIN)/python -m compileall -q ndbg_cli
-	@$(BIN)/python -m ndbg_cli.ndbg.infinite._compiled || true
+	@$(BIN)/python -m ndbg_cli.kernels || true
 
 demo: bytecode
 	$(BIN)/ndbg analyze assemblies/bell.yaml --html build/bell.html
@@ -59,4 +59,4 @@ invariance: bytecode
 	$(BIN)/python benchmarks/invariance.py $(INVARIANCE_ARGS)
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache ndbg_cli/ndbg/infinite/_*_aot.*
+	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache ndbg_cli/kernels/_*_aot.*

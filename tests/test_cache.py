@@ -124,11 +124,11 @@ def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
                     assert target.removeprefix("ndbg_cli.") in mods, (name, target)
     assert {"contacts.gap_cones", "contacts.facets", "geometry.directions"} <= set(
         stage_modules("contacts"))
-    # the kernel modules too, read by name (``loaded("_kernels")``), not imported
+    # the kernel modules too, read by name (``loaded("_cone_kernels")``), not imported
     assert {"ndbg.infinite.blocking_cones", "ndbg.infinite.cover", "ndbg.infinite.tritree",
-            "ndbg.infinite.domain", "ndbg.infinite._kernels", "ndbg.infinite._term_kernels",
-            "ndbg.infinite._cover_kernels", "ndbg.infinite._union_kernels",
-            "ndbg.infinite._cube_faces"} <= set(stage_modules("infinite"))
+            "ndbg.infinite.domain", "kernels._cone_kernels", "kernels._term_kernels",
+            "kernels._cover_kernels", "kernels._union_kernels",
+            "kernels.cube_faces"} <= set(stage_modules("infinite"))
     assert "report.text" not in stage_modules("infinite")
 
     copy = tmp_path / "pkg" / "ndbg_cli"
@@ -149,7 +149,7 @@ def test_stage_digests_cover_every_module_the_stage_runs(tmp_path):
         f.write("\n# an edit of a helper\n")
     after = digests()
     assert after[0] != before[0] and after[1] != before[1]
-    with open(copy / "ndbg" / "infinite" / "_union_kernels.py", "a") as f:
+    with open(copy / "kernels" / "_union_kernels.py", "a") as f:
         f.write("\n# an edit of a kernel module, read by name\n")
     last = digests()
     assert last[0] == after[0] and last[1] != after[1]

@@ -1,5 +1,5 @@
 """The chart pieces of a pair's cones and their union (:mod:`ndbg_cli.ndbg.infinite.chart_union`,
-:mod:`ndbg_cli.ndbg.infinite._union_kernels`): hand-worked containment cases, and the union of the
+:mod:`ndbg_cli.kernels._union_kernels`): hand-worked containment cases, and the union of the
 kept pieces against the plain union of every piece on random fans of cones meeting at an axis
 (the shape of a contact pair's set, where most pieces lie inside another)."""
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import shapely
 
-from ndbg_cli.ndbg.infinite import _union_kernels as uk
+from ndbg_cli.kernels import _union_kernels as uk
 from ndbg_cli.ndbg.infinite import chart_union as cu
 from ndbg_cli.ndbg.infinite.cubemap import clip_halfplanes
 

@@ -1,4 +1,4 @@
-"""The sweep test's kernels compiled ahead of time (:mod:`ndbg_cli.ndbg.infinite._compiled`):
+"""The sweep test's kernels compiled ahead of time (:mod:`ndbg_cli.kernels.compiled`):
 the same results as numba's just-in-time kernels to the bit, on random triangle sets where
 every branch is taken (blocking pairs, narrow pairs, empty overlaps); a stale or switched-off
 build is not used."""
@@ -10,8 +10,8 @@ import sys
 import numpy as np
 import pytest
 
-from ndbg_cli.ndbg.infinite import _compiled
-from ndbg_cli.ndbg.infinite import _sweep_kernels as jit
+from ndbg_cli.kernels import _sweep_kernels as jit
+from ndbg_cli.kernels import compiled as _compiled
 
 built = _compiled._compiled("_sweep_kernels") is not None
 #: CI sets NDBG_REQUIRE_AOT (.ci/run): there a missing or stale build fails these tests
@@ -170,7 +170,7 @@ def test_every_kernel_the_sweep_test_uses_is_exported():
 
 
 def test_numba_disable_jit_runs_the_python_source():
-    code = ("from ndbg_cli.ndbg.infinite._compiled import kernels; "
+    code = ("from ndbg_cli.kernels.compiled import kernels; "
             "k = kernels('_sweep_kernels'); print(k.compiled, type(k.boxes).__name__)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env={**os.environ, "NUMBA_DISABLE_JIT": "1"}, check=True)
@@ -183,7 +183,7 @@ def test_a_fresh_build_is_not_built_again():
 
 
 #: The exact infinite family's kernel modules, built ahead of time too.
-EXACT = ("_kernels", "_cover_kernels", "_term_kernels", "_union_kernels")
+EXACT = ("_cone_kernels", "_cover_kernels", "_term_kernels", "_union_kernels")
 exact_built = all(_compiled._compiled(m) is not None for m in EXACT)
 needs_exact_build = pytest.mark.skipif(
     not exact_built and not os.environ.get("NDBG_REQUIRE_AOT"),
@@ -192,7 +192,7 @@ needs_exact_build = pytest.mark.skipif(
 
 def _record(monkeypatch, calls: list) -> None:
     """Every exported kernel of the exact family, as its callers get it
-    (:func:`~ndbg_cli.ndbg.infinite._compiled.loaded`), records its calls: the arguments
+    (:func:`~ndbg_cli.kernels.compiled.loaded`), records its calls: the arguments
     before and after it ran (kernels may write into them) and what it returned."""
 
     for module in EXACT:
@@ -263,7 +263,7 @@ def test_the_exact_familys_compiled_kernels_equal_the_just_in_time_ones(monkeypa
         if met[module, name] > 30:
             continue
         assert _compiled.loaded(module).compiled
-        jit_fn = getattr(importlib.import_module(f"ndbg_cli.ndbg.infinite.{module}"), name)
+        jit_fn = getattr(importlib.import_module(f"ndbg_cli.kernels.{module}"), name)
         args = [np.array(a) if isinstance(a, np.ndarray) else a for a in before]
         _same(jit_fn(*args), out)
         for a, b in zip(args, after, strict=True):
@@ -278,7 +278,7 @@ def test_a_kernel_writing_into_a_view_writes_into_the_callers_array():
     """``update_sat`` brings a window of a summed-area table up to date in place: given a
     view that is not contiguous, the compiled kernel (which reads a contiguous copy) still
     writes into the caller's table, as the just-in-time one does."""
-    from ndbg_cli.ndbg.infinite import _cover_kernels as jit_cover
+    from ndbg_cli.kernels import _cover_kernels as jit_cover
 
     covered = np.random.default_rng(2).random((6, 9)) < 0.5
     tables = [np.zeros((3, 8, 12), dtype=np.int32) for _ in range(2)]
@@ -296,7 +296,7 @@ def test_a_kernel_writing_into_a_view_writes_into_the_callers_array():
 def test_signatures_with_tuples_and_int32_arrays_are_read():
     """A tuple argument is read element by element (``prune_pairs`` takes the cover's
     windows as one), and ``i4`` arrays are int32."""
-    from ndbg_cli.ndbg.infinite import _term_kernels as jit_terms
+    from ndbg_cli.kernels import _term_kernels as jit_terms
 
     got = _compiled._arguments(jit_terms.EXPORTS["prune_pairs"])
     window = [(np.dtype(np.int64), 1), (np.dtype(np.float64), 3), (np.dtype(np.float64), 2),
@@ -306,9 +306,9 @@ def test_signatures_with_tuples_and_int32_arrays_are_read():
 
 def test_a_build_holds_the_source_of_the_kernels_it_compiles_in():
     """A module's build digest covers the kernel modules it imports (their kernels are
-    compiled into it): editing ``_kernels`` makes ``_term_kernels``' build stale."""
+    compiled into it): editing ``_cone_kernels`` makes ``_term_kernels``' build stale."""
     text = _compiled._built_from("_term_kernels")
-    for module in ("_term_kernels", "_cover_kernels", "_kernels", "_cube_faces"):
+    for module in ("_term_kernels", "_cover_kernels", "_cone_kernels", "cube_faces"):
         assert _compiled._source(module) in text
     assert _compiled._built_from("_sweep_kernels") == _compiled._source("_sweep_kernels")
 
@@ -319,7 +319,7 @@ def test_only_the_arguments_a_kernel_writes_are_written():
     its type (float counts where int64 are declared) is left as the caller gave it, and a
     kernel refuses to write into a read-only array or one of another type, as numba's
     dispatcher does (it compiles no such version)."""
-    from ndbg_cli.ndbg.infinite import _cover_kernels as jit_cover
+    from ndbg_cli.kernels import _cover_kernels as jit_cover
 
     assert _compiled._writes(_compiled._source("_cover_kernels").decode()) == jit_cover.WRITES
     assert _compiled._writes(_compiled._source("_union_kernels").decode()) == {}
@@ -327,7 +327,7 @@ def test_only_the_arguments_a_kernel_writes_are_written():
     poly[:, :, 0] = [0.0, 1.0, 1.0, 0.0]
     poly[:, :, 1] = [0.0, 0.0, 1.0, 1.0]
     cnt = np.array([4.0, 3.0])
-    from ndbg_cli.ndbg.infinite import _union_kernels as jit_union
+    from ndbg_cli.kernels import _union_kernels as jit_union
 
     _same(_compiled.loaded("_union_kernels").piece_boxes(poly, cnt),
           jit_union.piece_boxes(poly, cnt.astype(np.int64)))

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ndbg_cli.kernels._cone_kernels import FACES
 from ndbg_cli.ndbg.infinite import blocking_cones as bc
-from ndbg_cli.ndbg.infinite._kernels import FACES
 from ndbg_cli.ndbg.infinite.cover import Cover
 from ndbg_cli.ndbg.infinite.cubemap import clip_halfplanes, compact, cone_normals
 

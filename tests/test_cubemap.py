@@ -1,9 +1,10 @@
-"""The cube faces of the gnomonic cube map (``_cube_faces.FACES``), pinned: numba's cache of
-the kernels that freeze them would not see a change (it watches their own file only)."""
+"""The cube faces of the gnomonic cube map (``ndbg_cli.kernels.cube_faces.FACES``), pinned:
+numba's cache of the kernels that freeze them would not see a change (it watches their own
+file only)."""
 
 import numpy as np
 
-from ndbg_cli.ndbg.infinite._cube_faces import FACES
+from ndbg_cli.kernels.cube_faces import FACES
 
 
 def test_the_faces_are_the_six_axes_each_with_a_right_handed_chart():

@@ -809,12 +809,12 @@ def test_union_drops_points_along_its_clipping_rectangle():
 
 
 def test_open_hits_is_the_box_filtered_open_membership():
-    """The compiled scan (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`) against the same test
+    """The compiled scan (:func:`ndbg_cli.kernels._cone_kernels.open_hits`) against the same test
     written with an STR-tree query and numpy: a direction is hit when some piece's box holds its
     chart point (ends included) and the piece's open cone holds the direction."""
     import shapely
 
-    from ndbg_cli.ndbg.infinite import _kernels as kernels
+    from ndbg_cli.kernels import _cone_kernels as kernels
     from ndbg_cli.ndbg.infinite.cubemap import direction_of
 
     rng = np.random.default_rng(7)

@@ -16,12 +16,12 @@ import ndbg_cli
 from ndbg_cli.contacts.contacts3d import analyze_contacts
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.io.validate import make_part
+from ndbg_cli.kernels._cone_kernels import FACES
 from ndbg_cli.ndbg.infinite import arrangement, blocked_sets
 from ndbg_cli.ndbg.infinite import blocking_cones as bc
 from ndbg_cli.ndbg.infinite import build as infinite
 from ndbg_cli.ndbg.infinite import chart_union as cu
 from ndbg_cli.ndbg.infinite import convex_cones as cc
-from ndbg_cli.ndbg.infinite._kernels import FACES
 from ndbg_cli.ndbg.infinite.cover import RASTER
 from ndbg_cli.ndbg.infinite.cubemap import (
     BOX_EDGE_PAIRS,

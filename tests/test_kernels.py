@@ -1,5 +1,5 @@
-"""The compiled kernels (:mod:`ndbg_cli.ndbg.infinite._kernels`,
-:mod:`ndbg_cli.ndbg.infinite._cover_kernels`) against the numpy code they replaced, kept here as the
+"""The compiled kernels (:mod:`ndbg_cli.kernels._cone_kernels`,
+:mod:`ndbg_cli.kernels._cover_kernels`) against the numpy code they replaced, kept here as the
 reference: the same counts, flags and bits (vertices up to each polygon's count; sign bits of zeros
 included where the values are outputs)."""
 
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ndbg_cli.ndbg.infinite import _cover_kernels as cover_kernels
-from ndbg_cli.ndbg.infinite._kernels import FACES
+from ndbg_cli.kernels import _cover_kernels as cover_kernels
+from ndbg_cli.kernels._cone_kernels import FACES
 from ndbg_cli.ndbg.infinite.arrangement import circle_crossings
 from ndbg_cli.ndbg.infinite.blocking_cones import unique_circles
 from ndbg_cli.ndbg.infinite.cover import Cover, run_offsets
@@ -162,7 +162,7 @@ def test_clip_matches_numpy(seed: int) -> None:
 
 @pytest.mark.parametrize("k", [1, 3, 7, 8, 9, 16, 27, 40])
 def test_fused_clip_matches_numpy_products(k: int) -> None:
-    """The cone-by-cone chart half-planes of :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`
+    """The cone-by-cone chart half-planes of :func:`ndbg_cli.kernels._cone_kernels.clip_cones`
     (three products and a hypot per row) against the whole-array matmuls of the numpy reference,
     for cones of every width the walk makes: the same clipped polygons, bit for bit."""
     rng = np.random.default_rng(k)
@@ -263,10 +263,10 @@ def _ref_terms(ti, ni, tj, nj, ia, jb, eps, near, cover):
 
 @pytest.mark.parametrize("with_cover", [False, True])
 def test_fused_terms_match_the_batched_path(with_cover: bool) -> None:
-    """:func:`ndbg_cli.ndbg.infinite._term_kernels.terms` against the batched kernels it replaced:
+    """:func:`ndbg_cli.kernels._term_kernels.terms` against the batched kernels it replaced:
     the same cones in the same order, each with the same nonzero rows, bit for bit (touching,
     coplanar and parallel triangles included: flat terms and erosion)."""
-    from ndbg_cli.ndbg.infinite import _term_kernels as term_kernels
+    from ndbg_cli.kernels import _term_kernels as term_kernels
     from ndbg_cli.ndbg.infinite.blocking_cones import FLAT
 
     rng = np.random.default_rng(11 + with_cover)
@@ -361,9 +361,9 @@ def test_box_covered_reads_the_block_table() -> None:
 
 
 def test_window_kernels_match_numpy() -> None:
-    """The windows of uncovered cells (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.open_window`)
+    """The windows of uncovered cells (:func:`~ndbg_cli.kernels._cover_kernels.open_window`)
     against :func:`~ndbg_cli.ndbg.infinite.cover.cells_window`, and their cones
-    (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.window_pyramid`) against the numpy expressions
+    (:func:`~ndbg_cli.kernels._cover_kernels.window_pyramid`) against the numpy expressions
     they replaced, bit for bit."""
     from ndbg_cli.ndbg.infinite.cover import cells_window
     rng = np.random.default_rng(6)
@@ -404,7 +404,7 @@ def test_sat_updates_in_place() -> None:
 
 
 def _ref_mark(covered, poly, cnt, h):
-    """The numpy rasterisation :func:`ndbg_cli.ndbg.infinite._cover_kernels.mark_cells` replaced."""
+    """The numpy rasterisation :func:`ndbg_cli.kernels._cover_kernels.mark_cells` replaced."""
     r = covered.shape[0]
     m = poly.shape[1]
     k = np.arange(m)[None, :]

@@ -7,7 +7,7 @@ import trimesh
 
 from ndbg_cli.core.assembly import Assembly
 from ndbg_cli.io.validate import make_part
-from ndbg_cli.ndbg.infinite._sweep_kernels import (
+from ndbg_cli.kernels._sweep_kernels import (
     MAX_VERTICES,
     clip_half_plane,
     front_overlap,
@@ -284,7 +284,7 @@ def test_the_window_search_agrees_with_one_union_on_random_slivers():
 def test_meets_cell_and_clipped_areas_match_shapely():
     import shapely
 
-    from ndbg_cli.ndbg.infinite._sweep_kernels import _meets_cell, clipped_areas
+    from ndbg_cli.kernels._sweep_kernels import _meets_cell, clipped_areas
 
     rng = np.random.default_rng(3)
     for _ in range(300):

@@ -49,11 +49,11 @@ def _module_file(name: str) -> Path | None:
     return None
 
 
-#: Functions of :mod:`ndbg_cli.ndbg.infinite._compiled` taking the name of a kernel module of
-#: that package (:data:`KERNEL_PACKAGE`): ``loaded("_kernels")`` reads that module's kernels
+#: Functions of :mod:`ndbg_cli.kernels.compiled` taking the name of a kernel module of
+#: :data:`KERNEL_PACKAGE`: ``loaded("_cone_kernels")`` reads that module's kernels
 #: (compiled from it, ahead of time or not) as an import would.
 KERNEL_LOADERS = ("kernels", "loaded")
-KERNEL_PACKAGE = "ndbg.infinite"
+KERNEL_PACKAGE = "kernels"
 
 
 def _relative_imports(source: str, name: str, path: Path) -> set[str]:

@@ -406,7 +406,7 @@ STAGE_MODULES = ("ndbg_cli.contacts.contacts3d", "ndbg_cli.ndbg.infinitesimal.bu
 def load_kernels() -> None:
     """Load the compiled kernels of the sweep test, since the plan's proofs call them
     (numba's start, about 0.4 s of CPU, when they are not built ahead of time:
-    :mod:`ndbg_cli.ndbg.infinite._compiled`), and import :data:`STAGE_MODULES`: done while
+    :mod:`ndbg_cli.kernels.compiled`), and import :data:`STAGE_MODULES`: done while
     a native reader's child reads the model (:func:`ndbg_cli.io.loaders.load`'s
     ``meanwhile``), else while the contact workers compute. Costs nothing once done."""
     import importlib

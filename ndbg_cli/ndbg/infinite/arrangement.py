@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import shapely
 
-from ._compiled import loaded
-from ._cube_faces import FACES
+from ...kernels.compiled import loaded
+from ...kernels.cube_faces import FACES
 from .chart_union import GRID, antipodal
 from .cubemap import SQUARE_MARGIN, direction_of
 
@@ -332,7 +332,7 @@ def circle_crossings(normals: np.ndarray, eta: float, domain: list | None = None
     with ``domain`` (per face chart geometry or ``None``), inside it. Crossings closer than
     ``eta`` are merged (the first kept), as the nearly concurrent circles of a tessellated
     cylinder's facets all are near its axis. Only on ``faces`` (the others: none)."""
-    kernels = loaded("_kernels")
+    kernels = loaded("_cone_kernels")
     n = np.ascontiguousarray(normals, dtype=float)
     npairs = len(n) * (len(n) - 1) // 2
     found: list[list[np.ndarray]] = [[] for _ in range(6)]
@@ -394,7 +394,7 @@ FUSED_KEYS = 1 << 24
 
 def _fused_inputs(groups: list, boxes: np.ndarray, domain: list | None, q: float, c: int
                   ) -> tuple | None:
-    """What :func:`ndbg_cli.ndbg.infinite._kernels.first_crossings` takes besides the circles, or
+    """What :func:`ndbg_cli.kernels._cone_kernels.first_crossings` takes besides the circles, or
     ``None`` when it cannot replace the chunked path: no domain, a domain polygon with an edge that
     is not axis-parallel (domain polygons are unions of raster cells), or too many keys."""
     if domain is None:

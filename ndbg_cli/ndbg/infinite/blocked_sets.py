@@ -22,8 +22,8 @@ from ...core.cache import PairCache
 from ...core.memo import kept
 from ...core.pools import ForkMapper, Mapper
 from ...core.progress import progress as bar
+from ...kernels.compiled import loaded
 from ..dbg import DBG
-from ._compiled import loaded
 from .blocking_cones import closed_parts, part_triangles, unique_circles
 from .chart_union import antipodal, cut_to_domain, reverse_entries
 from .convex_cones import convex_entries, convex_pairs, far_convex
@@ -154,10 +154,10 @@ class BlockedSets:
 
         A direction deep in ``B_ij`` lies in hundreds of overlapping cones and one suffices: each
         direction's pieces are scanned up to its first hit
-        (:func:`ndbg_cli.ndbg.infinite._kernels.open_hits`; a compiled scan of the boxes, where an
+        (:func:`ndbg_cli.kernels._cone_kernels.open_hits`; a compiled scan of the boxes, where an
         STR-tree query listed tens of millions of candidates). Only the directions in no open cone
         (seams, boundaries) scan every piece."""
-        kernels = loaded("_kernels")
+        kernels = loaded("_cone_kernels")
         out = np.zeros(len(d), dtype=bool)
         f, st = face_of(d[sel])
         cones = self.cones[(i, j)]

@@ -20,7 +20,7 @@ import numpy as np
 import trimesh
 
 from ...core.assembly import Assembly
-from ._compiled import loaded
+from ...kernels.compiled import loaded
 from .chart_union import clipped_pieces
 from .cover import Cover, domain_cover, run_offsets
 from .cubemap import BOX_EDGE_PAIRS, DIFFERENCE_PAIRS
@@ -115,7 +115,7 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     leaves open are left out early, by its quick tests on the generators
     (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_spanned_open`) before the facets are
     computed, then on the facets (:meth:`~ndbg_cli.ndbg.infinite.cover.Cover.misses_open`), made
-    pair by pair in :func:`ndbg_cli.ndbg.infinite._term_kernels.terms`. ``skip``: a function of
+    pair by pair in :func:`ndbg_cli.kernels._term_kernels.terms`. ``skip``: a function of
     ``(ia, jb)`` giving the pairs to keep (after the contact normals are taken); ``raw_circles``:
     the contact normals as they are, not deduplicated (a walk deduplicates them once, at its
     end)."""
@@ -203,7 +203,7 @@ def flat(cones: np.ndarray) -> np.ndarray:
     within :data:`FLAT`: an empty open set. Coplanar faces of two parts make such terms (the
     generators of ``t_j - t_i`` in one plane, or ``n_i = n_j``); they can be about half of
     all terms, and being lines across a whole face, the cover could never prune them."""
-    kernels = loaded("_kernels")
+    kernels = loaded("_cone_kernels")
     if not len(cones):
         return np.zeros(0, dtype=bool)
     return kernels.flat(np.ascontiguousarray(cones, dtype=float), FLAT)
@@ -412,7 +412,7 @@ class _Walk:
     def prune(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Drop the node pairs ``(a[k], b[k])`` whose box cone is inside the cover. Boxes around the
         origin are kept, and so are near node pairs (gap <= 4 eps) unless the box cone lies wholly
-        outside the domain (:func:`~ndbg_cli.ndbg.infinite._term_kernels.prune_pairs`)."""
+        outside the domain (:func:`~ndbg_cli.kernels._term_kernels.prune_pairs`)."""
         term_kernels = loaded("_term_kernels")
         if not len(a) or self.cover.empty:
             return a, b

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from ._compiled import loaded
+from ...kernels.compiled import loaded
 from .cubemap import SQUARE_MARGIN, clip_halfplanes
 
 #: Snapping grid of the arrangement linework, chart units.
@@ -50,7 +50,7 @@ def clipped_pieces(cones: np.ndarray, face: int,
                    max_vertices: int = 48) -> tuple[np.ndarray, ...]:
     """The chart pieces of ``cones`` ``(p, k, 3)`` on ``face`` clipped to ``rect`` (the chart square
     when ``None``): vertices ``(p, w, 2)`` (counter-clockwise), counts ``(p,)``, areas ``(p,)`` and
-    bounding boxes ``(p, 4)`` (:func:`~ndbg_cli.ndbg.infinite._union_kernels.piece_boxes`), and
+    bounding boxes ``(p, 4)`` (:func:`~ndbg_cli.kernels._union_kernels.piece_boxes`), and
     whether each has area above ``GRID**2`` ``(p,)``."""
     kernels = loaded("_union_kernels")
     poly, cnt = clip_halfplanes(cones, face, max_vertices=max_vertices, rect=rect)
@@ -83,7 +83,7 @@ def union_pieces(poly: np.ndarray, cnt: np.ndarray, area: np.ndarray, boxes: np.
     """:func:`face_pieces` of pieces already clipped (:func:`clipped_pieces`' vertices,
     counts, areas and boxes, of area above ``GRID**2`` only) with the cone index of each
     ``(q,)``, ascending: the polygons of those inside no other single piece
-    (:func:`~ndbg_cli.ndbg.infinite._union_kernels.maximal_pieces`), largest first, and ``boxes``,
+    (:func:`~ndbg_cli.kernels._union_kernels.maximal_pieces`), largest first, and ``boxes``,
     ``index``."""
     kernels = loaded("_union_kernels")
     if not len(index):
@@ -240,7 +240,7 @@ def loses_area(out: object, polys: np.ndarray) -> bool:
 
 def _inset_covered(out: object, polys: np.ndarray) -> np.ndarray:
     """``(p,)`` whether each of ``polys`` is a convex polygon whose inset by ``LOST_AREA / 2`` over
-    its perimeter (:func:`~ndbg_cli.ndbg.infinite._union_kernels.inset_convex`) is covered by
+    its perimeter (:func:`~ndbg_cli.kernels._union_kernels.inset_convex`) is covered by
     ``out`` (prepared)."""
     kernels = loaded("_union_kernels")
     ok = np.zeros(len(polys), dtype=bool)

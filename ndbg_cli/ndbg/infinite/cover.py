@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._compiled import loaded
+from ...kernels.compiled import loaded
 from .cubemap import SQUARE_MARGIN, clip_halfplanes
 
 #: Erosion of the kept polygons in the pruning test (chart units, about radians): a pruned
@@ -130,7 +130,7 @@ class Cover:
 
     def _mark(self, face: int, poly: np.ndarray, cnt: np.ndarray) -> None:
         """Mark the cells of ``face`` wholly inside the convex polygons ``poly`` ``(p, m, 2)``
-        (``cnt`` vertices each; :func:`~ndbg_cli.ndbg.infinite._cover_kernels.mark_cells`)."""
+        (``cnt`` vertices each; :func:`~ndbg_cli.kernels._cover_kernels.mark_cells`)."""
         kernels = loaded("_cover_kernels")
         first = kernels.mark_cells(np.ascontiguousarray(poly, dtype=float),
                                    np.ascontiguousarray(cnt, dtype=np.int64), self.h,
@@ -144,9 +144,9 @@ class Cover:
     def _table(self, face: int) -> None:
         """Bring the summed-area table of the covered cells of ``face``'s block up to date:
         ``sat[face, :rows + 1, :cols + 1]``, the block's own rows and columns counted from its
-        corner (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.update_sat`). A box of cells is
+        corner (:func:`~ndbg_cli.kernels._cover_kernels.update_sat`). A box of cells is
         covered when its part in the block is
-        (:func:`~ndbg_cli.ndbg.infinite._cover_kernels.box_covered`): with a domain of a few hundred
+        (:func:`~ndbg_cli.kernels._cover_kernels.box_covered`): with a domain of a few hundred
         cells the tables are that small, not 513 x 513 per face."""
         kernels = loaded("_cover_kernels")
         if self.sat is None:
@@ -181,7 +181,7 @@ class Cover:
         """The faces with a window ``(w,)``, their corner directions ``(w, 4, 3)``, chart
         rectangles ``(w, 4)``, the blocks' summed-area tables (up to date), the blocks
         ``(6, 4)`` (``row0, row1, col0, col1``), the cell width and the raster size: what
-        the compiled tests (:func:`ndbg_cli.ndbg.infinite._cover_kernels.covers`) take."""
+        the compiled tests (:func:`ndbg_cli.kernels._cover_kernels.covers`) take."""
         if self._args is not None:  # nothing marked since: the tables are up to date
             return self._args
         faces = [f for f in range(6) if self.window(f) is not None]

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._compiled import loaded
-from ._cube_faces import FACES
+from ...kernels.compiled import loaded
+from ...kernels.cube_faces import FACES
 
 #: Slight enlargement of the chart square so that directions on a cube edge are covered on
 #: both faces (chart units).
@@ -55,7 +55,7 @@ def cone_normals(gens: np.ndarray, rel_tol: float = 1e-9,
     Pointed or not, the hull comes out right (a half-space, a wedge, a line-containing cone);
     a set whose hull contains the origin in its interior gives no facet, i.e. every direction.
     """
-    kernels = loaded("_kernels")
+    kernels = loaded("_cone_kernels")
     gens = np.ascontiguousarray(gens, dtype=float)
     a, b = np.triu_indices(gens.shape[1], k=1) if pairs is None else pairs
     return kernels.cone_normals(gens, np.asarray(a, dtype=np.int64),
@@ -99,9 +99,9 @@ def clip_halfplanes(normals: np.ndarray, face: int, max_vertices: int = 48,
 
     Returns ``(poly, count)``: ``poly`` ``(p, m, 2)`` vertices (counter-clockwise, padded) and
     ``count`` ``(p,)`` vertex counts (0 or < 3: the cone misses the face): see
-    :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`.
+    :func:`ndbg_cli.kernels._cone_kernels.clip_cones`.
     """
-    kernels = loaded("_kernels")
+    kernels = loaded("_cone_kernels")
     r = 1.0 + SQUARE_MARGIN
     x0, y0, x1, y1 = (-r, -r, r, r) if rect is None else rect
     sq = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
@@ -121,10 +121,10 @@ def random_directions(n: int, seed: int = 0, dim: int = 3) -> np.ndarray:
 
 def compact(normals: np.ndarray) -> np.ndarray:
     """Drop zero rows and duplicates (rows equal when rounded to 1e-9) per cone, trimming the
-    padding ``(p, k, 3)``: :func:`ndbg_cli.ndbg.infinite._kernels.compact`. Two different facets can
+    padding ``(p, k, 3)``: :func:`ndbg_cli.kernels._cone_kernels.compact`. Two different facets can
     share the sort number (a circle of unit normals does): only equal rows are duplicates (dropping
     a different facet would enlarge the cone)."""
-    kernels = loaded("_kernels")
+    kernels = loaded("_cone_kernels")
     if not len(normals):
         return normals
     return kernels.compact(np.ascontiguousarray(normals, dtype=float))

@@ -16,9 +16,9 @@ from collections.abc import Sequence
 import numpy as np
 import shapely
 
+from ...kernels.cube_faces import FACES
 from ..dbg import DBG, strong_components
 from ..infinitesimal.build import blocking_sides
-from ._cube_faces import FACES
 from .chart_union import antipodal
 from .cover import RASTER, cells_window
 

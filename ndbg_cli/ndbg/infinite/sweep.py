@@ -10,10 +10,10 @@ narrower than the length tolerance ``eps``: the blocking region (the union, over
 pairs, of where ``t_j`` is in front) must hold a disk of diameter ``eps``, as two parts closer
 than ``eps`` touch (a faceted rod in a faceted hole: slivers no wider than the facets'
 sagitta; a press fit within tolerance). The triangle pairs whose shadows meet are found on a
-grid and tested exactly by the compiled :mod:`ndbg_cli.ndbg.infinite._sweep_kernels` (built
-ahead of time when possible, :mod:`._compiled`): one direction's whole DBG costs milliseconds
-to a second on real products, fine for plan proofs (:mod:`ndbg_cli.planning.proven`) and
-single queries (``ndbg query --direction``), not for sweeping the whole sphere.
+grid and tested exactly by the compiled kernels of :mod:`ndbg_cli.kernels` (built ahead of
+time when possible): one direction's whole DBG costs milliseconds to a second on real
+products, fine for plan proofs (:mod:`ndbg_cli.planning.proven`) and single queries
+(``ndbg query --direction``), not for sweeping the whole sphere.
 """
 
 from __future__ import annotations
@@ -22,8 +22,8 @@ import numpy as np
 
 from ...core.assembly import Assembly
 from ...geometry.vectors import plane_basis, unit
+from ...kernels.compiled import loaded
 from ..dbg import DBG, bits
-from ._compiled import loaded
 
 # compiled ahead of time when built (no numba start), else numba's just-in-time kernels
 _kernels = loaded("_sweep_kernels")
@@ -303,8 +303,9 @@ class _DiskSearch:
 
 def warm_up() -> None:
     """Load this test's kernels now: when they run just in time (not built ahead of time,
-    :mod:`._compiled`), numba starts and loads them from its cache, about 0.4 s of CPU that a
-    caller with time to spare takes off the first test; built ahead of time, nothing."""
+    :mod:`ndbg_cli.kernels.compiled`), numba starts and loads them from its cache, about
+    0.4 s of CPU that a caller with time to spare takes off the first test; built ahead of
+    time, nothing."""
     t = np.zeros((1, 3, 3))
     t[0, 1, 0] = t[0, 2, 1] = 1.0
     t, b, _, _ = facing(t, np.array([[0.0, 0.0, 1.0]]), np.eye(3), 1, FACING_TOL, 1e-9)

@@ -1,7 +1,7 @@
 """Compiled kernels (numba) of the raster cover's tests
 (:class:`ndbg_cli.ndbg.infinite.cover.Cover`): the window tests on a term's generators or facets,
 the summed-area tables and the fused "inside the covered cells" tests of a cone. The same
-conventions as :mod:`ndbg_cli.ndbg.infinite._kernels` (whose dot products and per-cone clip and
+conventions as :mod:`ndbg_cli.kernels._cone_kernels` (whose dot products and per-cone clip and
 facet helpers they use): numpy's rounding repeated, so the results are bit-identical to the numpy
 code they replace.
 """
@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import FACES, _clip, _compact, _cone_normals, dot_matmul, dot_matvec
+from ._cone_kernels import FACES, _clip, _compact, _cone_normals, dot_matmul, dot_matvec
 
 #: The entry points and their one signature, for the build ahead of time
-#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+#: (:mod:`ndbg_cli.kernels.compiled`): what the callers pass, C-contiguous.
 EXPORTS = {
     "misses_spanned_open": "b1[::1](f8[:,:,::1],f8[:,:,::1],f8[:,:,::1],f8[:,:,::1])",
     "outside": "b1[::1](f8[:,:,::1],f8[:,::1])",
@@ -27,7 +27,7 @@ EXPORTS = {
     "window_pyramid": "UniTuple(f8[:,::1],2)(i8,f8,f8,f8,f8)",
 }
 #: The arguments (positions) an entry point writes into, in place (the build ahead of time
-#: writes into the caller's array, as here: :func:`~ndbg_cli.ndbg.infinite._compiled._checked`).
+#: writes into the caller's array, as here: :func:`~ndbg_cli.kernels.compiled._checked`).
 WRITES = {"update_sat": (1,), "mark_cells": (3,)}
 
 

@@ -3,7 +3,7 @@
 (:func:`facing_pairs`), then (:func:`terms`), per triangle pair, the generators, the cover's quick
 window tests, the facets, their compaction and the flat test, one pair at a time with no
 intermediate arrays. The same operations in the same order as the batched numpy and kernel code it
-replaces (see :mod:`ndbg_cli.ndbg.infinite._kernels`), so each kept cone has the same nonzero rows,
+replaces (see :mod:`ndbg_cli.kernels._cone_kernels`), so each kept cone has the same nonzero rows,
 bit for bit, in the same order; only where the zero padding sits differs (after the facing rows
 here, before them there), which no consumer of a cone reads.
 """
@@ -13,11 +13,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ._cone_kernels import _compact, _cone_normals, dot_einsum
 from ._cover_kernels import covers_spanned, open_misses, spanned_misses
-from ._kernels import _compact, _cone_normals, dot_einsum
 
 #: The entry points and their one signature, for the build ahead of time
-#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+#: (:mod:`ndbg_cli.kernels.compiled`): what the callers pass, C-contiguous.
 EXPORTS = {
     "terms": "Tuple((f8[:,:,::1],i8))(f8[:,:,::1],f8[:,::1],f8[:,:,::1],f8[:,::1],i8[::1],"
              "i8[::1],b1[::1],f8,i8[::1],i8[::1],f8,f8,b1,f8[:,:,::1],f8[:,:,::1],f8[:,:,::1],"
@@ -47,12 +47,12 @@ def terms(ti: np.ndarray, ni: np.ndarray, tj: np.ndarray, nj: np.ndarray, ia: np
     triangle ``gi`` / ``gj`` gone has no term); its facing half-spaces are ``ni[ia[k]]`` and
     ``-nj[jb[k]]``. With ``use_cover`` a pair is dropped when it misses every window (corner
     directions ``corners`` ``(nw, 4, 3)``, inward side normals ``sides``), first on its generators
-    and facing half-spaces (:func:`ndbg_cli.ndbg.infinite._cover_kernels.spanned_misses`), then on
-    its facets and facing half-spaces (:func:`ndbg_cli.ndbg.infinite._cover_kernels.open_misses`).
+    and facing half-spaces (:func:`ndbg_cli.kernels._cover_kernels.spanned_misses`), then on
+    its facets and facing half-spaces (:func:`ndbg_cli.kernels._cover_kernels.open_misses`).
     The facets are the candidates ``pa``, ``pb``
-    (:func:`ndbg_cli.ndbg.infinite._kernels.cone_normals`, ``rel_tol``), compacted
-    (:func:`ndbg_cli.ndbg.infinite._kernels.compact`); a cone with two rows ``m . m' <= -1 +
-    flat_tol`` (:func:`ndbg_cli.ndbg.infinite._kernels.flat`) is dropped. Two such cones are known
+    (:func:`ndbg_cli.kernels._cone_kernels.cone_normals`, ``rel_tol``), compacted
+    (:func:`ndbg_cli.kernels._cone_kernels.compact`); a cone with two rows ``m . m' <= -1 +
+    flat_tol`` (:func:`ndbg_cli.kernels._cone_kernels.flat`) is dropped. Two such cones are known
     early and dropped then, the same ones: facing rows anti-parallel (parallel faces facing the same
     way, as in a row of identical bolts: up to half of some pairs' terms), and every generator in
     one candidate's plane (its rows ``n`` and ``-n``)."""
@@ -192,7 +192,7 @@ def prune_pairs(a: np.ndarray, b: np.ndarray, lo_i: np.ndarray, hi_i: np.ndarray
     A pair's box cone is spanned by the 8 corners of the box of differences grown by ``2 eps``.
     Pairs whose grown box holds the origin are kept. Far pairs (gap above ``4 eps``) are dropped
     when ``cover`` covers their box cone, near ones when ``outside`` does (the domain alone), each
-    when its ``use_*`` is set: :func:`~ndbg_cli.ndbg.infinite._cover_kernels.covers_spanned` with
+    when its ``use_*`` is set: :func:`~ndbg_cli.kernels._cover_kernels.covers_spanned` with
     the generator pairs ``pa``, ``pb`` and the cover's windows ``(faces, corners, rects, sats,
     blocks, h, size)``."""
     p = len(a)

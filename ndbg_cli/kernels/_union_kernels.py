@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import cut_polygon
+from ._cone_kernels import cut_polygon
 
 #: The entry points and their one signature, for the build ahead of time
-#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+#: (:mod:`ndbg_cli.kernels.compiled`): what the callers pass, C-contiguous.
 EXPORTS = {
     "piece_boxes": "Tuple((f8[::1],f8[:,::1]))(f8[:,:,::1],i8[::1])",
     "maximal_pieces": "b1[::1](f8[:,:,::1],i8[::1],f8[:,::1],i8[::1])",
@@ -29,7 +29,7 @@ EXPORTS = {
 @njit(cache=True)
 def piece_boxes(poly: np.ndarray, cnt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For convex polygons ``poly`` ``(p, m, 2)`` with ``cnt`` ``(p,)`` vertices each
-    (counter-clockwise, :func:`ndbg_cli.ndbg.infinite._kernels.clip_cones`'s output): their areas
+    (counter-clockwise, :func:`ndbg_cli.kernels._cone_kernels.clip_cones`'s output): their areas
     ``(p,)`` (shoelace, 0 below 3 vertices) and bounding boxes ``(p, 4)`` (``x0, y0, x1, y1``)."""
     p = len(cnt)
     area = np.zeros(p)

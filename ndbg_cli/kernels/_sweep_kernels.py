@@ -1,5 +1,5 @@
 """Compiled kernels (numba) of the direct sweep test (:mod:`ndbg_cli.ndbg.infinite.sweep`),
-which calls them compiled ahead of time when built (:mod:`._compiled`), else through numba's
+which calls them compiled ahead of time when built (:mod:`.compiled`), else through numba's
 just-in-time compiler.
 
 One part pair along one direction: the facing triangles of the moved part and of the blocker,
@@ -7,7 +7,7 @@ projected along the direction to ``(u, v, z)``, are binned on a grid over the co
 their shadows, and each triangle pair whose boxes meet is tested exactly (convex clipping of
 ``t_i`` by ``t_j``'s edges, then by the line where the depth difference reaches ``-tau``). The
 first blocking pair ends the test. These kernels share no code with the arrangement's
-(:mod:`ndbg_cli.ndbg.infinite._kernels`): the sweep test is the independent check of it.
+(:mod:`ndbg_cli.kernels._cone_kernels`): the sweep test is the independent check of it.
 """
 
 from __future__ import annotations
@@ -18,11 +18,11 @@ from numba import njit
 #: Vertices a clipped polygon can reach: a triangle cut by four lines.
 MAX_VERTICES = 8
 
-#: The kernels :mod:`..sweep` calls, and :func:`boxes` and :func:`wide_triangles`, which
-#: :func:`facing` composes (exported too, so that the build is compared with the source piece
-#: by piece), with their numba signatures (C-contiguous float64 and int64 arrays, as the
-#: wrappers pass them): :mod:`._compiled` builds these ahead of time and reads them from this
-#: file's text (string literals only).
+#: The kernels :mod:`ndbg_cli.ndbg.infinite.sweep` calls, and :func:`boxes` and
+#: :func:`wide_triangles`, which :func:`facing` composes (exported too, so that the build is
+#: compared with the source piece by piece), with their numba signatures (C-contiguous
+#: float64 and int64 arrays, as the wrappers pass them): :mod:`.compiled` builds these
+#: ahead of time and reads them from this file's text (string literals only).
 EXPORTS = {
     "facing": "Tuple((f8[:,:,::1],f8[:,::1],f8[:,:,::1],f8[:,::1]))(f8[:,:,::1],f8[:,::1],"
               "f8[:,::1],i8,f8,f8)",

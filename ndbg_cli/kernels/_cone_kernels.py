@@ -7,7 +7,7 @@ matmul uses one, see the dot products below), so the results are bit-identical; 
 padding of the outputs (entries past a count) may differ, and no caller reads it. The first
 call in a fresh environment compiles the kernels (the cache lives in ``__pycache__`` beside
 this file, or in the user's cache folder when that is not writable). Numba freezes module
-globals (:data:`~._cube_faces.FACES`) into the compiled code.
+globals (:data:`~.cube_faces.FACES`) into the compiled code.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
-from ._cube_faces import FACES
+from .cube_faces import FACES
 
 #: The entry points and their one signature, for the build ahead of time
-#: (:mod:`ndbg_cli.ndbg.infinite._compiled`): what the callers pass, C-contiguous.
+#: (:mod:`ndbg_cli.kernels.compiled`): what the callers pass, C-contiguous.
 EXPORTS = {
     "clip_cones": "Tuple((f8[:,:,::1],i8[::1]))(f8[:,:,::1],i8,f8[:,::1],f8,i8)",
     "cone_normals": "f8[:,:,::1](f8[:,:,::1],i8[::1],i8[::1],f8)",

@@ -6,7 +6,7 @@ import numba, and 0.25 s at the first call to set up its compiler, even when the
 comes from numba's cache. On a product of tens of parts that is most of what the analysis costs
 beyond reading the model. A module built ahead of time imports in a millisecond and needs
 neither numba nor LLVM to run. ``make bytecode`` builds one per kernel module of
-:data:`BUILT` (``python -m ndbg_cli.ndbg.infinite._compiled``: about 40 s for the five with
+:data:`BUILT` (``python -m ndbg_cli.kernels``: about 40 s for the five with
 the machine's C compiler, once, and again only when a module's source, or that of a kernel
 module it imports, changes).
 
@@ -49,7 +49,7 @@ __all__ = ["BUILT", "BuildError", "build", "kernels", "loaded"]
 #: (every proof calls it) and the exact infinite family's. That family serves the small
 #: products too (tens of parts), where numba's start was most of the analysis, and the
 #: proof that no plan exists on large ones.
-BUILT = {name: f"{name}_aot" for name in ("_sweep_kernels", "_kernels", "_cover_kernels",
+BUILT = {name: f"{name}_aot" for name in ("_sweep_kernels", "_cone_kernels", "_cover_kernels",
                                           "_term_kernels", "_union_kernels")}
 
 _HERE = Path(__file__).resolve().parent
@@ -230,7 +230,7 @@ def kernels(module: str) -> SimpleNamespace:
 
     Examples
     --------
-    >>> from ndbg_cli.ndbg.infinite._compiled import kernels
+    >>> from ndbg_cli.kernels.compiled import kernels
     >>> import numpy as np
     >>> t = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 2]]])  # one triangle (u, v, z)
     >>> kernels("_sweep_kernels").boxes(t).tolist()  # (u_lo, v_lo, u_hi, v_hi, z_lo, z_hi)
@@ -365,7 +365,7 @@ def _build_one(module: str, name: str, digest: int) -> None:
 
 
 def main() -> int:
-    """``python -m ndbg_cli.ndbg.infinite._compiled [--force]``: build what is stale, say
+    """``python -m ndbg_cli.kernels [--force]``: build what is stale, say
     what was done on stderr; exit 1 when a build fails (the kernels then run just in time)."""
     t0 = time.perf_counter()
     failed = []
@@ -383,6 +383,3 @@ def main() -> int:
               f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 1 if failed else 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())
