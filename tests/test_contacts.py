@@ -8,6 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import fcl
@@ -768,6 +771,34 @@ def test_box_pairs_equals_brute_force():
         want_q, want_t = np.nonzero(hit)
         got_q, got_t = box_pairs(qlo, qhi, tlo, thi)
         assert np.array_equal(got_q, want_q) and np.array_equal(got_t, want_t)
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity") or not Path("/proc/self/task").is_dir(),
+                    reason="needs Linux's CPU affinity and /proc")
+def test_manifold_booleans_leave_no_thread_for_a_fork_to_lose():
+    """A boolean of two 20,000-triangle solids made oneTBB start a worker thread; a process
+    forked just after (the contacts' workers, after the parent's nested-part volumes)
+    inherited an arena waiting for it, and its next boolean hung (seen on the engine). The
+    solids now come from a one-thread scheduler: no thread more after the boolean, and a
+    forked child's boolean ends."""
+    code = (
+        "import os, trimesh\n"
+        "from ndbg_cli.contacts.facets import manifold_model\n"
+        "from ndbg_cli.io.validate import make_part\n"
+        "m = trimesh.creation.icosphere(subdivisions=5)\n"
+        "a = make_part('a', m.vertices, m.faces)[0]\n"
+        "b = make_part('b', m.vertices + 0.5, m.faces)[0]\n"
+        "before = len(os.listdir('/proc/self/task'))\n"
+        "assert (manifold_model(a) ^ manifold_model(b)).volume() > 0\n"
+        "print(len(os.listdir('/proc/self/task')) - before)\n"
+        "pid = os.fork()\n"
+        "if pid == 0:\n"
+        "    (manifold_model(a) ^ manifold_model(b).translate((0.1, 0, 0))).volume()\n"
+        "    os._exit(0)\n"
+        "print(os.waitpid(pid, 0)[1])\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120, cwd=ROOT)
+    assert out.stdout.split() == ["0", "0"], out.stderr
 
 
 def shaft_block_geometry():

@@ -9,6 +9,7 @@ predicates of the narrow phase (:func:`sat_gap`, :func:`point_triangle_distance`
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -82,6 +83,38 @@ def fcl_object(part: Part) -> fcl.CollisionObject:
     return fcl.CollisionObject(fcl_model(part), fcl.Transform())
 
 
+def one_thread_manifold() -> None:
+    """Start manifold3d's task scheduler (oneTBB, linked into it) with no worker thread, once
+    per process, before its first solid.
+
+    Why: ndbg forks its workers (:mod:`ndbg_cli.core.pools`), and a process forked while a
+    TBB worker thread was in its task arena (just after a boolean: the parent's nested-part
+    volumes, :func:`ndbg_cli.contacts.contacts3d.analyze_contacts`) inherits an arena that
+    waits for that thread forever: the child's next boolean hung (seen on the engine GLB).
+    With one thread there is nothing to wait for, and the processes are the parallelism
+    (two TBB threads per worker only oversubscribed the cores). oneTBB sizes its pool from
+    the CPU affinity of the thread that starts it, so this thread is pinned to one CPU
+    while a small solid starts it, then given its CPUs back; forked children inherit the
+    one-thread scheduler. Where affinity cannot be set, nothing changes."""
+    global _ONE_THREAD
+    if _ONE_THREAD:
+        return
+    _ONE_THREAD = True
+    try:
+        cpus = os.sched_getaffinity(0)
+        os.sched_setaffinity(0, {min(cpus)})
+    except (AttributeError, OSError, ValueError):
+        return
+    try:
+        manifold3d.Manifold.sphere(1.0, 64).volume()
+    finally:
+        os.sched_setaffinity(0, cpus)
+
+
+#: Whether :func:`one_thread_manifold` ran in this process (forked children inherit it).
+_ONE_THREAD = False
+
+
 def closed(part: Part) -> bool:
     """Whether the part's mesh bounds a solid (watertight, consistently wound): what
     manifold3d needs, and what the overlap bounds' ray arguments
@@ -94,6 +127,7 @@ def manifold_model(part: Part) -> manifold3d.Manifold | None:
     ``None`` when the mesh is not a closed, consistently wound 2-manifold."""
     if part.hash in _MANIFOLD_CACHE:
         return _MANIFOLD_CACHE[part.hash]
+    one_thread_manifold()
     solid = None
     if closed(part):
         mesh = part.mesh
