@@ -182,6 +182,28 @@ def test_a_fresh_build_is_not_built_again():
     assert _compiled.build() == []
 
 
+@pytest.mark.skipif(_compiled._compiled("_box_kernels") is None
+                    and not os.environ.get("NDBG_REQUIRE_AOT"),
+                    reason="kernels not compiled ahead of time here (make bytecode builds them)")
+@pytest.mark.parametrize("n", [0, 3, 9, 500])
+def test_the_box_hierarchys_compiled_kernels_equal_the_just_in_time_ones(n):
+    """The hierarchy (node boxes, children, order) and the pairs it finds, to the bit, on
+    boxes of a coarse grid (ties of centres, touching boxes)."""
+    from ndbg_cli.kernels import _box_kernels as jit_boxes
+
+    rng = np.random.default_rng(n)
+    lo = np.round(rng.uniform(0, 10, (n, 3)), 1)
+    hi = lo + np.round(rng.uniform(0, 2, (n, 3)), 1)
+    qlo = np.round(rng.uniform(0, 10, (50, 3)), 1)
+    qhi = qlo + 1.0
+    aot = _compiled.loaded("_box_kernels")
+    assert aot.compiled
+    tree = aot.hierarchy(lo, hi)
+    _same(tree, jit_boxes.hierarchy(lo, hi))
+    _same(aot.meeting_pairs(*tree, lo, hi, qlo, qhi),
+          jit_boxes.meeting_pairs(*tree, lo, hi, qlo, qhi))
+
+
 #: The exact infinite family's kernel modules, built ahead of time too.
 EXACT = ("_cone_kernels", "_cover_kernels", "_term_kernels", "_union_kernels")
 exact_built = all(_compiled._compiled(m) is not None for m in EXACT)

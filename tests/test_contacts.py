@@ -23,6 +23,7 @@ from scipy.spatial.transform import Rotation
 
 import ndbg_cli
 import ndbg_cli.contacts.contacts3d as contacts_module
+from ndbg_cli.contacts.bvh import BoxHierarchy
 from ndbg_cli.contacts.contacts3d import _tree_rank, analyze_contacts
 from ndbg_cli.contacts.facets import box_pairs, fcl_model, fcl_object, part_geometry, sat_gap
 from ndbg_cli.contacts.features import _distinct_points, classify_pairs
@@ -773,6 +774,25 @@ def test_box_pairs_equals_brute_force():
         assert np.array_equal(got_q, want_q) and np.array_equal(got_t, want_t)
 
 
+def test_the_box_hierarchy_finds_the_pairs_of_boxes_that_meet():
+    """Against every pair compared: boxes on a coarse grid (many touch at a face, an edge or
+    a corner, which counts as meeting), repeated boxes, points (boxes of no size) and empty
+    sets, in sizes around the leaves' (4) and far above."""
+    rng = np.random.default_rng(5)
+    sizes = [(0, 5), (5, 0), (1, 1), (3, 4), (7, 5), (40, 9), (60, 300), (200, 1000)]
+    for m, n in sizes + [tuple(rng.integers(0, 80, 2)) for _ in range(20)]:
+        qlo = np.round(rng.uniform(0, 10, (m, 3)), 1)
+        qhi = qlo + np.round(rng.uniform(0, 2, (m, 3)), 1) * (rng.random((m, 1)) < 0.8)
+        tlo = np.round(rng.uniform(0, 10, (n, 3)), 1)
+        thi = tlo + np.round(rng.uniform(0, 2, (n, 3)), 1) * (rng.random((n, 1)) < 0.8)
+        if n > 4:  # a few boxes repeated: their centres tie at every split
+            tlo[: n // 4], thi[: n // 4] = tlo[0], thi[0]
+        hit = np.all((qlo[:, None] <= thi[None]) & (qhi[:, None] >= tlo[None]), axis=2)
+        rows, cols = BoxHierarchy.build(tlo, thi).meeting(qlo, qhi)
+        assert np.all(np.diff(rows) >= 0)  # grouped by query, ascending
+        assert sorted(zip(rows.tolist(), cols.tolist())) == list(zip(*np.nonzero(hit)))
+
+
 @pytest.mark.skipif(not hasattr(os, "sched_setaffinity") or not Path("/proc/self/task").is_dir(),
                     reason="needs Linux's CPU affinity and /proc")
 def test_manifold_booleans_leave_no_thread_for_a_fork_to_lose():
@@ -823,13 +843,32 @@ def test_r_tree_queries_list_hits_in_tree_rank_order():
             assert np.array_equal(got, got[np.argsort(rank[got])])
 
 
-def test_triangle_candidates_equal_the_r_tree_search(monkeypatch):
+@pytest.mark.parametrize("skip", [False, True])
+def test_triangle_candidates_are_the_r_tree_hits_in_r_tree_order(skip):
+    """The pairs the box hierarchy finds, put in R-tree order, are the target part's R-tree
+    hits as it lists them (grouped by query triangle, ascending), less the triangles left
+    out on either side."""
+    c = contacts_module
     _, tol, (ga, gb) = shaft_block_geometry()
-    dense = contacts_module._triangle_candidates(ga, gb, tol)
-    monkeypatch.setattr(contacts_module, "_DENSE_PAIRS", 0)  # every pair through the R-tree
-    tree = contacts_module._triangle_candidates(ga, gb, tol)
-    assert len(dense[0]) > 500
-    assert all(np.array_equal(d, t) for d, t in zip(dense, tree))
+    rng = np.random.default_rng(3)
+    skips = [rng.random(len(g.lo)) < 0.2 if skip else None for g in (ga, gb)]
+    got = c._triangle_candidates(ga, gb, tol, *skips)
+    reach = c._reach(ga, gb, tol)
+    (lo_a, hi_a), (lo_b, hi_b) = c._tri_box(ga), c._tri_box(gb)
+    sa = c._near_box(ga, lo_b - reach, hi_b + reach)
+    sb = c._near_box(gb, lo_a - reach, hi_a + reach)
+    if skip:
+        sa, sb = sa[~skips[0][sa]], sb[~skips[1][sb]]
+    swap = len(sa) > len(sb)
+    (q, qs, t, t_skip) = (gb, sb, ga, skips[0]) if swap else (ga, sa, gb, skips[1])
+    hits, counts = t.tree.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+    rows = np.repeat(qs, np.asarray(counts, dtype=np.int64))
+    cols = np.asarray(hits, dtype=np.int64)
+    if skip:
+        rows, cols = rows[~t_skip[cols]], cols[~t_skip[cols]]
+    want = (cols, rows) if swap else (rows, cols)
+    assert len(want[0]) > 500
+    assert all(np.array_equal(g, w) for g, w in zip(got, want))
 
 
 def _sat_gap_reference(ta, tb):

@@ -992,6 +992,33 @@ def test_a_list_that_fits_its_limit_is_not_called_cut():
         assert truncated is cut and len(arcs) == (2 if cut else 3)
 
 
+def test_finger_probes_are_covered_exactly_when_another_part_is_within_reach():
+    """:func:`~ndbg_cli.planning.fingers.covered` against the distance to every triangle of
+    every other part: points just outside each face of the stack (its parts rest on each
+    other, so many faces are covered), half of them pushed farther out, some to just inside
+    the reach of 1.5 gaps and some just beyond it."""
+    import ndbg_cli
+    from ndbg_cli.contacts.facets import point_triangle_distance
+    from ndbg_cli.planning.fingers import covered
+
+    asm = ndbg_cli.load("assemblies/stack.yaml")
+    gap = 2.0 * asm.length_tolerance
+    rng = np.random.default_rng(7)
+    owner = np.concatenate([np.full(len(p.mesh.faces), k) for k, p in enumerate(asm.parts)])
+    centre = np.concatenate([p.mesh.triangles_center for p in asm.parts])
+    normal = np.concatenate([p.mesh.face_normals for p in asm.parts])
+    out = rng.choice([1.0, 1.4, 1.6, 3.0], size=len(owner)) * gap
+    q = centre + out[:, None] * normal
+    want = np.zeros(len(q), dtype=bool)
+    for j, other in enumerate(asm.parts):
+        tri = np.asarray(other.mesh.triangles)
+        for i in np.flatnonzero(owner != j):
+            d = point_triangle_distance(np.repeat(q[i:i + 1], len(tri), axis=0), tri)
+            want[i] |= d.min() <= 1.5 * gap
+    assert 0 < want.sum() < len(want)
+    assert np.array_equal(covered(asm, owner, q, gap), want)
+
+
 def test_grasp_fingers_only_touch_exposed_faces():
     """Fingers go on faces no other part covers (review finding: fig3-2d had fingers on P3's
     tongue sides inside P4's groove and on P1's tongue top inside P2's groove; stack.yaml one

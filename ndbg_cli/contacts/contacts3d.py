@@ -28,7 +28,6 @@ from ..geometry.vectors import plane_basis
 from ._pair_work import INTERFERENCE, SURFACE, WHOLE, PairWork, clashing_parts, pair_results
 from .facets import (
     PartGeometry,
-    box_pairs,
     box_tree,
     fcl_model,
     fcl_object,
@@ -53,9 +52,10 @@ _CHUNK = 200_000
 #: smaller batches stay in cache).
 _SAT_CHUNK = 16_384
 
-#: Candidate search (:func:`_triangle_candidates`): largest number of query x target triangle
-#: box tests done densely with numpy (a dense test is far cheaper than an R-tree hit; costs in
-#: benchmarks/NOTES.md); bigger pairs of parts query the R-tree.
+#: Candidate search (:func:`_triangle_candidates`): above this many query x target triangles,
+#: a pair whose target triangles are partly left out queries an R-tree of the others (in its
+#: own order, as when smaller pairs were compared densely with numpy and bigger ones queried
+#: the R-tree; costs in benchmarks/NOTES.md).
 _DENSE_PAIRS = 16_000_000
 
 #: Per part geometry: the R-tree traversal rank of each triangle (:func:`_tree_rank`) and the
@@ -429,10 +429,11 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
     part's triangles, grouped by query triangle (ascending) and in each group in the order the
     other part's R-tree reports its hits.
 
-    Up to :data:`_DENSE_PAIRS` query x target triangles, the boxes are compared all at once
-    with numpy (:func:`ndbg_cli.contacts.facets.box_pairs`), the targets taken in R-tree
-    order (:func:`_tree_rank`): the same pairs in the same order as the R-tree query, which
-    bigger pairs of parts use."""
+    The pairs are found by the target part's compiled box hierarchy (the R-tree's pairs; a
+    tenth of its cost per query), then put in R-tree order (:func:`_tree_rank`). Where the
+    targets' R-tree holds triangles left out (``skip``: slivers whose boxes meet every query)
+    and the pairs are many (over :data:`_DENSE_PAIRS` query x target triangles), an R-tree of
+    the others is queried instead, in its own order, as before."""
     reach = _reach(ga, gb, tol)
     (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
     sa = _near_box(ga, lo_b - reach, hi_b + reach)
@@ -445,21 +446,23 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
         return sa[:0], sb[:0]
     swap = len(sa) > len(sb)
     q, qs, t, ts = (gb, sb, ga, sa) if swap else (ga, sa, gb, sb)
-    if len(qs) * len(ts) <= _DENSE_PAIRS:
-        ts = ts[np.argsort(_tree_rank(t)[ts])]
-        qi, ti = box_pairs(q.lo[qs] - reach, q.hi[qs] + reach, t.lo[ts], t.hi[ts])
-        rows, cols = qs[qi], ts[ti]
+    skip_t = skip_a if swap else skip_b
+    if len(qs) * len(ts) > _DENSE_PAIRS and skip_t is not None and skip_t.any():
+        # the part's R-tree holds the skipped triangles too (slivers whose boxes meet
+        # every query): a tree of the others instead
+        sub = box_tree(t.lo[ts], t.hi[ts])
+        ids, counts = sub.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+        rows = np.repeat(qs, np.asarray(counts, dtype=np.int64))
+        cols = ts[np.asarray(ids, dtype=np.int64)]
     else:
-        skip_t = skip_a if swap else skip_b
-        if skip_t is not None and skip_t.any():
-            # the part's R-tree holds the skipped triangles too (slivers whose boxes meet
-            # every query): a tree of the others instead
-            sub = box_tree(t.lo[ts], t.hi[ts])
-            ids, counts = sub.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
-            ids = ts[np.asarray(ids, dtype=np.int64)]
-        else:
-            ids, counts = t.tree.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
-        rows, cols = np.repeat(qs, np.asarray(counts, dtype=np.int64)), np.asarray(ids)
+        r, cols = t.boxes.meeting(q.lo[qs] - reach, q.hi[qs] + reach)
+        target = np.zeros(len(t.lo), dtype=bool)
+        target[ts] = True
+        keep = target[cols]
+        r, cols = r[keep], cols[keep]
+        # by query (as found), then in R-tree order within each query
+        order = np.lexsort((_tree_rank(t)[cols], r))
+        rows, cols = qs[r[order]], cols[order]
     rows, cols = rows.astype(np.int64), cols.astype(np.int64)
     return (cols, rows) if swap else (rows, cols)
 

@@ -23,6 +23,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..core.assembly import Part
 from ..geometry.vectors import cross
+from .bvh import BoxHierarchy
 
 #: Largest dihedral angle (radians) between adjacent triangles that is read as the tessellation
 #: of a smooth (curved) surface rather than as a real edge: 31 degrees, i.e. a cylinder, cone or
@@ -40,13 +41,15 @@ _FCL_CACHE: dict[str, Any] = {}
 _MANIFOLD_CACHE: dict[str, Any] = {}
 _GEOMETRY_CACHE: dict[tuple[str, float, float], PartGeometry] = {}
 _TRIANGLE_CACHE: dict[str, tuple[np.ndarray, Any]] = {}
+_HIERARCHY_CACHE: dict[str, tuple[np.ndarray, BoxHierarchy]] = {}
 
 
 def clear_caches() -> None:
-    """Forget every cached BVH, manifold, triangle R-tree and part geometry."""
+    """Forget every cached BVH, manifold, triangle R-tree or hierarchy and part geometry."""
     _FCL_CACHE.clear()
     _MANIFOLD_CACHE.clear()
     _TRIANGLE_CACHE.clear()
+    _HIERARCHY_CACHE.clear()
     _GEOMETRY_CACHE.clear()
 
 
@@ -60,6 +63,22 @@ def triangle_index(part: Part) -> tuple[np.ndarray, rtree.index.Index]:
         tri = np.asarray(part.mesh.triangles, dtype=np.float64)
         got = _TRIANGLE_CACHE[part.hash] = (tri, box_tree(tri.min(axis=1), tri.max(axis=1)))
     return got
+
+
+def triangle_hierarchy(part: Part) -> tuple[np.ndarray, BoxHierarchy]:
+    """The part's triangles ``(f, 3, 3)`` (assembly frame) and a :class:`BoxHierarchy` of
+    their boxes, built once per :attr:`Part.hash` (by :func:`part_geometries`' child when it
+    forks one): the box queries of the narrow phase and of the finger probes. The R-tree of
+    :func:`triangle_index` stays for the order of its hits, which the contacts keep."""
+    got = _HIERARCHY_CACHE.get(part.hash)
+    if got is None:
+        tri = np.asarray(part.mesh.triangles, dtype=np.float64)
+        got = _HIERARCHY_CACHE[part.hash] = (tri, _hierarchy(tri))
+    return got
+
+
+def _hierarchy(tri: np.ndarray) -> BoxHierarchy:
+    return BoxHierarchy.build(tri.min(axis=1), tri.max(axis=1))
 
 
 def fcl_model(part: Part) -> fcl.BVHModel:
@@ -177,6 +196,7 @@ class PartGeometry:
     sag: np.ndarray
     adjacency: np.ndarray  # (e, 2) pairs of triangles sharing an edge
     tree: Any  # rtree.index.Index of the triangles' bounding boxes, ids = triangle indices
+    boxes: BoxHierarchy  # the same boxes' compiled hierarchy (:func:`triangle_hierarchy`)
 
 
 def part_geometry(part: Part, tolerance: float, angle_tolerance: float) -> PartGeometry:
@@ -185,8 +205,8 @@ def part_geometry(part: Part, tolerance: float, angle_tolerance: float) -> PartG
     geo = _GEOMETRY_CACHE.get(key)
     if geo is None:
         tri, tree = triangle_index(part)
-        geo = _GEOMETRY_CACHE[key] = _assemble(part.mesh, tri, tree, _derived(
-            part.mesh, tri, tolerance, angle_tolerance))
+        geo = _GEOMETRY_CACHE[key] = _assemble(part.mesh, tri, tree, triangle_hierarchy(
+            part)[1], _derived(part.mesh, tri, tolerance, angle_tolerance))
     return geo
 
 
@@ -195,11 +215,11 @@ def part_geometries(parts: Sequence[Part], tolerance: float, angle_tolerance: fl
                     fork_above: int | None = None) -> list[PartGeometry]:
     """:func:`part_geometry` of each of ``parts``, with ``meanwhile()`` called here once.
 
-    When the parts not cached yet hold at least ``fork_above`` triangles, their facets, sags
-    and adjacency are computed in a forked child (:class:`~ndbg_cli.core.pools.Forked`: the
-    same code on the same arrays, so the same values) while this process calls
-    ``meanwhile`` (e.g. python-fcl's BVHs, which cannot cross processes) and builds their
-    triangle R-trees: on the engine 0.25 s of geometry beside 0.34 s of BVHs."""
+    When the parts not cached yet hold at least ``fork_above`` triangles, their facets, sags,
+    adjacency and box hierarchies are computed in a forked child
+    (:class:`~ndbg_cli.core.pools.Forked`: the same code on the same arrays, so the same
+    values) while this process calls ``meanwhile`` (e.g. python-fcl's BVHs, which cannot
+    cross processes) and builds their triangle R-trees."""
     from ..core.pools import Forked
 
     tol, ang = float(tolerance), float(angle_tolerance)
@@ -216,28 +236,38 @@ def part_geometries(parts: Sequence[Part], tolerance: float, angle_tolerance: fl
             meanwhile()
         for p in todo:
             triangle_index(p)
-        for p, derived in zip(todo, job.result(), strict=True):
-            _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, *triangle_index(p),
-                                                            derived)
+        for p, (derived, boxes) in zip(todo, job.result(), strict=True):
+            tri, tree = triangle_index(p)
+            boxes = _HIERARCHY_CACHE.setdefault(p.hash, (tri, boxes))[1]
+            _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, tri, tree, boxes, derived)
     return [part_geometry(p, tol, ang) for p in parts]
 
 
-def _derived_of(parts: Sequence[Part], tol: float, ang: float) -> list[tuple]:
-    """:func:`_derived` of each part (its triangles taken as :func:`triangle_index` takes
-    them, without the R-tree, which stays in the caller's process)."""
-    return [_derived(p.mesh, np.asarray(p.mesh.triangles, dtype=np.float64), tol, ang)
-            for p in parts]
+def _derived_of(parts: Sequence[Part], tol: float, ang: float
+                ) -> list[tuple[tuple, BoxHierarchy]]:
+    """:func:`_derived` and the box hierarchy of each part (its triangles taken as
+    :func:`triangle_index` takes them, without the R-tree, which stays in the caller's
+    process)."""
+    out = []
+    for p in parts:
+        tri = np.asarray(p.mesh.triangles, dtype=np.float64)
+        got = _HIERARCHY_CACHE.get(p.hash)
+        out.append((_derived(p.mesh, tri, tol, ang), _hierarchy(tri) if got is None
+                    else got[1]))
+    return out
 
 
-def _assemble(mesh: Any, tri: np.ndarray, tree: Any, derived: tuple) -> PartGeometry:
-    """The :class:`PartGeometry` of a part: its triangles ``tri`` and their R-tree ``tree``
-    (:func:`triangle_index`), and what :func:`_derived` made of them."""
+def _assemble(mesh: Any, tri: np.ndarray, tree: Any, boxes: BoxHierarchy, derived: tuple
+              ) -> PartGeometry:
+    """The :class:`PartGeometry` of a part: its triangles ``tri``, their R-tree ``tree``
+    (:func:`triangle_index`) and hierarchy ``boxes`` (:func:`triangle_hierarchy`), and what
+    :func:`_derived` made of them."""
     normals, areas, facet, fn, fd, smooth, sag, adj = derived
     return PartGeometry(triangles=tri, faces=np.asarray(mesh.faces, dtype=np.int64),
                         vertices=np.asarray(mesh.vertices, dtype=np.float64), normals=normals,
-                        areas=areas, lo=tri.min(axis=1), hi=tri.max(axis=1), facet=facet,
+                        areas=areas, lo=boxes.lo, hi=boxes.hi, facet=facet,
                         facet_normal=fn, facet_offset=fd, smooth_angle=smooth, sag=sag,
-                        adjacency=adj, tree=tree)
+                        adjacency=adj, tree=tree, boxes=boxes)
 
 
 def _derived(mesh: Any, tri: np.ndarray, tol: float, ang: float) -> tuple:

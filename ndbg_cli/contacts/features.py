@@ -43,7 +43,7 @@ MAX_CONE_FACES = 4
 MAX_GAP_CONES = 8
 
 #: Largest number of point x triangle box tests :func:`_near_triangles` does with
-#: :func:`box_pairs` (beyond, the part's R-tree answers faster).
+#: :func:`box_pairs` (beyond, the part's box hierarchy answers faster).
 _BOX_PAIRS = 4_000_000
 
 #: Share of the narrower triangle's least height by which two curved facets must overlap, seen
@@ -447,16 +447,15 @@ def _near_triangles(pts: np.ndarray, gap: np.ndarray, geo: PartGeometry,
                     ids: np.ndarray) -> np.ndarray:
     """Mask ``(n,)`` of points within ``gap`` ``(n,)`` of any triangle ``ids`` (distinct) of
     ``geo``: the triangles whose boxes meet each point's box ``+- gap``
-    (:func:`box_pairs`, or the part's R-tree when there are many), then their distances."""
+    (:func:`box_pairs`, or the part's box hierarchy when there are many), then their
+    distances."""
     if len(pts) * len(ids) <= _BOX_PAIRS:
         k, t = box_pairs(pts - gap[:, None], pts + gap[:, None], geo.lo[ids], geo.hi[ids])
         t = ids[t]
     else:
         member = np.zeros(len(geo.normals), dtype=bool)
         member[ids] = True
-        hits, counts = geo.tree.intersection_v(pts - gap[:, None], pts + gap[:, None])
-        k = np.repeat(np.arange(len(pts)), np.asarray(counts, dtype=np.int64))
-        t = np.asarray(hits, dtype=np.int64)
+        k, t = geo.boxes.meeting(pts - gap[:, None], pts + gap[:, None])
         k, t = k[member[t]], t[member[t]]
     d = point_triangle_distance(pts[k], geo.triangles[t])
     near = np.zeros(len(pts), dtype=bool)

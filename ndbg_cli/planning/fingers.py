@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from ..contacts.facets import point_triangle_distance, triangle_index
+from ..contacts.facets import point_triangle_distance, triangle_hierarchy
 from ..core.assembly import Assembly, Part
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 
@@ -144,12 +144,11 @@ def covered(asm: Assembly, owner: np.ndarray, q: np.ndarray, gap: float) -> np.n
         near = np.sort(span[(owner[span] != j) & ~out[span]
                             & np.all((q[span] >= lo - reach) & (q[span] <= hi + reach), axis=1)])
         if len(near):
-            # the triangles whose boxes meet each point's ball (the part's R-tree, all points
-            # in one query), then the exact point-triangle distances
-            tri, tree = triangle_index(other)
-            ids, counts = tree.intersection_v(q[near] - reach, q[near] + reach)
-            rows = np.repeat(near, np.asarray(counts, dtype=np.int64))
-            ids = np.asarray(ids, dtype=np.int64)
+            # the triangles whose boxes meet each point's ball (the part's compiled box
+            # hierarchy, all points in one call), then the exact point-triangle distances
+            tri, boxes = triangle_hierarchy(other)
+            r, ids = boxes.meeting(q[near] - reach, q[near] + reach)
+            rows = near[r]
             hit = point_triangle_distance(q[rows], tri[ids]) <= reach
             out[rows[hit]] = True
     return out
