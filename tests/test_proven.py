@@ -3,6 +3,8 @@ of the presented plan leaves by one translation to infinity, checked on geometry
 the answer is known by hand, and checked again by moving the parts (manifold3d booleans along
 the stated direction); or the stuck subassembly with a proof."""
 
+import time
+
 import numpy as np
 import pytest
 import trimesh
@@ -411,9 +413,9 @@ def test_a_contact_proof_of_none_is_cross_checked_by_the_exact_test():
 
 def test_the_exact_check_of_a_proof_of_none_runs_beside_the_sweep(monkeypatch):
     """The latch (paper Fig. 10) with infinitesimal translations only: no direction splits
-    it, and its own infinite-translation NDBG confirms that without the contacts. With a
-    core to spare that NDBG is built in a forked process while the sweep runs here: the
-    same proof."""
+    it, and its own infinite-translation NDBG confirms that without the contacts. With two
+    workers that NDBG is built in a forked process while the sweep runs here, even while
+    another forked job (the interlock job's grasps) still works: the same proof."""
     from ndbg_cli.core import pools
     from ndbg_cli.core.constants import INFINITESIMAL
     from ndbg_cli.core.options import Options
@@ -434,7 +436,15 @@ def test_the_exact_check_of_a_proof_of_none_runs_beside_the_sweep(monkeypatch):
                             Options(workers=w))["verified"] for w in (1, 2)}
     assert got[1] == got[2]
     assert got[1]["proof_of_none"] and "confirmed without the contacts" in got[1]["why"]
-    assert ("_exact_split", True) in forked and ("_exact_split", False) in forked
+    exact = [f for f in forked if f[0] == "_exact_split"]
+    assert exact == [("_exact_split", False), ("_exact_split", True)]
+    with pools.Forked(time.sleep, 30) as busy:  # the side job, still working
+        assert pools.spare_workers(2) == 0
+        again = plan_assembly(asm, contacts, ndbgs, measure(asm, contacts, ndbgs),
+                              Options(workers=2))["verified"]
+        busy.cancel()
+    assert again == got[1]
+    assert [f for f in forked if f[0] == "_exact_split"][-1] == ("_exact_split", True)
 
 
 def test_directions_within_the_angle_tolerance_are_one():
