@@ -9,6 +9,7 @@ predicates of the narrow phase (:func:`sat_gap`, :func:`point_triangle_distance`
 
 from __future__ import annotations
 
+import atexit
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -39,6 +40,9 @@ SMOOTH_DIHEDRAL_MIN = np.radians(0.01)
 
 _FCL_CACHE: dict[str, Any] = {}
 _MANIFOLD_CACHE: dict[str, Any] = {}
+# the solids freed before the interpreter's teardown: nanobind (manifold3d's binding) prints
+# a warning for each instance still alive when its module goes (a Dask worker's normal end)
+atexit.register(_MANIFOLD_CACHE.clear)
 _GEOMETRY_CACHE: dict[tuple[str, float, float], PartGeometry] = {}
 _TRIANGLE_CACHE: dict[str, tuple[np.ndarray, Any]] = {}
 _HIERARCHY_CACHE: dict[str, tuple[np.ndarray, BoxHierarchy]] = {}
