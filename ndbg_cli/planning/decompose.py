@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from ..core.gc_pause import gc_paused
 from ..core.memo import kept
-from ..ndbg.components import balanced_free_set, condense
+from ..ndbg.components import balanced_free_set, condense, strongly_connected
 from ..ndbg.dbg import DBG, bits
 from ..ndbg.model import NDBG, ConnectivityTest
 from .andor import (
@@ -266,18 +266,22 @@ def _sink_split(ndbg: NDBG, mask: int, order: Sequence[int], base: int | None, l
     group = ndbg.dbg_group()
     tried: set[int] = set()  # regions with equal DBGs induce equal ones: the first in order
     seen: set[tuple[int, ...]] = set()
+    members = list(bits(mask))
     for r in order:
         if group[r] in tried:
             continue
         tried.add(group[r])
         g = ndbg.regions[r].dbg
-        key = tuple(g.succ[i] & mask for i in bits(mask))
+        succ = g.succ
+        key = tuple([succ[i] & mask for i in members])
         if key in seen:
             continue
         seen.add(key)
-        comps, comp_succ = condense(g.succ, mask)
-        if len(comps) < 2:
+        # one strong component (a stuck subassembly's every DBG): found by two reaches on
+        # bitsets, far cheaper than its condensation
+        if strongly_connected(g.succ, mask):
             continue
+        comps, comp_succ = condense(g.succ, mask)
         if balanced and not linear:
             # near-balanced: the decomposition then takes O(n log n) part visits over a
             # chain of parts, not O(n^2) by one sink component at a time
