@@ -869,6 +869,15 @@ def test_triangle_candidates_are_the_r_tree_hits_in_r_tree_order(skip):
     want = (cols, rows) if swap else (rows, cols)
     assert len(want[0]) > 500
     assert all(np.array_equal(g, w) for g, w in zip(got, want))
+    if skip:  # a large pair: an R-tree of the others, in its own order; the same pairs
+        c._SUBTREE_PAIRS, before = 0, c._SUBTREE_PAIRS
+        try:
+            big = c._triangle_candidates(ga, gb, tol, *skips)
+        finally:
+            c._SUBTREE_PAIRS = before
+        q_side = big[1] if swap else big[0]
+        assert np.all(np.diff(q_side) >= 0)  # grouped by query triangle
+        assert sorted(zip(*big)) == sorted(zip(*want))
 
 
 def _sat_gap_reference(ta, tb):

@@ -26,6 +26,7 @@ from ..core.errors import InputError
 from ..core.pools import ForkMapper, Helper, Mapper, spare_workers
 from ..geometry.vectors import plane_basis
 from ._pair_work import INTERFERENCE, SURFACE, WHOLE, PairWork, clashing_parts, pair_results
+from .bvh import BoxHierarchy
 from .facets import (
     PartGeometry,
     box_tree,
@@ -52,11 +53,11 @@ _CHUNK = 200_000
 #: smaller batches stay in cache).
 _SAT_CHUNK = 16_384
 
-#: Candidate search (:func:`_triangle_candidates`): above this many query x target triangles,
-#: a pair whose target triangles are partly left out queries an R-tree of the others (in its
-#: own order, as when smaller pairs were compared densely with numpy and bigger ones queried
-#: the R-tree; costs in benchmarks/NOTES.md).
-_DENSE_PAIRS = 16_000_000
+#: Candidate search (:func:`_triangle_candidates`): the most query x target triangles for
+#: which a pair whose targets are partly left out takes the R-tree's order of all the
+#: target's triangles (above, that of an R-tree of the others; the order, kept from when
+#: pairs up to this size were compared densely with numpy, costs in benchmarks/NOTES.md).
+_SUBTREE_PAIRS = 16_000_000
 
 #: Per part geometry: the R-tree traversal rank of each triangle (:func:`_tree_rank`) and the
 #: box of the triangles (:func:`_tri_box`).
@@ -429,11 +430,12 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
     part's triangles, grouped by query triangle (ascending) and in each group in the order the
     other part's R-tree reports its hits.
 
-    The pairs are found by the target part's compiled box hierarchy (the R-tree's pairs; a
-    tenth of its cost per query), then put in R-tree order (:func:`_tree_rank`). Where the
-    targets' R-tree holds triangles left out (``skip``: slivers whose boxes meet every query)
-    and the pairs are many (over :data:`_DENSE_PAIRS` query x target triangles), an R-tree of
-    the others is queried instead, in its own order, as before."""
+    The pairs are found by a compiled box hierarchy (the R-tree's pairs; a tenth of its cost
+    per query): the target part's, or, when some of its triangles are left out (``skip``:
+    slivers whose boxes meet nearly every query), one of the others, so that no query lists
+    them. They are then put in the part's R-tree order (:func:`_tree_rank`), except for a
+    pair with left-out targets over :data:`_SUBTREE_PAIRS` query x target triangles, which
+    takes the order of an R-tree of the others."""
     reach = _reach(ga, gb, tol)
     (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
     sa = _near_box(ga, lo_b - reach, hi_b + reach)
@@ -447,19 +449,19 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
     swap = len(sa) > len(sb)
     q, qs, t, ts = (gb, sb, ga, sa) if swap else (ga, sa, gb, sb)
     skip_t = skip_a if swap else skip_b
-    if len(qs) * len(ts) > _DENSE_PAIRS and skip_t is not None and skip_t.any():
-        # the part's R-tree holds the skipped triangles too (slivers whose boxes meet
-        # every query): a tree of the others instead
+    qlo, qhi = q.lo[qs] - reach, q.hi[qs] + reach
+    skipping = skip_t is not None and bool(skip_t.any())
+    if skipping and len(qs) * len(ts) > _SUBTREE_PAIRS:
         sub = box_tree(t.lo[ts], t.hi[ts])
-        ids, counts = sub.intersection_v(q.lo[qs] - reach, q.hi[qs] + reach)
+        ids, counts = sub.intersection_v(qlo, qhi)
         rows = np.repeat(qs, np.asarray(counts, dtype=np.int64))
         cols = ts[np.asarray(ids, dtype=np.int64)]
     else:
-        r, cols = t.boxes.meeting(q.lo[qs] - reach, q.hi[qs] + reach)
-        target = np.zeros(len(t.lo), dtype=bool)
-        target[ts] = True
-        keep = target[cols]
-        r, cols = r[keep], cols[keep]
+        if skipping:  # a hierarchy of the others
+            r, c = BoxHierarchy.build(t.lo[ts], t.hi[ts]).meeting(qlo, qhi)
+            cols = ts[c]
+        else:  # every hit is near q's box: in ts
+            r, cols = t.boxes.meeting(qlo, qhi)
         # by query (as found), then in R-tree order within each query
         order = np.lexsort((_tree_rank(t)[cols], r))
         rows, cols = qs[r[order]], cols[order]

@@ -24,7 +24,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..core.assembly import Part
 from ..geometry.vectors import cross
-from .bvh import BoxHierarchy
+from .bvh import BoxHierarchy, forget_hierarchies, triangle_hierarchy
 
 #: Largest dihedral angle (radians) between adjacent triangles that is read as the tessellation
 #: of a smooth (curved) surface rather than as a real edge: 31 degrees, i.e. a cylinder, cone or
@@ -45,7 +45,6 @@ _MANIFOLD_CACHE: dict[str, Any] = {}
 atexit.register(_MANIFOLD_CACHE.clear)
 _GEOMETRY_CACHE: dict[tuple[str, float, float], PartGeometry] = {}
 _TRIANGLE_CACHE: dict[str, tuple[np.ndarray, Any]] = {}
-_HIERARCHY_CACHE: dict[str, tuple[np.ndarray, BoxHierarchy]] = {}
 
 
 def clear_caches() -> None:
@@ -53,7 +52,7 @@ def clear_caches() -> None:
     _FCL_CACHE.clear()
     _MANIFOLD_CACHE.clear()
     _TRIANGLE_CACHE.clear()
-    _HIERARCHY_CACHE.clear()
+    forget_hierarchies()
     _GEOMETRY_CACHE.clear()
 
 
@@ -67,22 +66,6 @@ def triangle_index(part: Part) -> tuple[np.ndarray, rtree.index.Index]:
         tri = np.asarray(part.mesh.triangles, dtype=np.float64)
         got = _TRIANGLE_CACHE[part.hash] = (tri, box_tree(tri.min(axis=1), tri.max(axis=1)))
     return got
-
-
-def triangle_hierarchy(part: Part) -> tuple[np.ndarray, BoxHierarchy]:
-    """The part's triangles ``(f, 3, 3)`` (assembly frame) and a :class:`BoxHierarchy` of
-    their boxes, built once per :attr:`Part.hash` (by :func:`part_geometries`' child when it
-    forks one): the box queries of the narrow phase and of the finger probes. The R-tree of
-    :func:`triangle_index` stays for the order of its hits, which the contacts keep."""
-    got = _HIERARCHY_CACHE.get(part.hash)
-    if got is None:
-        tri = np.asarray(part.mesh.triangles, dtype=np.float64)
-        got = _HIERARCHY_CACHE[part.hash] = (tri, _hierarchy(tri))
-    return got
-
-
-def _hierarchy(tri: np.ndarray) -> BoxHierarchy:
-    return BoxHierarchy.build(tri.min(axis=1), tri.max(axis=1))
 
 
 def fcl_model(part: Part) -> fcl.BVHModel:
@@ -115,21 +98,29 @@ def one_thread_manifold() -> None:
     volumes, :func:`ndbg_cli.contacts.contacts3d.analyze_contacts`) inherits an arena that
     waits for that thread forever: the child's next boolean hung (seen on the engine GLB).
     With one thread there is nothing to wait for, and the processes are the parallelism
-    (two TBB threads per worker only oversubscribed the cores). oneTBB sizes its pool from
+    (two TBB threads per worker only oversubscribed the cores; with ``--jobs 1`` a boolean
+    takes one core, as the rest of the run does). oneTBB sizes its pool from
     the CPU affinity of the thread that starts it, so this thread is pinned to one CPU
-    while a small solid starts it, then given its CPUs back; forked children inherit the
-    one-thread scheduler. Where affinity cannot be set, nothing changes."""
+    while a solid starts it (13,824 half-edges: past the 10,000 elements below which
+    manifold's algorithms skip the scheduler; 7 ms), then given its CPUs back; forked children
+    inherit the one-thread scheduler. This rests on oneTBB's behaviour, which
+    ``tests/test_contacts.py`` checks (no thread more after a large boolean). Where affinity
+    cannot be set, or the scheduler already started (a caller's own solids), nothing
+    changes. ndbg makes its solids in each process's main thread."""
     global _ONE_THREAD
     if _ONE_THREAD:
         return
     _ONE_THREAD = True
     try:
         cpus = os.sched_getaffinity(0)
-        os.sched_setaffinity(0, {min(cpus)})
-    except (AttributeError, OSError, ValueError):
+    except (AttributeError, OSError):
         return
     try:
-        manifold3d.Manifold.sphere(1.0, 64).volume()
+        os.sched_setaffinity(0, {min(cpus)})
+    except (OSError, ValueError):
+        return
+    try:
+        manifold3d.Manifold.sphere(1.0, 96).volume()
     finally:
         os.sched_setaffinity(0, cpus)
 
@@ -242,7 +233,7 @@ def part_geometries(parts: Sequence[Part], tolerance: float, angle_tolerance: fl
             triangle_index(p)
         for p, (derived, boxes) in zip(todo, job.result(), strict=True):
             tri, tree = triangle_index(p)
-            boxes = _HIERARCHY_CACHE.setdefault(p.hash, (tri, boxes))[1]
+            boxes = triangle_hierarchy(p, boxes)[1]
             _GEOMETRY_CACHE[(p.hash, tol, ang)] = _assemble(p.mesh, tri, tree, boxes, derived)
     return [part_geometry(p, tol, ang) for p in parts]
 
@@ -254,10 +245,8 @@ def _derived_of(parts: Sequence[Part], tol: float, ang: float
     process)."""
     out = []
     for p in parts:
-        tri = np.asarray(p.mesh.triangles, dtype=np.float64)
-        got = _HIERARCHY_CACHE.get(p.hash)
-        out.append((_derived(p.mesh, tri, tol, ang), _hierarchy(tri) if got is None
-                    else got[1]))
+        tri, boxes = triangle_hierarchy(p)
+        out.append((_derived(p.mesh, tri, tol, ang), boxes))
     return out
 
 

@@ -427,7 +427,7 @@ def _distinct_points(pts: np.ndarray, groups: list[np.ndarray]) -> list[np.ndarr
 def _near_patches(pts: np.ndarray, gap: np.ndarray, patches: list[dict], ga: PartGeometry,
                   gb: PartGeometry) -> np.ndarray:
     """Mask ``(n,)`` of points within ``gap`` ``(n,)`` of a planar contact's polygon (in its
-    plane) or of a curved contact's triangles (found through the parts' R-trees)."""
+    plane) or of a curved contact's triangles (:func:`_near_triangles`)."""
     near = np.zeros(len(pts), dtype=bool)
     for f in patches:
         if f["kind"] == "planar":

@@ -221,7 +221,9 @@ _RUNNING: weakref.WeakSet = weakref.WeakSet()
 def spare_workers(workers: int) -> int:
     """How many processes beside this one are free for more work, of ``workers`` in all:
     ``workers - 1`` less this process's :class:`Forked` jobs whose child still works (so
-    that a :class:`Helper` does not make three busy processes on two cores)."""
+    that a :class:`Helper` does not make three busy processes on two cores). Work this
+    process must wait for anyway may be forked regardless
+    (:func:`ndbg_cli.pipeline.proofs.cross_check`'s exact check)."""
     return workers - 1 - sum(1 for job in list(_RUNNING) if job.busy())
 
 

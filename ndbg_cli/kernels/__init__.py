@@ -5,12 +5,15 @@ C-contiguous arrays, its entry points listed in its ``EXPORTS``; the wrappers ab
 them by name from :func:`ndbg_cli.kernels.compiled.loaded`: compiled ahead of time when
 built (``make bytecode``, ``python -m ndbg_cli.kernels``), else through numba's just-in-time
 compiler. Like shapely's GEOS layer, nothing here imports the rest of ``ndbg_cli``; the
-wrappers (:mod:`ndbg_cli.ndbg.infinite`, ...) convert, check and document.
+wrappers (:mod:`ndbg_cli.ndbg.infinite`, :mod:`ndbg_cli.contacts.bvh`) convert, check and
+document. ``loaded`` is the kernel modules' only way in: no module imports one.
 
 * ``_cone_kernels``, ``_cover_kernels``, ``_term_kernels``, ``_union_kernels``: the exact
   infinite-translation NDBG (blocking cones on the cube map, their arrangement, coverage);
 * ``_sweep_kernels``: the direct sweep test, the proofs' oracle (it shares no code with the
   arrangement's);
+* ``_box_kernels``: a bounding-volume hierarchy over boxes and the pairs that meet
+  (:class:`ndbg_cli.contacts.bvh.BoxHierarchy`: the narrow phase, the finger probes);
 * :mod:`.cube_faces`: the cube map's faces, a constant of the kernels and of their wrappers,
   importable without numba.
 """

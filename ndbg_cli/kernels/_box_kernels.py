@@ -4,8 +4,10 @@ wraps them).
 
 A query box meets a box when their closed intervals overlap on every axis: the comparisons
 libspatialindex's R-tree makes (``lo > q_hi`` or ``hi < q_lo`` on an axis: apart), so the pairs
-found are the R-tree's, whatever the order. A node's box is the min and max of its boxes'
-coordinates, exactly, so a node is skipped only when none of its boxes can meet the query.
+found are the R-tree's, whatever the order (for finite coordinates: ndbg's parts are
+validated; a NaN box would be met or not depending on its node). A node's box is the min
+and max of its boxes' coordinates, exactly, so a node is skipped only when none of its boxes
+can meet the query.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from ..contacts.facets import point_triangle_distance, triangle_hierarchy
+from ..contacts.bvh import triangle_hierarchy
+from ..contacts.facets import point_triangle_distance
 from ..core.assembly import Assembly, Part
 from ..core.constants import CONTACT_ANGLE_TOL_RAD
 

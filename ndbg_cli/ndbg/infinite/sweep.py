@@ -62,11 +62,11 @@ class _View:
 
     def facing(self, i: int, sense: int) -> tuple[np.ndarray, ...]:
         """Part ``i``'s triangles facing along ``d`` (``sense`` 1) or against it (-1),
-        projected ``(a, 3, 3)`` (u, v, z), their boxes (:func:`_sweep_kernels.boxes`), and the
+        projected ``(a, 3, 3)`` (u, v, z), their boxes (the sweep kernels' ``boxes``), and the
         same two of the *wide* ones only: those whose shadow's inradius ``2 A / P`` exceeds
         ``eps / 2``. A convex overlap's area over perimeter is at most its inradius, which is
         at most either triangle's, so only two wide triangles can make a pair that blocks
-        alone. One pass of the kernel :func:`_sweep_kernels.facing`."""
+        alone. One pass of the kernel :func:`facing`."""
         key = (i, sense)
         if key not in self._facing:
             self._facing[key] = facing(self.checker.tris[i], self.checker.normals[i],
@@ -212,7 +212,7 @@ LEAF_OVERLAPS = 64
 
 
 class _DiskSearch:
-    """Whether the union of the convex rings ``coords`` (:func:`_sweep_kernels.front_polygons`'
+    """Whether the union of the convex rings ``coords`` (:func:`front_polygons`'
     output; ``counts``: each ring's vertex count) holds a disk of diameter ``eps`` (closed
     over cracks of ``tiny`` first), searched window by window instead of by one union of all.
 
