@@ -430,12 +430,13 @@ def _triangle_candidates(ga: PartGeometry, gb: PartGeometry, tol: float,
     part's triangles, grouped by query triangle (ascending) and in each group in the order the
     other part's R-tree reports its hits.
 
-    The pairs are found by a compiled box hierarchy (the R-tree's pairs; a tenth of its cost
-    per query): the target part's, or, when some of its triangles are left out (``skip``:
-    slivers whose boxes meet nearly every query), one of the others, so that no query lists
-    them. They are then put in the part's R-tree order (:func:`_tree_rank`), except for a
-    pair with left-out targets over :data:`_SUBTREE_PAIRS` query x target triangles, which
-    takes the order of an R-tree of the others."""
+    The pairs are found by a compiled box hierarchy (the R-tree's pairs, at a third of its
+    cost or less: benchmarks/NOTES.md, stop 55): the target part's, or, when some of its
+    triangles are left out (``skip``: slivers whose boxes meet nearly every query), one of
+    the others, so that no query lists them. They are then put in the part's R-tree order
+    (:func:`_tree_rank`), except for a pair with left-out targets over
+    :data:`_SUBTREE_PAIRS` query x target triangles, which takes the order of an R-tree of
+    the others."""
     reach = _reach(ga, gb, tol)
     (lo_a, hi_a), (lo_b, hi_b) = _tri_box(ga), _tri_box(gb)
     sa = _near_box(ga, lo_b - reach, hi_b + reach)
