@@ -58,9 +58,10 @@ def clear_caches() -> None:
 
 def triangle_index(part: Part) -> tuple[np.ndarray, rtree.index.Index]:
     """The part's triangles ``(f, 3, 3)`` (assembly frame) and an R-tree of their boxes
-    (:func:`box_tree`, ids = triangle indices), built once per :attr:`Part.hash`: the
-    tolerances do not enter, so the contacts' :class:`PartGeometry` and the finger probes
-    (:func:`ndbg_cli.planning.fingers.covered`) share one."""
+    (:func:`box_tree`, ids = triangle indices), built once per :attr:`Part.hash` (the
+    tolerances do not enter): the order of its hits is the contacts' order of triangle
+    pairs (:func:`ndbg_cli.contacts.contacts3d._tree_rank`); the queries themselves go
+    through :func:`triangle_hierarchy`."""
     got = _TRIANGLE_CACHE.get(part.hash)
     if got is None:
         tri = np.asarray(part.mesh.triangles, dtype=np.float64)

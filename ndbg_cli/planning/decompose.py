@@ -279,9 +279,9 @@ def _sink_split(ndbg: NDBG, mask: int, order: Sequence[int], base: int | None, l
         seen.add(key)
         # one strong component (a stuck subassembly's every DBG): found by two reaches on
         # bitsets, far cheaper than its condensation
-        if strongly_connected(g.succ, mask):
+        if strongly_connected(succ, mask):
             continue
-        comps, comp_succ = condense(g.succ, mask)
+        comps, comp_succ = condense(succ, mask)
         if balanced and not linear:
             # near-balanced: the decomposition then takes O(n log n) part visits over a
             # chain of parts, not O(n^2) by one sink component at a time
