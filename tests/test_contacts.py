@@ -931,7 +931,7 @@ def test_apart_is_a_proof_of_distance():
     assert far and near
 
 
-def test_near_triangles_equals_the_r_tree_search(monkeypatch):
+def test_near_triangles_equals_the_box_hierarchy_search(monkeypatch):
     import ndbg_cli.contacts.features as features
     _, _, (ga, gb) = shaft_block_geometry()
     rng = np.random.default_rng(9)
@@ -941,11 +941,11 @@ def test_near_triangles_equals_the_r_tree_search(monkeypatch):
         pts += rng.normal(size=pts.shape) * 0.5
         gap = rng.uniform(0.01, 1.0, len(pts))
         dense = features._near_triangles(pts, gap, g, ids)
-        monkeypatch.setattr(features, "_BOX_PAIRS", 0)  # the R-tree query
-        tree = features._near_triangles(pts, gap, g, ids)
+        monkeypatch.setattr(features, "_BOX_PAIRS", 0)  # the box hierarchy's query
+        hierarchy = features._near_triangles(pts, gap, g, ids)
         monkeypatch.undo()
         assert 0 < dense.sum() < len(pts)
-        assert np.array_equal(dense, tree)
+        assert np.array_equal(dense, hierarchy)
 
 
 @pytest.mark.external
