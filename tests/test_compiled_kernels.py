@@ -204,6 +204,34 @@ def test_the_box_hierarchys_compiled_kernels_equal_the_just_in_time_ones(n):
           jit_boxes.meeting_pairs(*tree, lo, hi, qlo, qhi))
 
 
+@pytest.mark.skipif(_compiled._compiled("_triangle_kernels") is None
+                    and not os.environ.get("NDBG_REQUIRE_AOT"),
+                    reason="kernels not compiled ahead of time here (make bytecode builds them)")
+def test_the_triangle_predicates_compiled_kernels_equal_the_just_in_time_ones():
+    """Closest points, segment points, triangle distances, separating gaps and the plane
+    filter, to the bit, on random triangles, on triangles of a coarse grid (shared vertices
+    and edges, coplanar and touching pairs, signed zeros) and on degenerate ones."""
+    from ndbg_cli.kernels import _triangle_kernels as jit
+
+    rng = np.random.default_rng(5)
+    grid = np.round(rng.uniform(-2, 2, (400, 3, 3))) * rng.choice([1.0, -1.0], (400, 3, 3))
+    ta = np.concatenate([rng.normal(size=(400, 3, 3)), grid, grid[:, [0, 0, 1]]])
+    tb = np.concatenate([rng.normal(size=(400, 3, 3)), grid[::-1], rng.normal(size=(400, 3, 3))])
+    p = np.ascontiguousarray(tb[:, 0] + rng.normal(size=(len(tb), 3)))
+    ends = [np.ascontiguousarray(x) for x in (ta[:, 0], ta[:, 1], tb[:, 0], tb[:, 1])]
+    aot = _compiled.loaded("_triangle_kernels")
+    assert aot.compiled
+    _same(aot.closest_on_triangle(p, ta), jit.closest_on_triangle(p, ta))
+    _same(aot.segment_closest(*ends), jit.segment_closest(*ends))
+    _same(aot.triangle_gap(ta, tb), jit.triangle_gap(ta, tb))
+    _same(aot.sat_gap(ta, tb), jit.sat_gap(ta, tb))
+    normals = rng.normal(size=(len(ta), 3))
+    sag = rng.uniform(0, 0.1, len(ta))
+    pairs = rng.integers(0, len(ta), (2, 5000))
+    args = (ta, normals, sag, tb, normals[::-1].copy(), sag[::-1].copy(), *pairs, 0.5)
+    _same(aot.plane_filter(*args), jit.plane_filter(*args))
+
+
 #: The exact infinite family's kernel modules, built ahead of time too.
 EXACT = ("_cone_kernels", "_cover_kernels", "_term_kernels", "_union_kernels")
 exact_built = all(_compiled._compiled(m) is not None for m in EXACT)

@@ -15,7 +15,7 @@ from scipy.optimize import linprog
 
 import ndbg_cli
 from ndbg_cli.contacts.contacts3d import analyze_contacts
-from ndbg_cli.contacts.facets import triangle_gap
+from ndbg_cli.contacts.facets import point_triangle_distance, segment_distance, triangle_gap
 from ndbg_cli.contacts.gap_cones import (
     maximal,
     meets_free,
@@ -337,6 +337,38 @@ def test_a_ring_of_near_misses_becomes_one_conservative_contact():
             assert [f["blocking"] for f in out] == ["all"] * count
         else:
             assert len(out) == 1 and out[0]["blocking"] == "any"
+
+
+def test_closest_points_equal_trimesh_and_dense_sampling():
+    """Point-triangle distances against trimesh's closest points, for points in each of
+    Ericson's regions (near a vertex, beyond an edge, over the interior) and for degenerate
+    triangles; segment distances against a dense sampling of both segments (a grid of 201
+    points each, so within the grid's spacing of the true distance, and never below it)."""
+    rng = np.random.default_rng(12)
+    tri = rng.normal(size=(600, 3, 3))
+    tri[:40, 2] = tri[:40, 0]  # a segment
+    tri[40:60, 1:] = tri[40:60, :1]  # a point
+    bary = rng.uniform(-1.0, 2.0, (600, 3))
+    p = np.einsum("pk,pkd->pd", bary / bary.sum(axis=1, keepdims=True), tri)
+    p += rng.normal(scale=0.3, size=p.shape)
+    want = np.linalg.norm(p - trimesh.triangles.closest_point(tri, p), axis=1)
+    assert np.allclose(point_triangle_distance(p, tri), want, rtol=1e-9, atol=1e-12)
+    ends = rng.normal(size=(4, 200, 3))
+    ends[3, :20] = ends[2, :20]  # a segment of length 0
+    dist, mid = segment_distance(*ends)
+    u = np.linspace(0.0, 1.0, 201)
+    for k in range(len(dist)):
+        s = ends[0, k] + np.outer(u, ends[1, k] - ends[0, k])
+        t = ends[2, k] + np.outer(u, ends[3, k] - ends[2, k])
+        sampled = np.linalg.norm(s[:, None] - t[None], axis=2).min()
+        spacing = (np.linalg.norm(ends[1, k] - ends[0, k])
+                   + np.linalg.norm(ends[3, k] - ends[2, k])) / 200
+        assert dist[k] <= sampled + 1e-12 and dist[k] >= sampled - spacing
+    # the midpoint is the middle of points on each segment at that distance
+    par = np.array([1.0, 0.0, 0.0])
+    dist, mid = segment_distance(np.zeros((1, 3)), par[None], np.array([[0.5, 1.0, 0.0]]),
+                                 np.array([[0.5, 1.0, 2.0]]))
+    assert dist.tolist() == [1.0] and mid.tolist() == [[0.5, 0.5, 0.0]]
 
 
 def test_triangle_gap_on_coplanar_and_piercing_pairs():

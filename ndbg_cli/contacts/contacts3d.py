@@ -25,6 +25,7 @@ from ..core.constants import CONTACT_ANGLE_TOL_RAD
 from ..core.errors import InputError
 from ..core.pools import ForkMapper, Helper, Mapper, spare_workers
 from ..geometry.vectors import plane_basis
+from ..kernels.compiled import loaded
 from ._pair_work import INTERFERENCE, SURFACE, WHOLE, PairWork, clashing_parts, pair_results
 from .bvh import BoxHierarchy
 from .facets import (
@@ -33,8 +34,6 @@ from .facets import (
     fcl_model,
     fcl_object,
     manifold_model,
-    max3,
-    min3,
     part_geometries,
     part_geometry,
     sat_gap,
@@ -45,13 +44,6 @@ from .interference import Interference, interference, meshes_intersect
 from .planar import coplanar_facets, planar_contacts
 
 __all__ = ["Contact", "ContactAnalysis", "analyze_contacts"]
-
-#: Triangle pairs processed per numpy batch (bounds memory to ~100 MB).
-_CHUNK = 200_000
-
-#: Triangle pairs per batch of the 11-axis separating test (its arrays are 11 times bigger;
-#: smaller batches stay in cache).
-_SAT_CHUNK = 16_384
 
 #: Candidate search (:func:`_triangle_candidates`): the most query x target triangles for
 #: which a pair whose targets are partly left out takes the R-tree's order of all the
@@ -510,32 +502,12 @@ def _plane_filter(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
     either triangle's normal (the two cheapest separating axes). Also returns, for the pairs
     kept, how far (unit) B's vertices reach from A's plane and A's from B's (the largest
     absolute signed distance): :func:`ndbg_cli.contacts.features.classify_pairs` reuses them.
-
     A's plane is tested first, and B's only on the pairs that pass it (most candidates fail
-    the first test): the same pairs as testing both everywhere."""
-    keep_i, keep_j = [i[:0]], [j[:0]]
-    off_b, off_a = [np.zeros(0)], [np.zeros(0)]
-    for s in range(0, len(i), _CHUNK):
-        ci, cj = i[s:s + _CHUNK], j[s:s + _CHUNK]
-        g = tol + ga.sag[ci] + gb.sag[cj]
-        # B's vertices over A's plane: some at most g above and some at least g below; the
-        # smallest and largest of three are taken column-wise (``np.any(..., axis=1)`` over
-        # (p, 3) is several times slower) and also give the largest absolute offset
-        sb = np.einsum("pvd,pd->pv", gb.triangles[cj] - ga.triangles[ci, 0][:, None],
-                       ga.normals[ci])
-        lo, hi = min3(sb), max3(sb)
-        k = np.nonzero((lo <= g) & (hi >= -g))[0]
-        ci, cj, g, lo, hi = ci[k], cj[k], g[k], lo[k], hi[k]
-        sa = np.einsum("pvd,pd->pv", ga.triangles[ci] - gb.triangles[cj, 0][:, None],
-                       gb.normals[cj])
-        lo_a, hi_a = min3(sa), max3(sa)
-        ok = (lo_a <= g) & (hi_a >= -g)
-        keep_i.append(ci[ok])
-        keep_j.append(cj[ok])
-        off_b.append(np.maximum(np.abs(lo[ok]), np.abs(hi[ok])))
-        off_a.append(np.maximum(np.abs(lo_a[ok]), np.abs(hi_a[ok])))
-    return (np.concatenate(keep_i), np.concatenate(keep_j),
-            (np.concatenate(off_b), np.concatenate(off_a)))
+    the first test); compiled (:mod:`ndbg_cli.kernels._triangle_kernels`)."""
+    keep, off_b, off_a = loaded("_triangle_kernels").plane_filter(
+        ga.triangles, ga.normals, ga.sag, gb.triangles, gb.normals, gb.sag,
+        np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64), float(tol))
+    return i[keep], j[keep], (off_b, off_a)
 
 
 def _touching(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray, tol: float
@@ -543,10 +515,8 @@ def _touching(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarray, 
     """The pairs ``(i, j)`` whose separation along all 11 separating axes is at most
     ``g = tol + sag_i + sag_j`` (:func:`ndbg_cli.contacts.facets.sat_gap`). Returns ``i, j, g`` of
     those touching pairs."""
-    keep = [sat_gap(ga.triangles[i[s:s + _SAT_CHUNK]], gb.triangles[j[s:s + _SAT_CHUNK]])
-            for s in range(0, len(i), _SAT_CHUNK)]
     g = tol + ga.sag[i] + gb.sag[j]
-    ok = np.concatenate(keep) <= g if keep else np.zeros(0, dtype=bool)
+    ok = sat_gap(ga.triangles[i], gb.triangles[j]) <= g
     return i[ok], j[ok], g[ok]
 
 

@@ -24,6 +24,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..core.assembly import Part
 from ..geometry.vectors import cross
+from ..kernels.compiled import loaded
 from .bvh import BoxHierarchy, forget_hierarchies, triangle_hierarchy
 
 #: Largest dihedral angle (radians) between adjacent triangles that is read as the tessellation
@@ -373,68 +374,38 @@ def _facet_planes(tri: np.ndarray, normals: np.ndarray, areas: np.ndarray, facet
     return facet, fn, fd, split
 
 
-# -- vectorised triangle predicates ---------------------------------------------------------
+# -- triangle predicates (compiled: :mod:`ndbg_cli.kernels._triangle_kernels`) ------------
 
 def sat_gap(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
     """Largest separation ``(p,)`` of triangle pairs ``ta``, ``tb`` ``(p, 3, 3)`` along the 11
     separating axes of the triangle-triangle test (both normals and the 9 edge-edge cross
-    products). It is a lower bound of the pair's distance (any unit axis gives one): ``<= 0``
-    for intersecting or touching triangles, exact for parallel facing triangles, and at most a
-    small factor below the true distance for skew ones. Unit: the assembly unit."""
-    ea = np.roll(ta, -1, axis=1) - ta
-    eb = np.roll(tb, -1, axis=1) - tb
-    na = cross(ea[:, 0], ea[:, 1])
-    nb = cross(eb[:, 0], eb[:, 1])
-    cr = cross(ea[:, :, None, :], eb[:, None, :, :]).reshape(-1, 9, 3)
-    axes = np.concatenate([na[:, None], nb[:, None], cr], axis=1)
-    norm = np.linalg.norm(axes, axis=2)
-    scale = np.maximum(norm.max(axis=1, keepdims=True), 1e-300)
-    ok = norm > 1e-9 * scale
-    axes = axes / np.where(ok, norm, 1.0)[..., None]
-    pa = np.einsum("pkd,pvd->pkv", axes, ta)
-    pb = np.einsum("pkd,pvd->pkv", axes, tb)
-    # element-wise min/max of 3: same numbers as .min(axis=2), faster
-    gap = np.maximum(min3(pb) - max3(pa), min3(pa) - max3(pb))
-    return np.where(ok, gap, -np.inf).max(axis=1)
+    products; an axis shorter than 1e-9 of the pair's longest is left out). It is a lower
+    bound of the pair's distance (any unit axis gives one): ``<= 0`` for intersecting or
+    touching triangles, exact for parallel facing triangles, and at most a small factor
+    below the true distance for skew ones. Unit: the assembly unit.
+
+    >>> ta = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    >>> sat_gap(ta, ta + [0, 0, 0.5]).tolist()  # parallel, half a unit apart
+    [0.5]
+    """
+    return loaded("_triangle_kernels").sat_gap(ta, tb)
 
 
 def point_triangle_distance(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Euclidean distance ``(n,)`` from points ``p`` ``(n, 3)`` to triangles ``t`` ``(n, 3, 3)``
-    (closest-point regions of Ericson, *Real-Time Collision Detection* 5.1.5, vectorised)."""
+    (closest-point regions of Ericson, *Real-Time Collision Detection* 5.1.5).
+
+    >>> t = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    >>> point_triangle_distance(np.array([[2.0, 0, 0]]), t).tolist()  # beyond a vertex
+    [1.0]
+    """
     return np.linalg.norm(p - closest_on_triangle(p, t), axis=1)
 
 
 def closest_on_triangle(p: np.ndarray, t: np.ndarray) -> np.ndarray:
     """The point ``(n, 3)`` of each triangle ``t`` ``(n, 3, 3)`` closest to ``p`` ``(n, 3)``
     (:func:`point_triangle_distance`)."""
-    a, b, c = t[:, 0], t[:, 1], t[:, 2]
-    ab, ac, ap = b - a, c - a, p - a
-
-    def dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        return np.einsum("ij,ij->i", x, y)
-
-    d1, d2 = dot(ab, ap), dot(ac, ap)
-    bp = p - b
-    d3, d4 = dot(ab, bp), dot(ac, bp)
-    cp = p - c
-    d5, d6 = dot(ab, cp), dot(ac, cp)
-    va = d3 * d6 - d5 * d4
-    vb = d5 * d2 - d1 * d6
-    vc = d1 * d4 - d3 * d2
-    denom = va + vb + vc
-    denom = np.where(np.abs(denom) > 1e-300, denom, 1e-300)
-    q = a + ab * (vb / denom)[:, None] + ac * (vc / denom)[:, None]  # interior
-    with np.errstate(divide="ignore", invalid="ignore"):
-        e_bc = np.clip(np.nan_to_num((d4 - d3) / ((d4 - d3) + (d5 - d6))), 0, 1)
-        e_ab = np.clip(np.nan_to_num(d1 / (d1 - d3)), 0, 1)
-        e_ac = np.clip(np.nan_to_num(d2 / (d2 - d6)), 0, 1)
-    q = np.where(((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0))[:, None],
-                 b + (c - b) * e_bc[:, None], q)
-    q = np.where(((vb <= 0) & (d2 >= 0) & (d6 <= 0))[:, None], a + ac * e_ac[:, None], q)
-    q = np.where(((vc <= 0) & (d1 >= 0) & (d3 <= 0))[:, None], a + ab * e_ab[:, None], q)
-    q = np.where(((d6 >= 0) & (d5 <= d6))[:, None], c, q)
-    q = np.where(((d3 >= 0) & (d4 <= d3))[:, None], b, q)
-    return np.where(((d1 <= 0) & (d2 <= 0))[:, None], a, q)
+    return loaded("_triangle_kernels").closest_on_triangle(p, t)
 
 
 def segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray
@@ -448,24 +419,8 @@ def segment_distance(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndar
 def segment_closest(p1: np.ndarray, q1: np.ndarray, p2: np.ndarray, q2: np.ndarray
                     ) -> tuple[np.ndarray, np.ndarray]:
     """The closest points ``(n, 3)`` of segments ``p1q1`` and ``p2q2``, on each
-    (:func:`segment_distance`)."""
-    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
-    a = np.einsum("ij,ij->i", d1, d1)
-    e = np.einsum("ij,ij->i", d2, d2)
-    f = np.einsum("ij,ij->i", d2, r)
-    c = np.einsum("ij,ij->i", d1, r)
-    b = np.einsum("ij,ij->i", d1, d2)
-    a_ = np.maximum(a, 1e-300)
-    e_ = np.maximum(e, 1e-300)
-    denom = a * e - b * b
-    s = np.where(denom > 1e-12 * a_ * e_, np.clip((b * f - c * e) / np.maximum(denom, 1e-300),
-                                                  0, 1), 0.0)
-    t = (b * s + f) / e_
-    s = np.where(t < 0, np.clip(-c / a_, 0, 1), np.where(t > 1, np.clip((b - c) / a_, 0, 1), s))
-    t = np.clip(t, 0, 1)
-    c1 = p1 + d1 * s[:, None]
-    c2 = p2 + d2 * t[:, None]
-    return c1, c2
+    (:func:`segment_distance`; a segment of length 0 is its point)."""
+    return loaded("_triangle_kernels").segment_closest(p1, q1, p2, q2)
 
 
 def triangle_gap(ta: np.ndarray, tb: np.ndarray
@@ -475,51 +430,16 @@ def triangle_gap(ta: np.ndarray, tb: np.ndarray
     separates them best) and the midpoint ``(p, 3)`` of the two closest points. The closest
     pair of points of two disjoint triangles is a vertex and a point of the other triangle
     or two edges' closest points, so the 6 + 9 candidates are exact, unless an edge of one
-    crosses the other's interior (:func:`_pierces`); triangles that meet get distance 0 and
-    direction 0. Unit: the assembly unit."""
-    best = np.full(len(ta), np.inf)
-    pa, pb = np.zeros((len(ta), 3)), np.zeros((len(ta), 3))
+    crosses the other's interior (an edge's ends strictly on either side of the other's
+    plane, crossing it inside or on that triangle); triangles that meet get distance 0 and
+    direction 0. Unit: the assembly unit.
 
-    def take(x: np.ndarray, y: np.ndarray) -> None:
-        d = np.linalg.norm(y - x, axis=1)
-        better = d < best
-        best[better] = d[better]
-        pa[better], pb[better] = x[better], y[better]
-
-    for k in range(3):
-        take(ta[:, k], closest_on_triangle(ta[:, k], tb))
-        take(closest_on_triangle(tb[:, k], ta), tb[:, k])
-    for k in range(3):
-        for m in range(3):
-            take(*segment_closest(ta[:, k], ta[:, (k + 1) % 3], tb[:, m], tb[:, (m + 1) % 3]))
-    meet = (best <= 0) | _pierces(ta, tb) | _pierces(tb, ta)
-    best[meet] = 0.0
-    direction = (pb - pa) / np.where(meet, 1.0, best)[:, None]
-    direction[meet] = 0.0
-    return best, direction, (pa + pb) / 2.0
-
-
-def _pierces(ta: np.ndarray, tb: np.ndarray) -> np.ndarray:
-    """``(p,)`` whether an edge of ``ta`` crosses the plane of ``tb`` strictly (its ends on
-    either side) at a point of ``tb`` (edges included). A degenerate ``tb`` (no plane) is
-    never pierced; an edge touching the plane at an end meets ``tb`` only where the
-    closest-feature distance is 0 already."""
-    b0 = tb[:, 0]
-    nb = cross(tb[:, 1] - b0, tb[:, 2] - b0)
-    out = np.zeros(len(ta), dtype=bool)
-    for k in range(3):
-        p, q = ta[:, k], ta[:, (k + 1) % 3]
-        sp = np.einsum("ij,ij->i", p - b0, nb)
-        sq = np.einsum("ij,ij->i", q - b0, nb)
-        through = sp * sq < 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            x = p + (q - p) * np.where(through, sp / (sp - sq), 0.0)[:, None]
-        inside = through.copy()
-        for m in range(3):
-            e0, e1 = tb[:, m], tb[:, (m + 1) % 3]
-            inside &= np.einsum("ij,ij->i", cross(e1 - e0, x - e0), nb) >= 0
-        out |= inside
-    return out
+    >>> ta = np.array([[[0.0, 0, 0], [1, 0, 0], [0, 1, 0]]])
+    >>> gap, direction, mid = triangle_gap(ta, ta + [0, 0, 2.0])
+    >>> gap.tolist(), direction.tolist()  # stacked 2 apart: along +z
+    ([2.0], [[0.0, 0.0, 1.0]])
+    """
+    return loaded("_triangle_kernels").triangle_gap(ta, tb)
 
 
 #: Box tests per numpy block of :func:`box_pairs` (bounds memory to a few MB).

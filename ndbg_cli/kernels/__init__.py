@@ -5,7 +5,8 @@ C-contiguous arrays, its entry points listed in its ``EXPORTS``; the wrappers ab
 them by name from :func:`ndbg_cli.kernels.compiled.loaded`: compiled ahead of time when
 built (``make bytecode``, ``python -m ndbg_cli.kernels``), else through numba's just-in-time
 compiler. Like shapely's GEOS layer, nothing here imports the rest of ``ndbg_cli``; the
-wrappers (:mod:`ndbg_cli.ndbg.infinite`, :mod:`ndbg_cli.contacts.bvh`) convert, check and
+wrappers (:mod:`ndbg_cli.ndbg.infinite`, :mod:`ndbg_cli.contacts.bvh`,
+:mod:`ndbg_cli.contacts.facets`) convert, check and
 document. ``loaded`` is the kernel modules' only way in: no module imports one.
 
 * ``_cone_kernels``, ``_cover_kernels``, ``_term_kernels``, ``_union_kernels``: the exact
@@ -14,6 +15,8 @@ document. ``loaded`` is the kernel modules' only way in: no module imports one.
   arrangement's);
 * ``_box_kernels``: a bounding-volume hierarchy over boxes and the pairs that meet
   (:class:`ndbg_cli.contacts.bvh.BoxHierarchy`: the narrow phase, the finger probes);
+* ``_triangle_kernels``: the narrow phase's triangle predicates (closest points, triangle
+  distances, separating-axis gaps: :mod:`ndbg_cli.contacts.facets`);
 * :mod:`.cube_faces`: the cube map's faces, a constant of the kernels and of their wrappers,
   importable without numba.
 """

@@ -6,7 +6,7 @@ import numba, and 0.25 s at the first call to set up its compiler, even when the
 comes from numba's cache. On a product of tens of parts that is most of what the analysis costs
 beyond reading the model. A module built ahead of time imports in a millisecond and needs
 neither numba nor LLVM to run. ``make bytecode`` builds one per kernel module of
-:data:`BUILT` (``python -m ndbg_cli.kernels``: about 45 s for the six with
+:data:`BUILT` (``python -m ndbg_cli.kernels``: about 50 s for the seven with
 the machine's C compiler, once, and again only when a module's source, or that of a kernel
 module it imports, changes).
 
@@ -46,11 +46,13 @@ import numpy as np
 __all__ = ["BUILT", "BuildError", "build", "kernels", "loaded"]
 
 #: Kernel modules built ahead of time -> the name of their compiled module: the sweep test's
-#: (every proof calls it), the box hierarchy's (every run's finger probes) and the exact
-#: infinite family's. That family serves the small products too (tens of parts), where
-#: numba's start was most of the analysis, and the proof that no plan exists on large ones.
-BUILT = {name: f"{name}_aot" for name in ("_sweep_kernels", "_box_kernels", "_cone_kernels",
-                                          "_cover_kernels", "_term_kernels", "_union_kernels")}
+#: (every proof calls it), the box hierarchy's (every run's finger probes and narrow phase),
+#: the triangle predicates' (every run's narrow phase) and the exact infinite family's. That
+#: family serves the small products too (tens of parts), where numba's start was most of the
+#: analysis, and the proof that no plan exists on large ones.
+BUILT = {name: f"{name}_aot" for name in (
+    "_sweep_kernels", "_box_kernels", "_triangle_kernels", "_cone_kernels", "_cover_kernels",
+    "_term_kernels", "_union_kernels")}
 
 _HERE = Path(__file__).resolve().parent
 
