@@ -78,6 +78,14 @@ def _unit_clip(x):
 
 
 @njit(cache=True)
+def _along_edges(ab0, ab1, ab2, ac0, ac1, ac2, p, v):
+    """``(ab . (p - v), ac . (p - v))``: where ``p`` lies along the edges AB and AC, seen
+    from the vertex ``v``."""
+    w0, w1, w2 = p[0] - v[0], p[1] - v[1], p[2] - v[2]
+    return _dot(ab0, ab1, ab2, w0, w1, w2), _dot(ac0, ac1, ac2, w0, w1, w2)
+
+
+@njit(cache=True)
 def _closest(p, t, out):
     """Ericson's closest point of triangle ``t`` ``(3, 3)`` to ``p`` ``(3,)``, into ``out``:
     the regions tested in order vertex A, B, C, edge AB, AC, BC, else the interior."""
@@ -86,23 +94,17 @@ def _closest(p, t, out):
     c0, c1, c2 = t[2, 0], t[2, 1], t[2, 2]
     ab0, ab1, ab2 = b0 - a0, b1 - a1, b2 - a2
     ac0, ac1, ac2 = c0 - a0, c1 - a1, c2 - a2
-    ap0, ap1, ap2 = p[0] - a0, p[1] - a1, p[2] - a2
-    d1 = _dot(ab0, ab1, ab2, ap0, ap1, ap2)
-    d2 = _dot(ac0, ac1, ac2, ap0, ap1, ap2)
+    d1, d2 = _along_edges(ab0, ab1, ab2, ac0, ac1, ac2, p, t[0])
     if d1 <= 0 and d2 <= 0:
-        out[0], out[1], out[2] = a0, a1, a2
+        out[:] = t[0]
         return
-    bp0, bp1, bp2 = p[0] - b0, p[1] - b1, p[2] - b2
-    d3 = _dot(ab0, ab1, ab2, bp0, bp1, bp2)
-    d4 = _dot(ac0, ac1, ac2, bp0, bp1, bp2)
+    d3, d4 = _along_edges(ab0, ab1, ab2, ac0, ac1, ac2, p, t[1])
     if d3 >= 0 and d4 <= d3:
-        out[0], out[1], out[2] = b0, b1, b2
+        out[:] = t[1]
         return
-    cp0, cp1, cp2 = p[0] - c0, p[1] - c1, p[2] - c2
-    d5 = _dot(ab0, ab1, ab2, cp0, cp1, cp2)
-    d6 = _dot(ac0, ac1, ac2, cp0, cp1, cp2)
+    d5, d6 = _along_edges(ab0, ab1, ab2, ac0, ac1, ac2, p, t[2])
     if d6 >= 0 and d5 <= d6:
-        out[0], out[1], out[2] = c0, c1, c2
+        out[:] = t[2]
         return
     va = d3 * d6 - d5 * d4
     vb = d5 * d2 - d1 * d6
