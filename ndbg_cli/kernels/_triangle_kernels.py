@@ -181,7 +181,9 @@ def segment_closest(p1, q1, p2, q2):
 @njit(cache=True)
 def _pierces(ta, tb):
     """Whether an edge of triangle ``ta`` crosses the plane of ``tb`` strictly (its ends on
-    either side) at a point of ``tb``, edges included."""
+    either side) at a point of ``tb``, edges included. A degenerate ``tb`` (no plane) never
+    is; an edge touching the plane at an end meets ``tb`` only where the closest-feature
+    distance is 0 already."""
     b0 = tb[0]
     u0, u1, u2 = tb[1, 0] - b0[0], tb[1, 1] - b0[1], tb[1, 2] - b0[2]
     v0, v1, v2 = tb[2, 0] - b0[0], tb[2, 1] - b0[1], tb[2, 2] - b0[2]
