@@ -1,8 +1,10 @@
 """Compiled kernels (numba) of the narrow phase's triangle predicates, row by row: the point
 of a triangle closest to a point (Ericson, *Real-Time Collision Detection* 5.1.5), the
 closest points of two segments (5.1.9), the distance of two triangles with its direction and
-midpoint, and the separating-axis gap of two triangles (the 11 axes of the triangle-triangle
-test). :mod:`ndbg_cli.contacts.facets` wraps them and documents what each means.
+midpoint, the separating-axis gap of two triangles (the 11 axes of the triangle-triangle
+test), and the filter of candidate pairs by the two triangles' planes.
+:mod:`ndbg_cli.contacts.facets` and :func:`ndbg_cli.contacts.contacts3d._plane_filter` wrap
+them and document what each means.
 
 Why compiled: the contact pairs call them tens of thousands of times on a few rows each
 (the engine GLB: 20,000 triangle pairs' distances in 150 calls), where numpy's cost per
