@@ -505,8 +505,7 @@ def _plane_filter(ga: PartGeometry, gb: PartGeometry, i: np.ndarray, j: np.ndarr
     A's plane is tested first, and B's only on the pairs that pass it (most candidates fail
     the first test); compiled (:mod:`ndbg_cli.kernels._triangle_kernels`)."""
     keep, off_b, off_a = loaded("_triangle_kernels").plane_filter(
-        ga.triangles, ga.normals, ga.sag, gb.triangles, gb.normals, gb.sag,
-        np.asarray(i, dtype=np.int64), np.asarray(j, dtype=np.int64), float(tol))
+        ga.triangles, ga.normals, ga.sag, gb.triangles, gb.normals, gb.sag, i, j, tol)
     return i[keep], j[keep], (off_b, off_a)
 
 

@@ -189,7 +189,7 @@ def _pierces(ta, tb):
     b0 = tb[0]
     u0, u1, u2 = tb[1, 0] - b0[0], tb[1, 1] - b0[1], tb[1, 2] - b0[2]
     v0, v1, v2 = tb[2, 0] - b0[0], tb[2, 1] - b0[1], tb[2, 2] - b0[2]
-    n0, n1, n2 = u1 * v2 - u2 * v1, u2 * v0 - u0 * v2, u0 * v1 - u1 * v0
+    n0, n1, n2 = _cross(u0, u1, u2, v0, v1, v2)
     for k in range(3):
         p, q = ta[k], ta[(k + 1) % 3]
         sp = _dot(p[0] - b0[0], p[1] - b0[1], p[2] - b0[2], n0, n1, n2)
@@ -204,8 +204,8 @@ def _pierces(ta, tb):
             e0, e1 = tb[m], tb[(m + 1) % 3]
             g0, g1, g2 = e1[0] - e0[0], e1[1] - e0[1], e1[2] - e0[2]
             w0, w1, w2 = x0 - e0[0], x1 - e0[1], x2 - e0[2]
-            if not _dot(g1 * w2 - g2 * w1, g2 * w0 - g0 * w2, g0 * w1 - g1 * w0,
-                        n0, n1, n2) >= 0:
+            c0, c1, c2 = _cross(g0, g1, g2, w0, w1, w2)
+            if not _dot(c0, c1, c2, n0, n1, n2) >= 0:
                 inside = False
                 break
         if inside:
@@ -267,6 +267,7 @@ def sat_gap(ta, tb):
     axes = np.empty((11, 3))
     norm = np.empty(11)
     ea, eb = np.empty((3, 3)), np.empty((3, 3))
+    u, origin = np.empty(3), np.zeros(3)
     for r in range(n):
         a, b = ta[r], tb[r]
         for k in range(3):
@@ -287,9 +288,10 @@ def sat_gap(ta, tb):
         for k in range(11):
             if not norm[k] > 1e-9 * scale:
                 continue
-            u0, u1, u2 = axes[k, 0] / norm[k], axes[k, 1] / norm[k], axes[k, 2] / norm[k]
-            lo_a, hi_a = _extent(u0, u1, u2, a)
-            lo_b, hi_b = _extent(u0, u1, u2, b)
+            for d in range(3):
+                u[d] = axes[k, d] / norm[k]
+            lo_a, hi_a = _span(a, origin, u)
+            lo_b, hi_b = _span(b, origin, u)
             g1, g2 = lo_b - hi_a, lo_a - hi_b
             g = g1 if g1 > g2 else g2
             gap = g if g > gap else gap
@@ -298,26 +300,21 @@ def sat_gap(ta, tb):
 
 
 @njit(cache=True)
+def _cross(x0, x1, x2, y0, y1, y2):
+    """``x x y`` (``geometry.vectors.cross``'s products and differences)."""
+    return x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0
+
+
+@njit(cache=True)
 def _cross_into(x, y, out):
-    out[0] = x[1] * y[2] - x[2] * y[1]
-    out[1] = x[2] * y[0] - x[0] * y[2]
-    out[2] = x[0] * y[1] - x[1] * y[0]
+    """:func:`_cross` of the rows ``x`` and ``y``, into ``out``."""
+    out[0], out[1], out[2] = _cross(x[0], x[1], x[2], y[0], y[1], y[2])
 
 
 @njit(cache=True)
-def _extent(u0, u1, u2, t):
-    """The least and greatest of ``u . t[v]`` over the 3 vertices of ``t``."""
-    s0 = _dot(u0, u1, u2, t[0, 0], t[0, 1], t[0, 2])
-    s1 = _dot(u0, u1, u2, t[1, 0], t[1, 1], t[1, 2])
-    s2 = _dot(u0, u1, u2, t[2, 0], t[2, 1], t[2, 2])
-    lo = s0 if s0 < s1 else s1
-    hi = s0 if s0 > s1 else s1
-    return (lo if lo < s2 else s2), (hi if hi > s2 else s2)
-
-
-@njit(cache=True)
-def _over_plane(t, p, n):
-    """The least and greatest of ``(t[v] - p) . n`` over the 3 vertices of ``t``."""
+def _span(t, p, n):
+    """The least and greatest of ``(t[v] - p) . n`` over the 3 vertices of ``t`` (with ``p``
+    zero, the triangle's extent along ``n``: ``t[v] - 0`` is ``t[v]`` to the bit)."""
     s0 = _dot(t[0, 0] - p[0], t[0, 1] - p[1], t[0, 2] - p[2], n[0], n[1], n[2])
     s1 = _dot(t[1, 0] - p[0], t[1, 1] - p[1], t[1, 2] - p[2], n[0], n[1], n[2])
     s2 = _dot(t[2, 0] - p[0], t[2, 1] - p[1], t[2, 2] - p[2], n[0], n[1], n[2])
@@ -339,10 +336,10 @@ def plane_filter(tri_a, nrm_a, sag_a, tri_b, nrm_b, sag_b, i, j, tol):
     for k in range(len(i)):
         a, b = i[k], j[k]
         g = tol + sag_a[a] + sag_b[b]
-        lo, hi = _over_plane(tri_b[b], tri_a[a, 0], nrm_a[a])
+        lo, hi = _span(tri_b[b], tri_a[a, 0], nrm_a[a])
         if not (lo <= g and hi >= -g):
             continue
-        lo_a, hi_a = _over_plane(tri_a[a], tri_b[b, 0], nrm_b[b])
+        lo_a, hi_a = _span(tri_a[a], tri_b[b, 0], nrm_b[b])
         if not (lo_a <= g and hi_a >= -g):
             continue
         keep[n] = k
