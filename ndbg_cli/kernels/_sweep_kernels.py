@@ -294,27 +294,7 @@ def first_blocking(pi: np.ndarray, pj: np.ndarray, bi: np.ndarray, bj: np.ndarra
         return -1, -1, thin, count
     gu, gv = _grid(bj, sel[:m], lo_u, lo_v, hi_u, hi_v)
     su, sv = (hi_u - lo_u) / gu, (hi_v - lo_v) / gv
-    # cells each selected t_j covers, as a CSR list per cell
-    cnt = np.zeros(gu * gv + 1, np.int64)
-    for q in range(m):
-        k = sel[q]
-        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, gu, gv)
-        for cu in range(u0, u1 + 1):
-            for cv in range(v0, v1 + 1):
-                if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, tiny):
-                    cnt[cu * gv + cv + 1] += 1
-    start = np.cumsum(cnt)
-    fill = start[:-1].copy()
-    items = np.empty(start[-1], np.int64)
-    for q in range(m):
-        k = sel[q]
-        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, gu, gv)
-        for cu in range(u0, u1 + 1):
-            for cv in range(v0, v1 + 1):
-                if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, tiny):
-                    c = cu * gv + cv
-                    items[fill[c]] = k
-                    fill[c] += 1
+    start, items = _binned(pj, bj, sel[:m], lo_u, lo_v, su, sv, gu, gv, tiny)
     stamp = np.full(bj.shape[0], -1, np.int64)
     buf = np.empty((4, MAX_VERTICES))
     poly = np.empty((2, MAX_VERTICES))
@@ -378,6 +358,43 @@ def overlap_centroid(ti: np.ndarray, tj: np.ndarray) -> tuple[float, float]:
         ox, oy, qx, qy = qx, qy, ox, oy
         n = m
     return ox[:n].mean(), oy[:n].mean()
+
+
+@njit(cache=True)
+def _binned(pj: np.ndarray, bj: np.ndarray, sel: np.ndarray, lo_u: float, lo_v: float,
+            su: float, sv: float, gu: int, gv: int, pad: float) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles ``sel`` of ``pj`` in the cells of :func:`first_blocking`'s grid that
+    each meets (:func:`_meets_cell`, cells grown by ``pad``), as a CSR list per cell: cell
+    ``c``'s are ``items[start[c]:start[c + 1]]``, in the order of ``sel``. Each triangle is
+    tested once against each cell of its box; the cells met are kept for the second pass,
+    which places them."""
+    bound = 0
+    for q in range(sel.shape[0]):
+        u0, u1, v0, v1 = _cells(bj[sel[q]], lo_u, lo_v, su, sv, gu, gv)
+        bound += (u1 - u0 + 1) * (v1 - v0 + 1)
+    met_k = np.empty(bound, np.int64)
+    met_c = np.empty(bound, np.int64)
+    n = 0
+    cnt = np.zeros(gu * gv + 1, np.int64)
+    for q in range(sel.shape[0]):
+        k = sel[q]
+        u0, u1, v0, v1 = _cells(bj[k], lo_u, lo_v, su, sv, gu, gv)
+        for cu in range(u0, u1 + 1):
+            for cv in range(v0, v1 + 1):
+                if _meets_cell(pj[k], lo_u, lo_v, su, sv, cu, cv, pad):
+                    c = cu * gv + cv
+                    met_k[n] = k
+                    met_c[n] = c
+                    n += 1
+                    cnt[c + 1] += 1
+    start = np.cumsum(cnt)
+    fill = start[:-1].copy()
+    items = np.empty(start[-1], np.int64)
+    for t in range(n):
+        c = met_c[t]
+        items[fill[c]] = met_k[t]
+        fill[c] += 1
+    return start, items
 
 
 @njit(cache=True)
